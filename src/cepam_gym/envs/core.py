@@ -1,0 +1,228 @@
+"""Batched env state shared by the single env and the vector env (one code path for both).
+
+:class:`CEPAMBatch` owns the arrays of N envs (plant state, parameters, schedules, buffers) and
+implements ``reset(indices)`` and ``step(actions)`` on them; the Gymnasium classes in
+:mod:`cepam_gym.envs.cepam` only add spaces, seeding and ``info``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Mapping
+
+import numpy as np
+
+from .. import plant as pl
+from ..params import PlantParams, preset
+from ..physics import layout as ix
+from ..tasks import TASKS, RewardWeights, TaskSpec
+from ..tasks import kernel as tk
+from ..tasks.schedules import episode_schedule
+
+ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
+
+_NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
+
+
+def resolve_params(plant: PlantParams | str | Mapping[str, Any] | None) -> PlantParams:
+    """A PlantParams from an instance, a preset name, a YAML path or a dict of edge-unit keys."""
+    if plant is None:
+        return PlantParams()
+    if isinstance(plant, PlantParams):
+        return plant
+    if isinstance(plant, str):
+        if plant.endswith((".yaml", ".yml")):
+            return PlantParams.from_yaml(plant)
+        return preset(plant)
+    if isinstance(plant, Mapping):
+        return PlantParams.from_dict(dict(plant), where="env kwarg 'plant'")
+    raise TypeError(f"plant must be a PlantParams, preset name, YAML path or dict, got {type(plant).__name__}")
+
+
+def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
+    out = {}
+    keys = PlantParams.edge_keys()
+    for key, rng in dict(randomize or {}).items():
+        if key not in keys:
+            raise ValueError(f"randomize: unknown plant parameter {key!r}; valid keys: {sorted(keys)}")
+        try:
+            lo, hi = (float(v) for v in rng)
+        except (TypeError, ValueError):
+            raise ValueError(f"randomize: {key!r} needs a [low, high] pair of numbers, got {rng!r}") from None
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
+            raise ValueError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
+        out[key] = (lo, hi)
+    return out
+
+
+def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
+    """Noise standard deviations (SI) for [length, velocity, pressure_c, pressure_e, supply]."""
+    sd = dict(sensor_noise or {})
+    bad = set(sd) - set(_NOISE_KEYS)
+    if bad:
+        raise ValueError(f"sensor_noise: unknown keys {sorted(bad)}; valid: {sorted(_NOISE_KEYS)}")
+    for k, v in sd.items():
+        if not (np.isfinite(v) and v >= 0):
+            raise ValueError(f"sensor_noise: {k} must be finite and >= 0, got {v!r}")
+    p = sd.get("pressure_kpa", 0.0) * 1e3
+    return np.array([sd.get("length_mm", 0.0) * 1e-3, sd.get("velocity_mm_s", 0.0) * 1e-3, p, p, p])
+
+
+class CEPAMBatch:
+    """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`."""
+
+    def __init__(self, num_envs: int = 1, task: str | TaskSpec = "cepam", plant=None,
+                 action_mode: str = "valve", control_dt: float = 0.02, sub_dt: float = 5e-4,
+                 episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
+                 randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
+                 action_latency_steps: int = 0, supply_drift_kpa: float = 0.0):
+        if int(num_envs) != num_envs or num_envs < 1:
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self.num_envs = n = int(num_envs)
+        if isinstance(task, str):
+            if task not in TASKS:
+                raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
+            task = TASKS[task]
+        if reward_weights:
+            names = {f.name for f in dataclasses.fields(RewardWeights)}
+            bad = set(reward_weights) - names
+            if bad:
+                raise ValueError(f"reward_weights: unknown terms {sorted(bad)}; valid: {sorted(names)}")
+            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **reward_weights))
+        self.task = task
+        if action_mode not in pl.MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        self.action_mode = action_mode
+        self.mode = pl.MODES[action_mode]
+        if not (control_dt > 0 and sub_dt > 0):
+            raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
+        n_sub = round(control_dt / sub_dt)
+        if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
+            raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
+        self.control_dt, self.sub_dt, self.n_sub = float(control_dt), float(sub_dt), int(n_sub)
+        if not episode_seconds > 0:
+            raise ValueError(f"episode_seconds must be > 0, got {episode_seconds}")
+        self.n_steps = max(1, round(episode_seconds / control_dt))
+        self.nominal = resolve_params(plant)
+        self.randomize = _check_randomize(randomize)
+        self.noise_sd = _check_noise(sensor_noise)
+        if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
+            raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
+        self.latency = int(action_latency_steps)
+        if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
+            raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
+        self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
+        self.task_vec = self._task_vector()
+        self.obs_dim = 9 if task.track_stiffness else 8
+        # --- arrays
+        nominal_row = self.nominal.to_array()
+        self.params = np.repeat(nominal_row[None], n, axis=0)
+        self.state = np.zeros((n, pl.N_STATE))
+        self.aux = np.zeros((n, pl.N_AUX))
+        self.inputs = np.zeros((n, pl.N_INPUT))
+        self.target_l = np.zeros((n, self.n_steps))
+        self.target_k = np.zeros((n, self.n_steps))
+        self.load = np.zeros((n, self.n_steps))
+        self.t_idx = np.zeros(n, dtype=np.int64)
+        self.prev_action = np.zeros((n, 2))
+        self.queue = np.zeros((self.latency + 1, n, 2))
+        self.obs = np.zeros((n, self.obs_dim))
+        self.rewards = np.zeros(n)
+        self.terms = np.zeros((n, tk.N_TERMS))
+        self.reasons = np.zeros(n, dtype=np.int64)
+        self.noise = np.zeros((1, tk.N_NOISE))
+        self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
+        self.noise_rng = np.random.default_rng()
+
+    def _task_vector(self) -> np.ndarray:
+        t, w = self.task, self.task.weights
+        v = np.zeros(tk.N_TASK)
+        v[tk.T_W_LEN], v[tk.T_W_STIFF], v[tk.T_W_EFFORT] = w.length, w.stiffness, w.effort
+        v[tk.T_W_AIR], v[tk.T_W_BURST] = w.air, w.burst
+        v[tk.T_TRACK_K] = float(t.track_stiffness)
+        v[tk.T_OBS_K] = float(t.track_stiffness)
+        lo, hi = self.nominal.min_length, self.nominal.max_length
+        v[tk.T_L_CENTER], v[tk.T_L_HALF] = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        v[tk.T_V_SCALE] = 0.1  # m/s
+        v[tk.T_P_SCALE] = self.nominal.supply_pressure
+        v[tk.T_K_SCALE] = 1000.0  # N/m
+        v[tk.T_SETPOINT_MAX] = min(self.nominal.supply_pressure, self.nominal.burst_pressure)
+        v[tk.T_LEN_CLIP] = 5.0  # cm
+        v[tk.T_STIFF_CLIP] = 2.0
+        return v
+
+    # ------------------------------------------------------------------ reset
+    def seed(self, seed: int | None) -> None:
+        """Env i draws from ``default_rng(seed + i)``, as if it were a single env seeded so."""
+        ss = [None if seed is None else seed + i for i in range(self.num_envs)]
+        self.rngs = [np.random.default_rng(s) for s in ss]
+        self.noise_rng = np.random.default_rng(None if seed is None else [seed, 0x5EED])
+
+    def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
+        if not self.randomize:
+            return self.nominal.to_array()
+        draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.randomize.items()}
+        return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array()
+
+    def reset(self, indices=None) -> None:
+        idx = range(self.num_envs) if indices is None else indices
+        for i in idx:
+            rng = self.rngs[i]
+            p = self._sample_params(rng)
+            self.params[i] = p
+            tl, tkk, load, (l0, k0) = episode_schedule(rng, self.task, p, self.n_steps, self.control_dt)
+            self.target_l[i], self.target_k[i], self.load[i] = tl, tkk, load
+            w0 = (p[ix.M_END] + load[0]) * p[ix.GRAV]
+            from ..physics.api import static_pressures
+
+            pc, pe, _ = static_pressures(l0, k0, w0, p)
+            self.state[i] = pl.initial_state(p, l0, float(pc), float(pe))[0]
+            self.t_idx[i] = 0
+            self.prev_action[i] = 0.0
+            self.queue[:, i] = 0.0
+        self.aux[:] = pl.measure(self.state, self.params) if indices is None else self.aux
+        if indices is not None:
+            ii = np.asarray(list(indices), dtype=int)
+            self.aux[ii] = pl.measure(self.state[ii], self.params[ii])
+        self._draw_noise()
+        tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
+                   self.prev_action, self.task_vec, self.noise, self.obs)
+
+    # ------------------------------------------------------------------- step
+    def _draw_noise(self) -> None:
+        if self.noise_sd.any():
+            self.noise = self.noise_rng.standard_normal((self.num_envs, tk.N_NOISE)) * self.noise_sd
+        elif self.noise.shape[0] != 1:
+            self.noise = np.zeros((1, tk.N_NOISE))
+
+    def check_actions(self, actions) -> np.ndarray:
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != (self.num_envs, 2):
+            raise ValueError(f"action must have shape {(2,) if self.num_envs == 1 else (self.num_envs, 2)}, "
+                             f"got {np.shape(actions)}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"action contains NaN or inf: {actions!r}")
+        return np.clip(a, -1.0, 1.0)
+
+    def step(self, actions: np.ndarray) -> None:
+        """Advance all envs one control period; results in ``obs``, ``rewards``, ``terms``,
+        ``reasons``, ``aux``. ``actions`` must come from :meth:`check_actions`."""
+        if self.latency:
+            self.queue[:-1] = self.queue[1:]
+            self.queue[-1] = actions
+            actions = np.ascontiguousarray(self.queue[0])
+        if self.supply_drift:
+            nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
+            walk = self.noise_rng.standard_normal(self.num_envs) * self.supply_drift * np.sqrt(self.control_dt)
+            self.params[:, ix.P_SUP] = np.clip(self.params[:, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
+        self._draw_noise()
+        tk.env_step(self.state, actions, self.params, self.mode, self.sub_dt, self.n_sub, self.target_l,
+                    self.target_k, self.load, self.t_idx, self.task_vec, self.noise, self.inputs, self.obs,
+                    self.rewards, self.terms, self.aux, self.reasons)
+        self.prev_action[:] = actions
+
+    def current_targets(self):
+        """(target length, target stiffness, load) each env is asked for at its current step."""
+        k = np.minimum(self.t_idx, self.n_steps - 1)
+        r = np.arange(self.num_envs)
+        return self.target_l[r, k], self.target_k[r, k], self.load[r, k]

@@ -1,0 +1,305 @@
+"""Plant parameters: a frozen dataclass in SI units, presets, YAML loading with unit-named keys.
+
+Every field is SI (m, Pa, kg, s, K). In YAML each key carries the unit it is written in
+(``supply_kpa: 300``), converted by :mod:`cepam_gym.units`; unknown keys and wrong units are
+rejected with the key's name. Pressures called ``*_kpa`` are gauge; ``*_kpa_abs`` absolute.
+
+Values marked ``calibration target`` are not reported by the paper; their defaults are chosen
+with the reason given beside them (docs/physics.md), and ``cepam-gym calibrate`` (issue 6) fits
+them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import units
+from .physics import layout as ix
+
+FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
+FORCE_FORMS = ("paper", "virtual_work")
+
+
+def _f(default, unit: str, doc: str, calibrate: bool = False):
+    return field(default=default, metadata={"unit": unit, "doc": doc, "calibrate": calibrate})
+
+
+@dataclass(frozen=True)
+class PlantParams:
+    """Physical parameters of one CE-PAM rig (SI units). Defaults: the paper's balloon CE-PAM."""
+
+    # --- muscle geometry (paper sections II, III, V, Table in model-notes section 1) ---
+    cpam_rest_length: float = _f(0.195, "cm", "CPAM length unpressurised (section II)")
+    cpam_rest_diameter: float = _f(0.005, "mm", "CPAM braid diameter at rest (section II)")
+    cpam_rest_angle: float = _f(
+        math.radians(18.0), "deg",
+        "CPAM braid angle at rest (only '< 54.7 deg' reported); 18 deg puts the CE-PAM stiffness "
+        "at 17.5 and 18.5 cm within 20 % of section XII", calibrate=True)
+    epam_sleeve_free_length: float = _f(0.30, "cm", "EPAM sleeve length before compression (section III)")
+    epam_sleeve_free_diameter: float = _f(0.010, "mm", "EPAM sleeve diameter before compression")
+    epam_sleeve_free_angle: float = _f(
+        math.radians(18.0), "deg",
+        "EPAM free-sleeve braid angle; equal to the CPAM's (same braid), which makes the paper's "
+        "relations Eq. 6-7 hold exactly", calibrate=True)
+    cpam_bladder_diameter: float = _f(0.005, "mm", "D_oc of Eq. 32")
+    epam_bladder_diameter: float = _f(0.010, "mm", "D_oe of Eq. 28")
+    bladder_thickness: float = _f(0.0003, "mm", "t_b of Eq. 35 (balloon: < 1 mm)", calibrate=True)
+    sleeve_thickness: float = _f(0.0002, "mm", "t_s of Eq. 35 (not reported)", calibrate=True)
+    kr_high: float = _f(2.0e6, "kpa_per_m", "K_r for D sin(theta) < D_o/2 (Eq. 27)")
+    kr_low: float = _f(5.0e5, "kpa_per_m", "K_r for D sin(theta) > D_o/2 (Eq. 27)")
+    paper_length_ratio: float = _f(1.3, "", "the 1.3 of Eq. 5 that the paper form carries into Eq. 22")
+    force_model: str = _f("enhanced", "", "basic (Eq. 25) | radial (Eq. 30-33) | enhanced (Eq. 41, 45)")
+    force_form: str = _f("virtual_work", "", "virtual_work (energy-consistent) | paper (Eq. 22, 15)")
+    min_length: float = _f(0.15, "cm", "lower end stop: the CE-PAM's nominal length (section VIII)")
+    max_length: float = _f(0.195, "cm", "upper end stop: the CPAM's rest length (section V)")
+    elastic_stiffness: float = _f(0.0, "n_per_m", "bladder elasticity (not in the paper)", calibrate=True)
+    elastic_rest_length: float = _f(0.15, "cm", "rest length of that elasticity")
+    # --- air supply, valves, chambers (model-notes sections 4-5) ---
+    supply_pressure: float = _f(300e3, "kpa", "supply pressure (gauge)")
+    atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
+    supply_temperature: float = _f(293.15, "k", "supply air temperature")
+    ambient_temperature: float = _f(293.15, "k", "ambient and wall temperature")
+    valve_conductance: float = _f(1e-9, "dm3_per_s_bar", "proportional valve sonic conductance C, fully open")
+    valve_critical_ratio: float = _f(0.3, "", "ISO 6358 critical pressure ratio b")
+    laminar_ratio: float = _f(0.995, "", "pressure ratio above which the valve flow is linearised")
+    leak_conductance: float = _f(1e-12, "dm3_per_s_bar", "leakage of each chamber to atmosphere")
+    spool_time_constant: float = _f(0.005, "ms", "proportional spool time constant (about 30 Hz)")
+    spool_order: int = _f(1, "", "spool dynamics: 1 (first order) or 2 (second order)")
+    spool_damping: float = _f(0.7, "", "spool damping ratio when spool_order = 2")
+    onoff_conductance: float = _f(1e-9, "dm3_per_s_bar", "on/off solenoid valve sonic conductance")
+    onoff_switch_time: float = _f(0.003, "ms", "on/off valve switching lag")
+    pwm_frequency: float = _f(50.0, "hz", "PWM frequency of the on/off valves")
+    dead_volume_cpam: float = _f(2e-6, "cm3", "port and tubing volume of the CPAM chamber")
+    dead_volume_epam: float = _f(2e-6, "cm3", "port and tubing volume of the annulus")
+    heat_transfer: float = _f(0.02, "w_per_k", "wall heat transfer hA of each chamber")
+    burst_pressure: float = _f(300e3, "kpa", "balloon burst pressure (gauge), about 250-300 kPa")
+    polytropic_exponent: float = _f(1.4, "", "exponent of the closed-chamber stiffness (1.4 adiabatic)")
+    regulator_gain: float = _f(1.0 / 20e3, "per_kpa", "set-point mode: spool opening per kPa of pressure error")
+    # --- load mechanics ---
+    end_mass: float = _f(0.02, "g", "moving mass of the free end cap")
+    damping: float = _f(5.0, "ns_per_m", "viscous damping of the free end")
+    coulomb_friction: float = _f(0.0, "n", "Coulomb friction of the free end in its guide tube")
+    gravity: float = _f(9.81, "m_per_s2", "gravitational acceleration (down extends the muscle)")
+
+    def __post_init__(self):
+        self.validate()
+
+    # ------------------------------------------------------------------ checks
+    def validate(self) -> None:
+        """Raise ``ValueError`` naming the parameter if the set is impossible."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float) and not math.isfinite(v):
+                raise ValueError(f"parameter {f.name} is not finite: {v}")
+        if self.force_model not in FORCE_MODELS:
+            raise ValueError(f"force_model must be one of {FORCE_MODELS}, got {self.force_model!r}")
+        if self.force_form not in FORCE_FORMS:
+            raise ValueError(f"force_form must be one of {FORCE_FORMS}, got {self.force_form!r}")
+        if self.spool_order not in (1, 2):
+            raise ValueError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
+        positive = ("cpam_rest_length", "cpam_rest_diameter", "epam_sleeve_free_length",
+                    "epam_sleeve_free_diameter", "min_length", "atmospheric_pressure",
+                    "supply_temperature", "ambient_temperature", "spool_time_constant",
+                    "onoff_switch_time", "pwm_frequency", "end_mass", "burst_pressure",
+                    "polytropic_exponent")
+        nonneg = ("bladder_thickness", "sleeve_thickness", "kr_high", "kr_low", "elastic_stiffness",
+                  "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
+                  "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
+                  "coulomb_friction", "regulator_gain", "spool_damping")
+        for name in positive:
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
+        for name in nonneg:
+            if not getattr(self, name) >= 0.0:
+                raise ValueError(f"parameter {name} must be >= 0, got {getattr(self, name)}")
+        for name in ("cpam_rest_angle", "epam_sleeve_free_angle"):
+            a = getattr(self, name)
+            if not 0.0 < a < math.pi / 2:
+                raise ValueError(f"parameter {name} must be between 0 and 90 deg, got {math.degrees(a):.3g} deg")
+        if not 0.0 <= self.valve_critical_ratio < self.laminar_ratio < 1.0:
+            raise ValueError("need 0 <= valve_critical_ratio < laminar_ratio < 1, got "
+                             f"{self.valve_critical_ratio} and {self.laminar_ratio}")
+        if not self.min_length < self.max_length:
+            raise ValueError(f"min_length ({self.min_length} m) must be below max_length ({self.max_length} m)")
+        if self.end_mass <= 0:
+            raise ValueError("end_mass must be > 0")
+        self._check_geometry()
+
+    def _check_geometry(self) -> None:
+        bc, nc = self.cpam_braid()
+        be, ne = self.epam_braid()
+        ta = self.wall_thickness()
+        for name, b in (("CPAM", bc), ("EPAM", be)):
+            if self.max_length >= b:
+                raise ValueError(
+                    f"{name} braid thread ({b * 100:.3g} cm) is not longer than max_length "
+                    f"({self.max_length * 100:.3g} cm): the braid cannot reach that length; "
+                    "change the braid angle or the end stops")
+        lengths = np.linspace(self.min_length, self.max_length, 64)
+        dc = bc * np.sqrt(1 - (lengths / bc) ** 2) / (np.pi * nc)
+        de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
+        if np.any(dc - 2 * ta <= 0):
+            raise ValueError("wall thickness (bladder_thickness + sleeve_thickness) leaves the CPAM no air")
+        if np.any(de - 2 * ta <= dc):
+            i = int(np.argmax(de - 2 * ta <= dc))
+            raise ValueError(
+                f"the CPAM (outer diameter {dc[i] * 1e3:.3g} mm) does not fit inside the EPAM "
+                f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm")
+
+    # --------------------------------------------------------------- derived
+    def cpam_braid(self) -> tuple[float, float]:
+        """Thread length b_c [m] and turns n_c of the CPAM (Eq. 8-9 at rest)."""
+        b = self.cpam_rest_length / math.cos(self.cpam_rest_angle)
+        return b, b * math.sin(self.cpam_rest_angle) / (math.pi * self.cpam_rest_diameter)
+
+    def epam_braid(self) -> tuple[float, float]:
+        """Thread length b_e [m] and turns n_e of the EPAM sleeve (Eq. 11-12, free sleeve)."""
+        b = self.epam_sleeve_free_length / math.cos(self.epam_sleeve_free_angle)
+        return b, b * math.sin(self.epam_sleeve_free_angle) / (math.pi * self.epam_sleeve_free_diameter)
+
+    def wall_thickness(self) -> float:
+        """t_a = t_s + t_b (Eq. 35) when the enhanced model is selected, else 0."""
+        return self.sleeve_thickness + self.bladder_thickness if self.force_model == "enhanced" else 0.0
+
+    def to_array(self) -> np.ndarray:
+        """The flat float64 parameter row the compiled kernels read (layout in physics.layout)."""
+        p = np.zeros(ix.N_PARAMS)
+        p[ix.BC], p[ix.NC] = self.cpam_braid()
+        p[ix.BE], p[ix.NE] = self.epam_braid()
+        p[ix.TA] = self.wall_thickness()
+        p[ix.RADIAL] = 0.0 if self.force_model == "basic" else 1.0
+        p[ix.DOC] = self.cpam_bladder_diameter
+        p[ix.DOE] = self.epam_bladder_diameter
+        p[ix.KR_LO] = self.kr_low
+        p[ix.KR_HI] = self.kr_high
+        paper = self.force_form == "paper"
+        p[ix.KAPPA] = self.paper_length_ratio if paper else 1.0
+        p[ix.LAMBDA] = 1.0 if paper else 0.0
+        p[ix.K_EL] = self.elastic_stiffness
+        p[ix.L_EL0] = self.elastic_rest_length
+        p[ix.L_MIN] = self.min_length
+        p[ix.L_MAX] = self.max_length
+        p[ix.P_ATM] = self.atmospheric_pressure
+        p[ix.P_SUP] = self.atmospheric_pressure + self.supply_pressure
+        p[ix.T_SUP] = self.supply_temperature
+        p[ix.T_AMB] = self.ambient_temperature
+        p[ix.C_PROP] = self.valve_conductance
+        p[ix.B_CRIT] = self.valve_critical_ratio
+        p[ix.R_LAM] = self.laminar_ratio
+        p[ix.C_LEAK] = self.leak_conductance
+        p[ix.TAU_SPOOL] = self.spool_time_constant
+        p[ix.SPOOL_ORDER] = self.spool_order
+        p[ix.ZETA] = self.spool_damping
+        p[ix.C_ONOFF] = self.onoff_conductance
+        p[ix.TAU_SWITCH] = self.onoff_switch_time
+        p[ix.PWM_PERIOD] = 1.0 / self.pwm_frequency
+        p[ix.VD_C] = self.dead_volume_cpam
+        p[ix.VD_E] = self.dead_volume_epam
+        p[ix.HA] = self.heat_transfer
+        p[ix.P_BURST] = self.burst_pressure
+        p[ix.N_POLY] = self.polytropic_exponent
+        p[ix.M_END] = self.end_mass
+        p[ix.DAMP] = self.damping
+        p[ix.F_COUL] = self.coulomb_friction
+        p[ix.GRAV] = self.gravity
+        p[ix.REG_GAIN] = self.regulator_gain
+        return p
+
+    def replace(self, **changes: Any) -> "PlantParams":
+        """A copy with SI-valued fields changed (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    # ------------------------------------------------------------------ YAML
+    @classmethod
+    def edge_keys(cls) -> dict[str, str]:
+        """YAML key (with unit suffix) -> field name."""
+        out = {}
+        for f in fields(cls):
+            unit = f.metadata["unit"]
+            out[f"{f.name}_{unit}" if unit else f.name] = f.name
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], base: "PlantParams | None" = None,
+                  where: str = "plant parameters") -> "PlantParams":
+        """Build from unit-named keys (``supply_kpa: 300``); ``preset: NAME`` picks the base."""
+        data = dict(data or {})
+        if "preset" in data:
+            base = preset(data.pop("preset"))
+        base = base or cls()
+        keys = cls.edge_keys()
+        changes = {}
+        for key, value in data.items():
+            if key not in keys:
+                hint = [k for k in keys if k.split("_")[0] == key.split("_")[0]][:6]
+                raise ValueError(f"unknown key {key!r} in {where}" + (f"; did you mean one of {hint}?" if hint else
+                                 f"; valid keys: {sorted(keys)}"))
+            name = keys[key]
+            f = cls.__dataclass_fields__[name]
+            unit = f.metadata["unit"]
+            default = getattr(base, name)
+            if isinstance(default, str):
+                if not isinstance(value, str):
+                    raise ValueError(f"key {key!r} in {where} must be a string, got {value!r}")
+                changes[name] = value
+            elif isinstance(default, int) and not isinstance(default, bool) and name == "spool_order":
+                if not isinstance(value, int) or isinstance(value, bool):
+                    raise ValueError(f"key {key!r} in {where} must be an integer, got {value!r}")
+                changes[name] = value
+            else:
+                changes[name] = _number(value, key, where) * units.EDGE_UNITS[unit]
+        return dataclasses.replace(base, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Unit-named keys with edge values (the inverse of :meth:`from_dict`)."""
+        out = {}
+        for key, name in self.edge_keys().items():
+            v = getattr(self, name)
+            unit = self.__dataclass_fields__[name].metadata["unit"]
+            out[key] = v if isinstance(v, (str, int)) and not isinstance(v, float) else float(v / units.EDGE_UNITS[unit])
+        return out
+
+    @classmethod
+    def from_yaml(cls, path: str | Path) -> "PlantParams":
+        import yaml
+
+        path = Path(path)
+        with path.open() as fh:
+            data = yaml.safe_load(fh) or {}
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
+        return cls.from_dict(data, where=str(path))
+
+
+def _number(value: Any, key: str, where: str) -> float:
+    # YAML 1.1 reads "1e-3" as a string; accept numeric strings, reject everything else by name.
+    if isinstance(value, bool):
+        raise ValueError(f"key {key!r} in {where} must be a number, got {value!r}")
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"key {key!r} in {where} must be a number, got {value!r}") from None
+    if not math.isfinite(out):
+        raise ValueError(f"key {key!r} in {where} must be finite, got {value!r}")
+    return out
+
+
+_PRESET_DIR = Path(__file__).parent / "presets"
+
+
+def preset_names() -> list[str]:
+    return sorted(p.stem for p in _PRESET_DIR.glob("*.yaml"))
+
+
+def preset(name: str) -> PlantParams:
+    """Named parameter set shipped with the package (``balloon`` is the default plant)."""
+    path = _PRESET_DIR / f"{name}.yaml"
+    if not path.exists():
+        raise ValueError(f"unknown preset {name!r}; available: {preset_names()}")
+    return PlantParams.from_yaml(path)

@@ -1,0 +1,56 @@
+"""Air in one chamber: open-system first law with variable volume. Pure scalar kernels.
+
+State per chamber: air mass ``m`` [kg] and internal energy ``U = m cv T`` [J]. Then
+``T = U / (m cv)`` and ``p_abs = m R T / V = (gamma - 1) U / V``. With ``h = cp T``::
+
+    dm/dt = mdot_in - mdot_out
+    dU/dt = mdot_in cp T_in - mdot_out cp T - p_abs dV/dt + hA (T_wall - T)
+
+(model-notes section 5). Mass is exactly conserved with closed valves because only the flows
+change ``m``; the ``p dV`` term makes compression heat the air, so the closed-chamber stiffness
+of the plant is the adiabatic one on short time scales and the isothermal one on long ones.
+"""
+
+from __future__ import annotations
+
+from .._jit import jit
+from .layout import CP, CV, GAMMA, R_AIR
+from .valve import signed_flow
+
+
+@jit
+def pressure_abs(m, u, volume):
+    """Absolute pressure [Pa] of air with mass ``m``, internal energy ``u`` in ``volume``."""
+    return (GAMMA - 1.0) * u / volume
+
+
+@jit
+def temperature(m, u):
+    """Temperature [K] of air with mass ``m`` and internal energy ``u``."""
+    return u / (m * CV)
+
+
+@jit
+def state_from_pressure(p_abs, t, volume):
+    """Mass and internal energy of air at absolute pressure ``p_abs``, temperature ``t``."""
+    m = p_abs * volume / (R_AIR * t)
+    return m, m * CV * t
+
+
+@jit
+def chamber_rates(m, u, volume, dvol_dt, c_in, c_out, p_sup, t_sup, p_atm, t_amb, b, r_lam, ha):
+    """Rates ``(dm/dt, dU/dt)`` of one chamber and the mass flow drawn from the supply.
+
+    ``c_in`` connects the chamber to the supply, ``c_out`` to the atmosphere (exhaust plus
+    leakage). Reverse flows (chamber above supply, or below atmosphere) are allowed and carry the
+    upstream temperature.
+    """
+    t = u / (m * CV)
+    p = (GAMMA - 1.0) * u / volume
+    m_sup = signed_flow(p_sup, t_sup, p, t, c_in, b, r_lam)  # > 0: supply -> chamber
+    m_exh = signed_flow(p, t, p_atm, t_amb, c_out, b, r_lam)  # > 0: chamber -> atmosphere
+    h_sup = CP * (t_sup if m_sup > 0.0 else t) * m_sup
+    h_exh = CP * (t if m_exh > 0.0 else t_amb) * m_exh
+    dm = m_sup - m_exh
+    du = h_sup - h_exh - p * dvol_dt + ha * (t_amb - t)
+    return dm, du, m_sup

@@ -1,0 +1,71 @@
+"""Column layout of the flat parameter vector the compiled kernels read.
+
+:meth:`cepam_gym.params.PlantParams.to_array` fills one row per plant (derived quantities such as
+braid thread lengths already computed), so the hot loop only indexes. The indices are module
+constants because numba freezes module globals at compile time.
+"""
+
+# --- muscle geometry and force model (paper Eq. 1-45) ---
+BC = 0  # CPAM thread length b_c [m] (Eq. 8)
+NC = 1  # CPAM turns n_c [-] (Eq. 9)
+BE = 2  # EPAM thread length b_e [m] (Eq. 11)
+NE = 3  # EPAM turns n_e [-] (Eq. 12)
+TA = 4  # effective wall thickness t_a = t_s + t_b [m] (Eq. 35); 0 below the "enhanced" level
+RADIAL = 5  # 1.0 if the radial-expansion pressure P_r (Eq. 26-33) is applied, else 0.0
+DOC = 6  # CPAM bladder diameter D_oc [m] (Eq. 32)
+DOE = 7  # EPAM bladder diameter D_oe [m] (Eq. 28)
+KR_LO = 8  # K_r when D sin(theta) > D_o / 2 [Pa/m] (Eq. 27)
+KR_HI = 9  # K_r when D sin(theta) < D_o / 2 [Pa/m] (Eq. 27)
+KAPPA = 10  # factor on P_e dV_c/dL: 1.3 in the paper (Eq. 22), 1 by virtual work
+LAMBDA = 11  # factor on P_e dV_ac/dL: 1 in the paper (Eq. 15), 0 by virtual work
+K_EL = 12  # optional bladder elasticity [N/m] (not in the paper; 0 by default)
+L_EL0 = 13  # rest length of that elasticity [m]
+L_MIN = 14  # lower end stop [m]
+L_MAX = 15  # upper end stop [m]
+# --- air supply and valves ---
+P_ATM = 16  # atmosphere [Pa abs]
+P_SUP = 17  # supply [Pa abs]
+T_SUP = 18  # supply temperature [K]
+T_AMB = 19  # ambient / wall temperature [K]
+C_PROP = 20  # proportional valve sonic conductance, fully open [m^3/(s Pa)]
+B_CRIT = 21  # ISO 6358 critical pressure ratio b [-]
+R_LAM = 22  # pressure ratio above which the flow is linearised (laminar) [-]
+C_LEAK = 23  # leakage conductance of each chamber to atmosphere [m^3/(s Pa)]
+TAU_SPOOL = 24  # spool time constant [s]
+SPOOL_ORDER = 25  # 1 or 2
+ZETA = 26  # spool damping ratio (order 2)
+C_ONOFF = 27  # on/off valve sonic conductance [m^3/(s Pa)]
+TAU_SWITCH = 28  # on/off valve switching lag [s]
+PWM_PERIOD = 29  # PWM period [s]
+VD_C = 30  # dead volume of the CPAM port and tubing [m^3]
+VD_E = 31  # dead volume of the EPAM port and tubing [m^3]
+HA = 32  # wall heat transfer coefficient times area, each chamber [W/K]
+P_BURST = 33  # bladder burst pressure [Pa gauge]
+N_POLY = 34  # polytropic exponent of the closed-chamber stiffness [-]
+# --- load mechanics ---
+M_END = 35  # moving mass of the free end cap [kg]
+DAMP = 36  # viscous damping [N s/m]
+F_COUL = 37  # Coulomb friction [N]
+GRAV = 38  # gravitational acceleration [m/s^2]
+# --- pressure set-point mode ---
+REG_GAIN = 39  # gain of the in-plant pressure regulator [1/Pa]: spool = gain * (p_set - p)
+
+N_PARAMS = 40
+
+NAMES = tuple(
+    name
+    for name, value in sorted(
+        ((k, v) for k, v in dict(globals()).items() if k.isupper() and isinstance(v, int)),
+        key=lambda kv: kv[1],
+    )
+    if name != "N_PARAMS"
+)
+assert len(NAMES) == N_PARAMS, "parameter layout indices must be 0..N_PARAMS-1 without gaps"
+
+# Gas constants of air (not randomised)
+R_AIR = 287.0  # J/(kg K)
+GAMMA = 1.4
+CV = R_AIR / (GAMMA - 1.0)  # J/(kg K)
+CP = GAMMA * CV
+RHO0 = 1.185  # ISO 6358 reference density [kg/m^3]
+T0 = 293.15  # ISO 6358 reference temperature [K]

@@ -1,0 +1,40 @@
+"""Inverse static model: the chamber pressures that hold a length with a stiffness under a load.
+
+With the active pressures ``P_a = P - P_r(L)`` as unknowns, both the force balance and the
+stiffness of :func:`cepam_gym.physics.muscle.cepam_force` are affine, so the inverse is a 2x2
+solve (paper Eq. 25 with Eq. 26-45; Eq. 20/24 at the basic level).
+"""
+
+from __future__ import annotations
+
+from .._jit import jit
+from . import layout as ix
+from .muscle import braid_terms, radial_pressure
+
+
+@jit
+def static_pressures(L, K, weight, p):
+    """Gauge pressures ``(Pc, Pe)`` [Pa] giving stiffness ``K`` [N/m] in equilibrium at ``L`` [m]
+    with the downward force ``weight`` [N] (load times g plus any external force).
+
+    Solves ``F(L, Pc, Pe) + weight = 0`` and ``-dF/dL = K``. Returns ``(Pc, Pe, ok)`` with
+    ``ok = 1.0`` when both active pressures are positive (the solution is physical; whether it
+    lies under the supply pressure is the caller's check), else ``0.0``.
+    """
+    _, _, dvc, dvac, d2vc, d2vac = braid_terms(L, p[ix.BC], p[ix.NC], p[ix.TA])
+    _, _, _, dvae, _, d2vae = braid_terms(L, p[ix.BE], p[ix.NE], p[ix.TA])
+    prc, dprc = radial_pressure(L, p[ix.BC], p[ix.NC], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    pre, dpre = radial_pressure(L, p[ix.BE], p[ix.NE], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
+    dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
+    k_el = p[ix.K_EL]
+    # unknowns x = P_ae, y = P_ac (active pressures, dP_a/dL = -dP_r/dL while active)
+    # force:     ge x + dvac y = -weight + k_el (L - L_el0)
+    # stiffness: -dge x - d2vac y = K - k_el - dpre ge - dprc dvac
+    r1 = -weight + k_el * (L - p[ix.L_EL0])
+    r2 = K - k_el - dpre * ge - dprc * dvac
+    det = -ge * d2vac + dvac * dge
+    x = (r1 * (-d2vac) - dvac * r2) / det
+    y = (ge * r2 + dge * r1) / det
+    ok = 1.0 if (x > 0.0 and y > 0.0) else 0.0
+    return y + prc, x + pre, ok

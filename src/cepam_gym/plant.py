@@ -1,0 +1,263 @@
+"""The CE-PAM plant: state layout and integration of one control period with sub-steps.
+
+gymnax style: pure functions over an explicit state array and a frozen parameter array. The one
+compiled kernel :func:`_advance` advances a single plant; :func:`step` maps it over a batch of N
+plants (serially for small N, over all cores with ``numba.prange`` for large N). There is no other
+copy of the equations: single envs, vector envs, the baseline's simulations and the tests all
+call :func:`step`.
+
+Arrays (all float64, batch-first):
+
+* ``state``  (N, N_STATE)  columns named in :data:`STATE_FIELDS`
+* ``inputs`` (N, N_INPUT)  valve commands, hanging load [kg], external force [N, down positive]
+* ``params`` (N, N_PARAMS) or (1, N_PARAMS) rows of :meth:`PlantParams.to_array`
+* ``aux``    (N, N_AUX)    what the step measured, columns named in :data:`AUX_FIELDS`
+
+Valve modes: ``PROPORTIONAL`` (commands in [-1, 1] are spool set-points: -1 exhaust, 0 closed,
++1 supply), ``ONOFF`` (commands are PWM duties of two solenoid valves per chamber, sign picks
+supply or exhaust), ``PRESSURE`` (commands are gauge pressure set-points [Pa] held by an in-plant
+proportional regulator on the proportional valves, evaluated every sub-step).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ._jit import jit
+from .physics import layout as ix
+from .physics.air import chamber_rates, state_from_pressure
+from .physics.load import load_step
+from .physics.muscle import braid_terms, chamber_volumes, closed_chamber_stiffness, force_from_slopes
+from .physics.valve import spool_step
+
+# ---------------------------------------------------------------- layouts
+STATE_FIELDS = ("length", "velocity", "mass_c", "energy_c", "mass_e", "energy_e",
+                "spool_c", "spool_e", "spool_rate_c", "spool_rate_e", "time")
+S_L, S_V, S_MC, S_UC, S_ME, S_UE, S_SC, S_SE, S_SRC, S_SRE, S_T = range(11)
+N_STATE = 11
+
+INPUT_FIELDS = ("command_c", "command_e", "load_mass", "external_force")
+I_CMD_C, I_CMD_E, I_LOAD, I_FEXT = range(4)
+N_INPUT = 4
+
+AUX_FIELDS = ("force", "stiffness", "stiffness_closed", "pressure_c", "pressure_e",
+              "temperature_c", "temperature_e", "volume_c", "volume_e", "mass_flow_c",
+              "mass_flow_e", "air_used", "max_pressure", "burst", "end_stop", "finite")
+(A_FORCE, A_STIFF, A_STIFF_CLOSED, A_PC, A_PE, A_TC, A_TE, A_VC, A_VE, A_MDOT_C, A_MDOT_E,
+ A_AIR, A_PMAX, A_BURST, A_STOP, A_FINITE) = range(16)
+N_AUX = 16
+
+PROPORTIONAL, ONOFF, PRESSURE = 0, 1, 2
+MODES = {"valve": PROPORTIONAL, "pwm": ONOFF, "pressure": PRESSURE}
+
+_MIN_MASS = 1e-15  # kg: keeps T = U/(m cv) defined if a chamber were ever emptied
+_PARALLEL_MIN_BATCH = 32  # below this the thread start-up costs more than it saves
+
+
+@jit
+def _command(mode, u, pressure_gauge, t, p):
+    """Spool command of one chamber's valve for this sub-step."""
+    if mode == ONOFF:
+        period = p[ix.PWM_PERIOD]
+        phase = (t - period * math.floor(t / period)) / period
+        duty = abs(u)
+        if phase < duty:
+            return 1.0 if u > 0.0 else -1.0
+        return 0.0
+    if mode == PRESSURE:
+        c = p[ix.REG_GAIN] * (u - pressure_gauge)
+        return max(-1.0, min(1.0, c))
+    return u
+
+
+@jit
+def _advance(x, inp, p, mode, dt, n_sub, out, aux):
+    """Advance one plant by ``n_sub`` sub-steps of ``dt`` seconds; write ``out`` and ``aux``."""
+    L = x[S_L]
+    v = x[S_V]
+    mc = x[S_MC]
+    uc = x[S_UC]
+    me = x[S_ME]
+    ue = x[S_UE]
+    sc = x[S_SC]
+    se = x[S_SE]
+    src = x[S_SRC]
+    sre = x[S_SRE]
+    t = x[S_T]
+    bc = p[ix.BC]
+    nc = p[ix.NC]
+    be = p[ix.BE]
+    ne = p[ix.NE]
+    ta = p[ix.TA]
+    patm = p[ix.P_ATM]
+    psup = p[ix.P_SUP]
+    tsup = p[ix.T_SUP]
+    tamb = p[ix.T_AMB]
+    bcrit = p[ix.B_CRIT]
+    rlam = p[ix.R_LAM]
+    cleak = p[ix.C_LEAK]
+    ha = p[ix.HA]
+    if mode == ONOFF:
+        tau = p[ix.TAU_SWITCH]
+        cvalve = p[ix.C_ONOFF]
+        order = 1
+    else:
+        tau = p[ix.TAU_SPOOL]
+        cvalve = p[ix.C_PROP]
+        order = int(p[ix.SPOOL_ORDER])
+    zeta = p[ix.ZETA]
+    mass = p[ix.M_END] + inp[I_LOAD]
+    fext = inp[I_FEXT]
+    air_used = 0.0
+    pmax = -np.inf
+    stop = 0.0
+    dmc = 0.0
+    dme = 0.0
+    for _ in range(n_sub):
+        vc_out, vc_air, dvc, dvac, _a, _b = braid_terms(L, bc, nc, ta)
+        _c, ve_air, _d, dvae, _e, _f = braid_terms(L, be, ne, ta)
+        vol_c = vc_air + p[ix.VD_C]
+        vol_e = ve_air - vc_out + p[ix.VD_E]
+        pc = 0.4 * uc / vol_c - patm  # (gamma - 1) U / V, gauge
+        pe = 0.4 * ue / vol_e - patm
+        pmax = max(pmax, pc, pe)
+        sc, src = spool_step(sc, src, _command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta)
+        se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta)
+        dmc, duc, supc = chamber_rates(mc, uc, vol_c, dvac * v, cvalve * max(sc, 0.0),
+                                       cvalve * max(-sc, 0.0) + cleak, psup, tsup, patm, tamb,
+                                       bcrit, rlam, ha)
+        dme, due, supe = chamber_rates(me, ue, vol_e, (dvae - dvc) * v, cvalve * max(se, 0.0),
+                                       cvalve * max(-se, 0.0) + cleak, psup, tsup, patm, tamb,
+                                       bcrit, rlam, ha)
+        force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
+        L, v, stop = load_step(L, v, force, mass, fext, p[ix.GRAV], p[ix.DAMP], p[ix.F_COUL],
+                               p[ix.L_MIN], p[ix.L_MAX], dt)
+        mc = max(mc + dt * dmc, _MIN_MASS)
+        uc = max(uc + dt * duc, _MIN_MASS)
+        me = max(me + dt * dme, _MIN_MASS)
+        ue = max(ue + dt * due, _MIN_MASS)
+        air_used += dt * (max(supc, 0.0) + max(supe, 0.0))
+        t += dt
+    out[S_L] = L
+    out[S_V] = v
+    out[S_MC] = mc
+    out[S_UC] = uc
+    out[S_ME] = me
+    out[S_UE] = ue
+    out[S_SC] = sc
+    out[S_SE] = se
+    out[S_SRC] = src
+    out[S_SRE] = sre
+    out[S_T] = t
+    _measure(out, p, aux)
+    pmax = max(pmax, aux[A_PC], aux[A_PE])
+    aux[A_MDOT_C] = dmc
+    aux[A_MDOT_E] = dme
+    aux[A_AIR] = air_used
+    aux[A_PMAX] = pmax
+    aux[A_BURST] = 1.0 if pmax > p[ix.P_BURST] else 0.0
+    aux[A_STOP] = stop
+
+
+@jit
+def _measure(x, p, aux):
+    """Fill the static quantities of ``aux`` from a state row (force, stiffness, pressures...)."""
+    L = x[S_L]
+    vol_c, vol_e, _dvc, _dve = chamber_volumes(L, p)
+    patm = p[ix.P_ATM]
+    pc = 0.4 * x[S_UC] / vol_c - patm
+    pe = 0.4 * x[S_UE] / vol_e - patm
+    _v1, _v2, dvc, dvac, d2vc, d2vac = braid_terms(L, p[ix.BC], p[ix.NC], p[ix.TA])
+    _v3, _v4, _s, dvae, _s2, d2vae = braid_terms(L, p[ix.BE], p[ix.NE], p[ix.TA])
+    force, k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae)
+    aux[A_FORCE] = force
+    aux[A_STIFF] = k
+    aux[A_STIFF_CLOSED] = closed_chamber_stiffness(L, pc, pe, p)
+    aux[A_PC] = pc
+    aux[A_PE] = pe
+    aux[A_TC] = x[S_UC] / (x[S_MC] * ix.CV)
+    aux[A_TE] = x[S_UE] / (x[S_ME] * ix.CV)
+    aux[A_VC] = vol_c
+    aux[A_VE] = vol_e
+    finite = 1.0
+    for j in range(x.shape[0]):
+        if not math.isfinite(x[j]):
+            finite = 0.0
+    aux[A_FINITE] = finite
+
+
+@jit
+def _step_serial(state, inputs, params, mode, dt, n_sub, out, aux):
+    shared = params.shape[0] == 1
+    for i in range(state.shape[0]):
+        _advance(state[i], inputs[i], params[0] if shared else params[i], mode, dt, n_sub, out[i], aux[i])
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def _step_parallel(state, inputs, params, mode, dt, n_sub, out, aux):
+    shared = params.shape[0] == 1
+    for i in prange(state.shape[0]):
+        _advance(state[i], inputs[i], params[0] if shared else params[i], mode, dt, n_sub, out[i], aux[i])
+
+
+def step(state, inputs, params, mode: int = PROPORTIONAL, dt: float = 5e-4, n_sub: int = 40,
+         out=None, aux=None):
+    """Advance a batch of plants by ``n_sub`` sub-steps of ``dt`` s; returns ``(new_state, aux)``.
+
+    ``state`` (N, N_STATE), ``inputs`` (N, N_INPUT), ``params`` (N or 1, N_PARAMS). Pass ``out`` and
+    ``aux`` to reuse buffers (the envs do); ``out`` may be ``state`` itself.
+    """
+    n = state.shape[0]
+    if out is None:
+        out = np.empty_like(state)
+    if aux is None:
+        aux = np.empty((n, N_AUX))
+    kernel = _step_parallel if n >= _PARALLEL_MIN_BATCH else _step_serial
+    kernel(state, inputs, params, int(mode), float(dt), int(n_sub), out, aux)
+    return out, aux
+
+
+@jit
+def _initial_row(L, pc, pe, temp, p, x):
+    vol_c, vol_e, _a, _b = chamber_volumes(L, p)
+    patm = p[ix.P_ATM]
+    x[:] = 0.0
+    x[S_L] = L
+    x[S_MC], x[S_UC] = state_from_pressure(pc + patm, temp, vol_c)
+    x[S_ME], x[S_UE] = state_from_pressure(pe + patm, temp, vol_e)
+
+
+def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=None):
+    """Plants at rest at ``length`` [m] with gauge chamber pressures [Pa], air at ``temperature``.
+
+    Arguments broadcast over the batch given by ``params`` (N or 1 rows) and the arguments.
+    """
+    params = np.atleast_2d(np.asarray(params, dtype=float))
+    L, pc, pe = np.broadcast_arrays(np.atleast_1d(length).astype(float), np.atleast_1d(pressure_c).astype(float),
+                                    np.atleast_1d(pressure_e).astype(float))
+    n = max(L.shape[0], params.shape[0])
+    L, pc, pe = (np.broadcast_to(a, (n,)) for a in (L, pc, pe))
+    temp = np.broadcast_to(params[:, ix.T_AMB] if temperature is None else np.atleast_1d(temperature), (n,))
+    prow = np.broadcast_to(params, (n, params.shape[1]))
+    lo, hi = prow[:, ix.L_MIN], prow[:, ix.L_MAX]
+    if np.any((L < lo) | (L > hi)) or not np.all(np.isfinite(L)):
+        raise ValueError(f"initial length must lie within the end stops [{lo.min()}, {hi.max()}] m, got {L}")
+    if np.any(pc + prow[:, ix.P_ATM] <= 0) or np.any(pe + prow[:, ix.P_ATM] <= 0):
+        raise ValueError("initial gauge pressures must be above vacuum (> -atmospheric)")
+    x = np.zeros((n, N_STATE))
+    for i in range(n):
+        _initial_row(L[i], pc[i], pe[i], temp[i], prow[i], x[i])
+    return x
+
+
+def measure(state, params):
+    """``aux`` of states without stepping them (force, stiffness, pressures, volumes...)."""
+    state = np.atleast_2d(state)
+    params = np.atleast_2d(params)
+    aux = np.zeros((state.shape[0], N_AUX))
+    for i in range(state.shape[0]):
+        _measure(state[i], params[0] if params.shape[0] == 1 else params[i], aux[i])
+    return aux

@@ -1,0 +1,70 @@
+"""What a task asks: targets, loads, reward weights, observation scaling. Frozen dataclasses."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Weights of the reward terms (each term is reported, signed, in ``info``)."""
+
+    length: float = 1.0  # per cm of |L - L*|
+    stiffness: float = 0.5  # per unit relative stiffness error |K - K*| / K*
+    effort: float = 0.05  # per unit mean squared action
+    air: float = 0.05  # per 10 mg of air drawn from the supply in one control step
+    burst: float = 100.0  # once, when a bladder bursts (the episode then terminates)
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """One task family. Lengths m, stiffness N/m, loads kg, times s (SI inside)."""
+
+    name: str
+    track_length: bool = True
+    track_stiffness: bool = True
+    fixed_length: float | None = None  # the stiffness task holds this length [m]
+    length_range: tuple[float, float] = (0.155, 0.19)
+    stiffness_range: tuple[float, float] = (200.0, 2500.0)  # clipped further to what is reachable
+    load_range: tuple[float, float] = (0.0, 0.3)  # hanging load [kg]
+    load_kinds: tuple[str, ...] = LOAD_KINDS
+    segment_duration: tuple[float, float] = (2.0, 4.0)  # how long a target holds [s]
+    pressure_margin: float = 0.85  # targets need pressures below this fraction of min(supply, burst)
+    weights: RewardWeights = field(default_factory=RewardWeights)
+
+    def __post_init__(self):
+        lo, hi = self.length_range
+        if not 0 < lo < hi:
+            raise ValueError(f"length_range must be increasing and positive, got {self.length_range}")
+        if not 0 <= self.load_range[0] <= self.load_range[1]:
+            raise ValueError(f"load_range must be 0 <= low <= high, got {self.load_range}")
+        if not 0 < self.stiffness_range[0] < self.stiffness_range[1]:
+            raise ValueError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
+        bad = [k for k in self.load_kinds if k not in LOAD_KINDS]
+        if bad or not self.load_kinds:
+            raise ValueError(f"load_kinds must be a non-empty subset of {LOAD_KINDS}, got {self.load_kinds}")
+        if not 0 < self.segment_duration[0] <= self.segment_duration[1]:
+            raise ValueError(f"segment_duration must be 0 < low <= high, got {self.segment_duration}")
+        if not 0 < self.pressure_margin <= 1:
+            raise ValueError(f"pressure_margin must be in (0, 1], got {self.pressure_margin}")
+        if not (self.track_length or self.track_stiffness):
+            raise ValueError("a task must track the length, the stiffness or both")
+
+
+TASKS = {
+    "cepam": TaskSpec("cepam"),
+    "length": TaskSpec("length", track_stiffness=False),
+    # paper section XII: same length (17.5 cm), several stiffnesses
+    "stiffness": TaskSpec("stiffness", fixed_length=0.175, load_range=(0.0, 0.15),
+                          weights=RewardWeights(length=1.0, stiffness=1.0)),
+}
