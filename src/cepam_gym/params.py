@@ -61,7 +61,7 @@ class PlantParams:
     elastic_stiffness: float = _f(0.0, "n_per_m", "bladder elasticity (not in the paper)", calibrate=True)
     elastic_rest_length: float = _f(0.15, "cm", "rest length of that elasticity")
     # --- air supply, valves, chambers (model-notes sections 4-5) ---
-    supply_pressure: float = _f(300e3, "kpa", "supply pressure (gauge)")
+    supply_pressure: float = _f(250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon")
     atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
     supply_temperature: float = _f(293.15, "k", "supply air temperature")
     ambient_temperature: float = _f(293.15, "k", "ambient and wall temperature")

@@ -109,6 +109,7 @@ def _advance(x, inp, p, mode, dt, n_sub, out, aux):
         cvalve = p[ix.C_PROP]
         order = int(p[ix.SPOOL_ORDER])
     zeta = p[ix.ZETA]
+    decay = math.exp(-dt / tau)
     mass = p[ix.M_END] + inp[I_LOAD]
     fext = inp[I_FEXT]
     air_used = 0.0
@@ -124,8 +125,8 @@ def _advance(x, inp, p, mode, dt, n_sub, out, aux):
         pc = 0.4 * uc / vol_c - patm  # (gamma - 1) U / V, gauge
         pe = 0.4 * ue / vol_e - patm
         pmax = max(pmax, pc, pe)
-        sc, src = spool_step(sc, src, _command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta)
-        se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta)
+        sc, src = spool_step(sc, src, _command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
+        se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
         dmc, duc, supc = chamber_rates(mc, uc, vol_c, dvac * v, cvalve * max(sc, 0.0),
                                        cvalve * max(-sc, 0.0) + cleak, psup, tsup, patm, tamb,
                                        bcrit, rlam, ha)

@@ -17,7 +17,8 @@ from ..params import PlantParams, preset
 from ..physics import layout as ix
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
-from ..tasks.schedules import episode_schedule
+from ..physics.api import static_pressures
+from ..tasks.schedules import episode_schedules
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
@@ -115,7 +116,7 @@ class CEPAMBatch:
         self.task_vec = self._task_vector()
         self.obs_dim = 9 if task.track_stiffness else 8
         # --- arrays
-        nominal_row = self.nominal.to_array()
+        self._nominal_row = nominal_row = self.nominal.to_array()
         self.params = np.repeat(nominal_row[None], n, axis=0)
         self.state = np.zeros((n, pl.N_STATE))
         self.aux = np.zeros((n, pl.N_AUX))
@@ -160,30 +161,26 @@ class CEPAMBatch:
 
     def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
         if not self.randomize:
-            return self.nominal.to_array()
+            return self._nominal_row
         draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.randomize.items()}
         return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array()
 
     def reset(self, indices=None) -> None:
-        idx = range(self.num_envs) if indices is None else indices
+        """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
+        idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
         for i in idx:
-            rng = self.rngs[i]
-            p = self._sample_params(rng)
-            self.params[i] = p
-            tl, tkk, load, (l0, k0) = episode_schedule(rng, self.task, p, self.n_steps, self.control_dt)
-            self.target_l[i], self.target_k[i], self.load[i] = tl, tkk, load
-            w0 = (p[ix.M_END] + load[0]) * p[ix.GRAV]
-            from ..physics.api import static_pressures
-
-            pc, pe, _ = static_pressures(l0, k0, w0, p)
-            self.state[i] = pl.initial_state(p, l0, float(pc), float(pe))[0]
-            self.t_idx[i] = 0
-            self.prev_action[i] = 0.0
-            self.queue[:, i] = 0.0
-        self.aux[:] = pl.measure(self.state, self.params) if indices is None else self.aux
-        if indices is not None:
-            ii = np.asarray(list(indices), dtype=int)
-            self.aux[ii] = pl.measure(self.state[ii], self.params[ii])
+            self.params[i] = self._sample_params(self.rngs[i])
+        tl, tkk, load, initial = episode_schedules([self.rngs[i] for i in idx], self.task,
+                                                   self.params[idx], self.n_steps, self.control_dt)
+        self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
+        p = self.params[idx]
+        weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
+        pc, pe, _ = static_pressures(initial[:, 0], initial[:, 1], weight, p)
+        self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
+        self.aux[idx] = pl.measure(self.state[idx], p)
+        self.t_idx[idx] = 0
+        self.prev_action[idx] = 0.0
+        self.queue[:, idx] = 0.0
         self._draw_noise()
         tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
                    self.prev_action, self.task_vec, self.noise, self.obs)

@@ -47,15 +47,16 @@ def signed_flow(pa, ta, pb, tb, c, b, r_lam):
 
 
 @jit
-def spool_step(s, s_rate, cmd, dt, tau, order, zeta):
+def spool_step(s, s_rate, cmd, dt, tau, order, zeta, decay):
     """Advance a valve spool (opening in [-1, 1]) by ``dt`` towards command ``cmd``.
 
-    Order 1: ``tau ds/dt = cmd - s`` integrated exactly over ``dt``. Order 2: ``s'' = w^2 (cmd - s)
+    Order 1: ``tau ds/dt = cmd - s`` integrated exactly over ``dt``, with ``decay = exp(-dt/tau)``
+    passed in (computed once per control step, not per sub-step). Order 2: ``s'' = w^2 (cmd - s)
     - 2 zeta w s'`` with ``w = 1/tau`` (semi-implicit Euler). The opening saturates at +-1 (the
     spool's end stops), where its rate is reset.
     """
     if order == 1:
-        s = cmd + (s - cmd) * math.exp(-dt / tau)
+        s = cmd + (s - cmd) * decay
         s_rate = 0.0
     else:
         w = 1.0 / tau

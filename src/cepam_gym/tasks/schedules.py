@@ -67,11 +67,13 @@ def _interval(a, s, lo, hi):
     return k_lo, k_hi
 
 
-def stiffness_interval(length, w_lo, w_hi, params_row, spec: TaskSpec):
+def stiffness_interval(length, w_lo, w_hi, params, spec: TaskSpec):
     """Reachable stiffness interval ``(K_lo, K_hi)`` [N/m] at ``length`` for weights in
-    ``[w_lo, w_hi]`` [N]; empty when ``K_lo >= K_hi``. Arrays broadcast."""
-    p = np.asarray(params_row)
-    p_cap = spec.pressure_margin * min(p[ix.P_SUP] - p[ix.P_ATM], p[ix.P_BURST])
+    ``[w_lo, w_hi]`` [N]; empty when ``K_lo >= K_hi``. ``params`` is one row, or one row per
+    element of the (1-D) arguments."""
+    p = np.asarray(params, dtype=float)
+    cols = p.T if p.ndim == 2 else p
+    p_cap = spec.pressure_margin * np.minimum(cols[ix.P_SUP] - cols[ix.P_ATM], cols[ix.P_BURST])
     p_floor = 2e3  # Pa above the contact pressure: keeps targets off the P_a = 0 kink
     prc, pre = api.contact_pressures(length, p)
     k_lo = np.full(np.broadcast(length, w_lo, w_hi).shape, spec.stiffness_range[0], dtype=float)
@@ -102,23 +104,67 @@ def sample_target(rng, spec: TaskSpec, w_lo: float, w_hi: float, params_row) -> 
         "(lower load_range, widen length_range, or raise the supply/burst pressure)")
 
 
-def episode_schedule(rng, spec: TaskSpec, params_row, n_steps: int, dt: float):
-    """``(target_length, target_stiffness, load, initial)`` arrays of one episode.
+_CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
 
-    ``initial`` is a separate reachable ``(length, stiffness)`` pair at the first load, where the
-    episode starts at rest (so the agent first has to move to the first target).
-    """
-    p = np.asarray(params_row)
-    g = p[ix.GRAV]
-    m_end = p[ix.M_END]
+
+def _draw(rng, spec: TaskSpec, n_steps: int, dt: float):
+    """All random draws of one episode, in a fixed order that depends only on this env's rng."""
     load = load_profile(rng, spec, n_steps, dt)
-    tl = np.empty(n_steps)
-    tk = np.empty(n_steps)
-    for i, j in _segments(rng, spec, n_steps, dt):
-        w = (m_end + load[i:j]) * g
-        L, K = sample_target(rng, spec, w.min(), w.max(), p)
-        tl[i:j] = L
-        tk[i:j] = K
-    w0 = (m_end + load[0]) * g
-    initial = sample_target(rng, spec, w0, w0, p)
-    return tl, tk, load, initial
+    segs = _segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last "segment" is the initial state
+    n = len(segs)
+    if spec.fixed_length is not None:
+        cand_l = np.full((n, _CANDIDATES), spec.fixed_length)
+    else:
+        cand_l = rng.uniform(*spec.length_range, size=(n, _CANDIDATES))
+    cand_u = rng.uniform(0.05, 0.95, size=(n, _CANDIDATES))  # where in the K interval
+    return load, segs, cand_l, cand_u
+
+
+def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
+    """Schedules of several envs at once: ``(target_length, target_stiffness, load, initial)``
+    with arrays of shape (n_envs, n_steps) and ``initial`` (n_envs, 2) = length, stiffness.
+
+    Env i uses only ``rngs[i]`` (in the same order whatever the batch), so a batch of envs gets
+    exactly the schedules single envs with the same generators would get. Targets come from
+    candidates drawn per segment and checked together with :func:`stiffness_interval`; the rare
+    segment without a feasible candidate falls back to :func:`sample_target`.
+    """
+    params = np.atleast_2d(np.asarray(params, dtype=float))
+    m = len(rngs)
+    draws = [_draw(rng, spec, n_steps, dt) for rng in rngs]
+    rows, L, wlo, whi = [], [], [], []
+    for i, (load, segs, cand_l, _) in enumerate(draws):
+        p = params[i if params.shape[0] > 1 else 0]
+        w = (p[ix.M_END] + load) * p[ix.GRAV]
+        for s_idx, (a, b) in enumerate(segs):
+            rows.append(np.full(_CANDIDATES, i))
+            L.append(cand_l[s_idx])
+            wlo.append(np.full(_CANDIDATES, w[a:b].min()))
+            whi.append(np.full(_CANDIDATES, w[a:b].max()))
+    rows = np.concatenate(rows)
+    L, wlo, whi = np.concatenate(L), np.concatenate(wlo), np.concatenate(whi)
+    prow = params[rows] if params.shape[0] > 1 else params[0]
+    k_lo, k_hi = stiffness_interval(L, wlo, whi, prow, spec)
+    tl = np.empty((m, n_steps))
+    tkk = np.empty((m, n_steps))
+    loads = np.empty((m, n_steps))
+    initial = np.empty((m, 2))
+    j = 0
+    for i, (load, segs, cand_l, cand_u) in enumerate(draws):
+        p = params[i if params.shape[0] > 1 else 0]
+        w = (p[ix.M_END] + load) * p[ix.GRAV]
+        loads[i] = load
+        for s_idx, (a, b) in enumerate(segs):
+            lo, hi = k_lo[j:j + _CANDIDATES], k_hi[j:j + _CANDIDATES]
+            ok = np.flatnonzero(hi > lo)
+            j += _CANDIDATES
+            if ok.size:
+                c = ok[0]
+                target = cand_l[s_idx, c], lo[c] + cand_u[s_idx, c] * (hi[c] - lo[c])
+            else:
+                target = sample_target(rngs[i], spec, w[a:b].min(), w[a:b].max(), p)
+            if s_idx == len(segs) - 1:
+                initial[i] = target
+            else:
+                tl[i, a:b], tkk[i, a:b] = target
+    return tl, tkk, loads, initial

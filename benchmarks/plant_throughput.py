@@ -1,0 +1,96 @@
+"""Throughput of :func:`cepam_gym.plant.step` for batches of N plants.
+
+Proportional valves, ``dt = 0.5 ms``, 40 sub-steps per control step (50 Hz control). For each N
+the plants start at 17 cm with some pressure in both chambers and are driven by fixed random
+spool commands (seeded) with a 0.1 kg load; one warm-up call (compilation, caches) precedes the
+timing, then ``step`` is called repeatedly, in place, for about ``--seconds`` seconds, timed with
+``time.perf_counter``. Reported per N: plant sub-steps per second (N * n_sub * calls / time),
+control steps per second (N * calls / time) and the batching speed-up, i.e. the per-plant
+throughput relative to N = 1. There is no separate "pure numpy" reference: the honest
+comparison available in the same run is the batch against the single plant.
+
+Run: ``.venv/bin/python benchmarks/plant_throughput.py`` (options: ``--seconds``, ``--sizes``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numba
+import numpy as np
+
+from cepam_gym import plant
+from cepam_gym.params import PlantParams
+
+DT = 5e-4
+N_SUB = 40
+
+
+def _setup(n: int, seed: int = 0):
+    params = PlantParams().to_array()[None, :]
+    state = plant.initial_state(params, np.full(n, 0.17), 80e3, 60e3)
+    rng = np.random.default_rng(seed)
+    inputs = np.zeros((n, plant.N_INPUT))
+    inputs[:, plant.I_CMD_C] = rng.uniform(-0.05, 0.05, n)
+    inputs[:, plant.I_CMD_E] = rng.uniform(-0.05, 0.05, n)
+    inputs[:, plant.I_LOAD] = 0.1
+    aux = np.empty((n, plant.N_AUX))
+    return state, inputs, params, aux
+
+
+def measure(n: int, seconds: float = 1.0) -> dict:
+    """Time ``plant.step`` on ``n`` plants for about ``seconds``; returns the rates."""
+    state, inputs, params, aux = _setup(n)
+    plant.step(state, inputs, params, plant.PROPORTIONAL, DT, N_SUB, out=state, aux=aux)  # warm-up
+    # calibrate the repetition count on a short run, then time the full run
+    t0 = time.perf_counter()
+    calls = 0
+    while time.perf_counter() - t0 < 0.05 * seconds:
+        plant.step(state, inputs, params, plant.PROPORTIONAL, DT, N_SUB, out=state, aux=aux)
+        calls += 1
+    per_call = (time.perf_counter() - t0) / calls
+    reps = max(3, int(seconds / per_call))
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        plant.step(state, inputs, params, plant.PROPORTIONAL, DT, N_SUB, out=state, aux=aux)
+    elapsed = time.perf_counter() - t0
+    if not np.all(aux[:, plant.A_FINITE] == 1.0):
+        raise RuntimeError(f"non-finite plant state during the N = {n} benchmark")
+    return {
+        "n": n,
+        "calls": reps,
+        "seconds": elapsed,
+        "us_per_call": 1e6 * elapsed / reps,
+        "substeps_per_s": n * N_SUB * reps / elapsed,
+        "control_steps_per_s": n * reps / elapsed,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=1.0, help="timed duration per batch size")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024, 4096])
+    args = ap.parse_args(argv)
+    print(f"# plant.step throughput: proportional valves, dt = {DT * 1e3:g} ms, n_sub = {N_SUB} "
+          f"({1 / (DT * N_SUB):g} Hz control)")
+    print(f"# numba {numba.__version__}, {numba.get_num_threads()} threads "
+          f"(parallel kernel for N >= {plant._PARALLEL_MIN_BATCH}), {os.cpu_count()} CPUs, "
+          f"{platform.processor() or platform.machine()}, Python {platform.python_version()}")
+    rows = [measure(n, args.seconds) for n in args.sizes]
+    base = rows[0]["control_steps_per_s"] if rows[0]["n"] == 1 else None
+    head = (f"{'N':>6} {'calls':>8} {'us/call':>10} {'sub-steps/s':>14} {'control steps/s':>16} "
+            f"{'speed-up vs N=1':>16}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        speed = f"{r['control_steps_per_s'] / base:16.1f}" if base else f"{'-':>16}"
+        print(f"{r['n']:>6} {r['calls']:>8} {r['us_per_call']:>10.1f} {r['substeps_per_s']:>14.3e} "
+              f"{r['control_steps_per_s']:>16.3e} {speed}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
