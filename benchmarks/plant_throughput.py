@@ -9,6 +9,11 @@ control steps per second (N * calls / time) and the batching speed-up, i.e. the 
 throughput relative to N = 1. There is no separate "pure numpy" reference: the honest
 comparison available in the same run is the batch against the single plant.
 
+Batches of 32 or more use the ``prange`` kernel; if another process keeps a CPU busy its threads
+wait for the scheduler and a call can take milliseconds, so the load average is printed too.
+On small VMs the OpenMP layer's thread wake-up alone can cost several ms per call; compare with
+``NUMBA_THREADING_LAYER=workqueue``.
+
 Run: ``.venv/bin/python benchmarks/plant_throughput.py`` (options: ``--seconds``, ``--sizes``).
 """
 
@@ -73,7 +78,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=1.0, help="timed duration per batch size")
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024, 4096])
+    ap.add_argument("--threads", type=int, default=None, help="numba threads for the parallel kernel")
     args = ap.parse_args(argv)
+    if args.threads:
+        numba.set_num_threads(args.threads)
+    load_before = os.getloadavg()[0]
     print(f"# plant.step throughput: proportional valves, dt = {DT * 1e3:g} ms, n_sub = {N_SUB} "
           f"({1 / (DT * N_SUB):g} Hz control)")
     print(f"# numba {numba.__version__}, {numba.get_num_threads()} threads "
@@ -89,6 +98,13 @@ def main(argv: list[str] | None = None) -> int:
         speed = f"{r['control_steps_per_s'] / base:16.1f}" if base else f"{'-':>16}"
         print(f"{r['n']:>6} {r['calls']:>8} {r['us_per_call']:>10.1f} {r['substeps_per_s']:>14.3e} "
               f"{r['control_steps_per_s']:>16.3e} {speed}")
+    try:
+        layer = numba.threading_layer()
+    except ValueError:  # no parallel region ran (only N < 32)
+        layer = "not initialised"
+    print(f"# numba threading layer: {layer} (choose with NUMBA_THREADING_LAYER=omp|tbb|workqueue)")
+    print(f"# 1-min load average before / after: {load_before:.2f} / {os.getloadavg()[0]:.2f} "
+          "(other busy processes slow the parallel kernel: its threads wait for a CPU)")
     return 0
 
 

@@ -309,3 +309,146 @@ def test_presets_load():
     assert t.bladder_thickness == pytest.approx(1e-3) and t.burst_pressure > t.supply_pressure
     with pytest.raises(ValueError, match="unknown preset"):
         preset("no_such_preset")
+
+
+# --------------------------------------------------------------------------- air and valves
+GAMMA, R_AIR = 1.4, 287.0  # air, as in the model notes (section 5)
+
+
+def test_adiabatic_exhaust_follows_isentrope():
+    """Sealed volume (load at the end stop), no wall heat: the air left behind expands reversibly, so
+    T / T0 = (p / p0)^((gamma - 1) / gamma) (outflow carries the chamber's own enthalpy cp T).
+    The residual is the explicit sub-step error (< 0.2 % here); allow 0.5 %."""
+    p = BASE.replace(heat_transfer=0.0, leak_conductance=0.0)
+    P = p.to_array()[None]
+    patm = p.atmospheric_pressure
+    x = plant.initial_state(P, p.max_length, 250e3, 250e3)
+    a0 = plant.measure(x, P)[0]
+    _, auxs = run(x, np.array([[-1.0, -1.0, 0.0, 500.0]]), P, 30)
+    for pcol, tcol in ((plant.A_PC, plant.A_TC), (plant.A_PE, plant.A_TE)):
+        pa = auxs[:, 0, pcol] + patm
+        iso = a0[tcol] * (pa / (a0[pcol] + patm)) ** ((GAMMA - 1) / GAMMA)
+        np.testing.assert_allclose(auxs[:, 0, tcol], iso, rtol=5e-3)
+    assert auxs[-1, 0, plant.A_TC] < 220.0  # the CPAM really emptied and cooled (isentrope: 205 K)
+
+
+def test_adiabatic_fill_energy_balance():
+    """Fixed volume, no wall heat, no leak, filled from the supply: U - U0 = cp T_supply (m - m0),
+    evaluated from the measured p, T and V (U = p V / (gamma - 1), m = p V / (R T)). The supply is
+    hotter than the chamber here so the enthalpy carried in is distinguishable from the chamber's."""
+    p = BASE.replace(heat_transfer=0.0, leak_conductance=0.0, supply_temperature=320.0)
+    P = p.to_array()[None]
+    patm = p.atmospheric_pressure
+    cp = GAMMA * R_AIR / (GAMMA - 1)
+    x = plant.initial_state(P, p.max_length, 0.0, 0.0)
+    a0 = plant.measure(x, P)[0]
+    _, auxs = run(x, np.array([[1.0, 1.0, 0.0, 500.0]]), P, 20)
+    a = auxs[-1, 0]
+    for pcol, tcol, vcol in ((plant.A_PC, plant.A_TC, plant.A_VC), (plant.A_PE, plant.A_TE, plant.A_VE)):
+        V = a[vcol]
+        assert V == a0[vcol]
+        pa0, pa = a0[pcol] + patm, a[pcol] + patm
+        dU = (pa - pa0) * V / (GAMMA - 1)
+        dm = pa * V / (R_AIR * a[tcol]) - pa0 * V / (R_AIR * a0[tcol])
+        assert dm > 0
+        assert dU == pytest.approx(cp * p.supply_temperature * dm, rel=1e-9)
+    assert a[plant.A_TC] > p.supply_temperature  # adiabatic charging heats the charge above supply
+
+
+def test_choked_fill_rate_and_leak_match_iso6358():
+    """A slow valve (C = 1e-11 m^3/(s Pa)) held open for 10 spool time constants: the chamber still
+    sits below b * p_supply, so the inflow is the choked ISO 6358 flow C rho0 p_sup sqrt(T0/T_sup)
+    times the spool opening; the leak is the ISO 6358 flow through leak_conductance."""
+    rho0, t0 = 1.185, 293.15
+    c, cleak = 1e-11, 2e-12
+    p = BASE.replace(valve_conductance=c, leak_conductance=cleak, supply_temperature=300.0,
+                     supply_pressure=500e3, burst_pressure=600e3)
+    P = p.to_array()[None]
+    patm, psup = p.atmospheric_pressure, p.atmospheric_pressure + p.supply_pressure
+    x = plant.initial_state(P, p.max_length, 0.0, 0.0)
+    n_sub, dt = 100, 5e-4
+    x, aux = plant.step(x, np.array([[1.0, 0.0, 0.0, 500.0]]), P, dt=dt, n_sub=n_sub)
+    a = aux[0]
+    assert (a[plant.A_PC] + patm) / psup < p.valve_critical_ratio  # still choked
+    opening = 1.0 - math.exp(-n_sub * dt / p.spool_time_constant)
+    choked = c * opening * rho0 * psup * math.sqrt(t0 / p.supply_temperature)
+    leak = float(api.iso6358_flow(a[plant.A_PC] + patm, patm, a[plant.A_TC], cleak,
+                                  p.valve_critical_ratio, p.laminar_ratio))
+    assert leak > 1e-3 * choked  # the leak term is resolvable at this tolerance
+    assert a[plant.A_MDOT_C] == pytest.approx(choked - leak, rel=1e-4)
+    # the closed EPAM chamber only leaks
+    leak_e = float(api.iso6358_flow(a[plant.A_PE] + patm, patm, a[plant.A_TE], cleak,
+                                    p.valve_critical_ratio, p.laminar_ratio))
+    assert a[plant.A_MDOT_E] == pytest.approx(-leak_e, rel=1e-3, abs=1e-18)
+    # air_used is the supply mass drawn, about the integral of the choked flow over the opening
+    tau = p.spool_time_constant
+    T = n_sub * dt
+    expected_air = c * rho0 * psup * math.sqrt(t0 / p.supply_temperature) * (T - tau * (1 - math.exp(-T / tau)))
+    assert a[plant.A_AIR] == pytest.approx(expected_air, rel=2e-2)
+
+
+def _sealed_total_energy(form, dt, t_end=0.2, n_sub=10):
+    """Sealed chambers, no heat transfer, no damping, no radial loss: track
+    E = U_c + U_e + M v^2 / 2 - M g L + p_atm (V_c + V_e) (the atmosphere's work is the last term, as
+    the force model uses gauge pressures). Also return int (F - F_virtual_work) dL along the path."""
+    p = BASE.replace(force_form=form, heat_transfer=0.0, leak_conductance=0.0, damping=0.0,
+                     kr_high=0.0, kr_low=0.0)
+    vw = p.replace(force_form="virtual_work")
+    P = p.to_array()[None]
+    load = 0.1
+    M, patm = p.end_mass + load, p.atmospheric_pressure
+
+    def energy(x, a):
+        return (x[0, plant.S_UC] + x[0, plant.S_UE] + 0.5 * M * x[0, plant.S_V] ** 2
+                - M * p.gravity * x[0, plant.S_L] + patm * (a[plant.A_VC] + a[plant.A_VE]))
+
+    x = plant.initial_state(P, 0.17, 120e3, 80e3)  # out of equilibrium: the end oscillates
+    a = plant.measure(x, P)[0]
+    e0 = energy(x, a)
+    tr = [(x[0, plant.S_L], a[plant.A_FORCE], a[plant.A_PC], a[plant.A_PE], 0.0)]
+    for _ in range(int(round(t_end / dt / n_sub))):
+        x, aux = plant.step(x, np.array([[0.0, 0.0, load, 0.0]]), P, dt=dt, n_sub=n_sub)
+        a = aux[0]
+        tr.append((x[0, plant.S_L], a[plant.A_FORCE], a[plant.A_PC], a[plant.A_PE], energy(x, a) - e0))
+    tr = np.array(tr)
+    excess = tr[:, 1] - api.force(tr[:, 0], tr[:, 2], tr[:, 3], vw)
+    extra_work = np.concatenate([[0.0], np.cumsum(0.5 * (excess[1:] + excess[:-1]) * np.diff(tr[:, 0]))])
+    return tr[:, 4], extra_work, np.ptp(tr[:, 0])
+
+
+def test_sealed_plant_conserves_total_energy_virtual_work_form():
+    """Air + load + atmosphere energy is conserved by the virtual-work form up to the first-order
+    integration error (it halves with the sub-step)."""
+    dE1, _, travel = _sealed_total_energy("virtual_work", 1e-4)
+    dE2, _, _ = _sealed_total_energy("virtual_work", 5e-5)
+    assert travel > 5e-4
+    assert np.abs(dE1).max() < 5e-4  # J; the air and the load exchange ~2e-2 J (see the p dV test)
+    assert np.abs(dE2).max() < 0.6 * np.abs(dE1).max()
+
+
+def test_sealed_plant_paper_form_is_not_energy_consistent():
+    """The paper form's extra force does work the air never paid for: the energy drift equals
+    int (F_paper - F_virtual_work) dL along the path (here ~0.35 J for 1.6 cm of travel, 100x the
+    virtual-work form's integration error)."""
+    dE, extra, travel = _sealed_total_energy("paper", 5e-5)
+    assert travel > 5e-3
+    assert np.abs(dE).max() > 0.1
+    np.testing.assert_allclose(dE, extra, atol=0.1 * np.abs(extra).max())
+
+
+@pytest.mark.parametrize("conductance,dt", [
+    (1e-9, 5e-4),  # the default valve at the default sub-step
+    (3e-9, 5e-4),
+    (1e-8, 5e-5),  # a 1 dm^3/(s bar) valve needs a 10x finer sub-step ...
+    pytest.param(1e-8, 5e-4, marks=pytest.mark.xfail(strict=True, reason=(
+        "... at the default 0.5 ms sub-step the explicit integration of the linear (laminar) valve "
+        "region is unstable for the smallest CPAM volume: dt * gamma R T C rho0 sqrt(1-x^2) / "
+        "((1 - r_lam) V) ~ 3.7 > 2; the pressure overshoots supply by ~6 kPa and limit-cycles"))),
+])
+def test_fill_stays_below_supply_for_valve_sizes(conductance, dt):
+    p = BASE.replace(valve_conductance=conductance)
+    P = p.to_array()[None]
+    x = plant.initial_state(P, p.max_length, 0.0, 0.0)
+    _, auxs = run(x, np.array([[1.0, 1.0, 0.0, 500.0]]), P, 50, dt=dt, n_sub=int(round(0.02 / dt)))
+    assert np.all(auxs[:, 0, plant.A_PMAX] <= p.supply_pressure)
+    assert auxs[-1, 0, plant.A_PC] > p.supply_pressure - 1e3

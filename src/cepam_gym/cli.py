@@ -64,9 +64,10 @@ def _rollout(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"run": _run, "rollout": _rollout}
-    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation"}
+    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation", "bench": "cepam_gym.bench.cli"}
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: cepam-gym {run,demo,validate,rollout} [options]\n"
+        print("usage: cepam-gym {run,bench,demo,validate,rollout} [options]\n"
+              "  bench     score controllers on the benchmark suites\n"
               "  run       the main job on the default config\n"
               "  demo      plant step response plot\n"
               "  validate  the paper's reported numbers beside the model's\n"

@@ -73,7 +73,7 @@ def simulate(params: PlantParams | None = None, duration: float = DURATION) -> d
         rows["command_c"].append(u[plant.I_CMD_C])
         rows["command_e"].append(u[plant.I_CMD_E])
         rows["load_mass"].append(u[plant.I_LOAD])
-        rows["burst"].append(aux[0, plant.A_BURST] if aux.shape[1] > plant.A_BURST else 0.0)
+        rows["burst"].append(aux[0, plant.A_BURST])
         rows["end_stop"].append(aux[0, plant.A_STOP])
 
     u = _inputs_at(0.0)

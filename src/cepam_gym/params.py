@@ -122,6 +122,9 @@ class PlantParams:
             a = getattr(self, name)
             if not 0.0 < a < math.pi / 2:
                 raise ValueError(f"parameter {name} must be between 0 and 90 deg, got {math.degrees(a):.3g} deg")
+        if not self.cpam_rest_angle < math.acos(1 / math.sqrt(3)):
+            raise ValueError("cpam_rest_angle must be below 54.7 deg (a contractor's braid), got "
+                             f"{math.degrees(self.cpam_rest_angle):.3g} deg")
         if not 0.0 <= self.valve_critical_ratio < self.laminar_ratio < 1.0:
             raise ValueError("need 0 <= valve_critical_ratio < laminar_ratio < 1, got "
                              f"{self.valve_critical_ratio} and {self.laminar_ratio}")

@@ -254,6 +254,39 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
     return x
 
 
+def stability_number(params, dt: float) -> np.ndarray:
+    """``dt * lambda_max`` of the explicit pressure integration, per parameter row.
+
+    The stiffest mode is a chamber at its smallest volume, fed through a fully open valve in the
+    linearised (laminar) region near equal pressures: ``lambda = gamma R T / V * dmdot/dp`` with
+    ``dmdot/dp = C rho0 sqrt(T0/T) sqrt(1 - x^2) / (1 - r_lam)``, ``x = (r_lam - b) / (1 - b)``.
+    Explicit Euler is stable below 2 and free of overshoot below 1.
+    """
+    p = np.atleast_2d(params)
+    c = np.maximum(p[:, ix.C_PROP], p[:, ix.C_ONOFF]) + p[:, ix.C_LEAK]
+    x = (p[:, ix.R_LAM] - p[:, ix.B_CRIT]) / (1.0 - p[:, ix.B_CRIT])
+    t = np.maximum(p[:, ix.T_SUP], p[:, ix.T_AMB])
+    slope = c * ix.RHO0 * np.sqrt(ix.T0 / t) * np.sqrt(1.0 - x * x) / (1.0 - p[:, ix.R_LAM])
+    v_min = np.full(p.shape[0], np.inf)
+    from .physics.api import chamber_volumes as volumes
+
+    for L in np.linspace(p[:, ix.L_MIN], p[:, ix.L_MAX], 16):
+        vc, ve, _, _ = volumes(L, p)
+        v_min = np.minimum(v_min, np.minimum(vc, ve))
+    return dt * ix.GAMMA * ix.R_AIR * t / v_min * slope
+
+
+def check_stability(params, dt: float, limit: float = 1.2) -> None:
+    """Raise ``ValueError`` when the sub-step ``dt`` is too long for these valves and volumes."""
+    s = stability_number(params, dt)
+    if np.any(s > limit):
+        worst = float(s.max())
+        raise ValueError(
+            f"sub-step {dt * 1e3:.3g} ms is too long for the valve conductance and chamber volume "
+            f"(stability number {worst:.2f} > {limit}): use sub_dt <= {dt * limit / worst * 1e3:.3g} ms, "
+            "a smaller valve_conductance, or a larger dead volume")
+
+
 def measure(state, params):
     """``aux`` of states without stepping them (force, stiffness, pressures, volumes...)."""
     state = np.atleast_2d(state)

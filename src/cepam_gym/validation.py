@@ -48,14 +48,19 @@ _GRID = 4001  # scan points per settle search (about 0.01 mm over the CE-PAM ran
 
 
 # ------------------------------------------------------------------ equilibrium search
-def _settle(g: Callable[[float], float], start: float, lo: float, hi: float) -> tuple[float, str]:
+def _settle(g: Callable[[np.ndarray], np.ndarray], start: float, lo: float, hi: float) -> tuple[float, str]:
     """Length where the end comes to rest when released at ``start`` under the net extension
-    force ``g(L)`` (positive = extending), with stops at ``lo`` and ``hi``.
+    force ``g(L)`` (positive = extending; ``g`` maps an array of lengths to forces), with stops at
+    ``lo`` and ``hi``.
 
     Returns ``(L, where)`` with ``where`` in ``{"free", "lower stop", "upper stop"}``; a free
-    equilibrium is a + to - crossing of ``g`` in the direction of motion, refined by ``brentq``.
+    equilibrium is the first + to - crossing of ``g`` in the direction of motion (found on a grid,
+    refined by ``brentq``).
     """
-    g0 = g(start)
+    def g1(L: float) -> float:
+        return float(g(np.array([L]))[0])
+
+    g0 = g1(start)
     if g0 == 0.0:
         return start, "free"
     up = g0 > 0.0
@@ -63,15 +68,15 @@ def _settle(g: Callable[[float], float], start: float, lo: float, hi: float) -> 
     if end == start:
         return start, "upper stop" if up else "lower stop"
     grid = np.linspace(start, end, _GRID)
-    prev_L, prev_g = start, g0
-    for L in grid[1:]:
-        gl = g(float(L))
-        if (gl <= 0.0) if up else (gl >= 0.0):
-            if gl == 0.0:
-                return float(L), "free"
-            return float(brentq(g, min(prev_L, L), max(prev_L, L), xtol=1e-13, rtol=1e-12)), "free"
-        prev_L, prev_g = float(L), gl
-    return end, "upper stop" if up else "lower stop"
+    vals = g(grid)
+    crossed = np.nonzero(vals <= 0.0 if up else vals >= 0.0)[0]
+    if crossed.size == 0:
+        return end, "upper stop" if up else "lower stop"
+    i = int(crossed[0])
+    if vals[i] == 0.0:
+        return float(grid[i]), "free"
+    a, b = sorted((float(grid[i - 1]), float(grid[i])))
+    return float(brentq(g1, a, b, xtol=1e-13, rtol=1e-12)), "free"
 
 
 def _loaded_stiffness(g0: Callable[[float], float], L0: float, lo: float, hi: float,
@@ -94,25 +99,24 @@ def _loaded_stiffness(g0: Callable[[float], float], L0: float, lo: float, hi: fl
 
 
 # ------------------------------------------------------------------ force functions
-def _cepam_net(params: PlantParams, pc: float, pe: float) -> Callable[[float], float]:
+def _cepam_net(params: PlantParams, pc: float, pe: float) -> Callable[[np.ndarray], np.ndarray]:
     """Net extension force [N] on the CE-PAM's free end, unloaded: ``F(L) + m_end g``."""
     w_end = params.end_mass * params.gravity
-    return lambda L: float(api.force(L, pc, pe, params)) + w_end
+    return lambda L: np.asarray(api.force(L, pc, pe, params)) + w_end
 
 
-def _single_force(params: PlantParams, which: str, pressure: float) -> Callable[[float], float]:
+def _single_force(params: PlantParams, which: str, pressure: float) -> Callable[[np.ndarray], np.ndarray]:
     """Extension-positive force [N] of one McKibben muscle alone: ``P_a dV_air/dL`` (Eq. 14)."""
     b, n = params.cpam_braid() if which == "cpam" else params.epam_braid()
     d_bladder = params.cpam_bladder_diameter if which == "cpam" else params.epam_bladder_diameter
     ta = params.wall_thickness()
     radial = 0.0 if params.force_model == "basic" else 1.0
 
-    def f(L: float) -> float:
+    def f1(L: float) -> float:
         pa, _ = muscle.active_pressure(pressure, L, b, n, d_bladder, radial, params.kr_low, params.kr_high)
-        dv_air = muscle.braid_terms(L, b, n, ta)[3]
-        return float(pa * dv_air)
+        return pa * muscle.braid_terms(L, b, n, ta)[3]
 
-    return f
+    return lambda L: np.array([f1(float(x)) for x in np.atleast_1d(L)])
 
 
 def _braid_range(params: PlantParams, which: str) -> tuple[float, float]:
@@ -240,6 +244,8 @@ def _evaluate(t: Target, params: PlantParams) -> tuple[float, str]:
     k, load_notes = _loaded_stiffness(lambda L: f(L) + w_end, L0, lo, hi, g)
     notes.append(f"unloaded equilibrium {L0 / CM:.2f} cm")
     notes.extend(load_notes)
+    if math.isnan(k):
+        notes.append("every load reaches the braid's limit: no stiffness measured")
     return k, "; ".join(notes)
 
 

@@ -38,6 +38,20 @@ def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
     return out
 
 
+_PIN_KEYS = ("target_length", "target_stiffness", "load_mass")
+
+
+def _apply_options(core: CEPAMBatch, options: dict | None) -> None:
+    """``reset(options=...)``: pin any of target_length [m], target_stiffness [N/m], load_mass [kg]
+    for the whole episode (scalars, or per-env arrays for the vector env)."""
+    if not options:
+        return
+    bad = set(options) - set(_PIN_KEYS)
+    if bad:
+        raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(_PIN_KEYS)}")
+    core.pin_targets(**options)
+
+
 _DOC = """
 
     ## Description
@@ -123,7 +137,11 @@ _DOC = """
     | ``sensor_noise`` | ``None`` | ``{"length_mm", "velocity_mm_s", "pressure_kpa"}`` standard deviations |
     | ``action_latency_steps`` | 0 | actions reach the valves this many steps late |
     | ``supply_drift_kpa`` | 0.0 | random-walk intensity of the supply pressure, kPa/sqrt(s), clipped to +-20 % |
+    | ``task_options`` | ``{}`` | override TaskSpec fields: ``length_range`` [m], ``load_range`` [kg], ``load_kinds``, ``segment_duration`` [s], ``stiffness_range`` [N/m], ``pressure_margin`` |
     | ``render_mode`` | ``None`` | ``"rgb_array"`` or ``"human"`` |
+
+    ``reset(options={"target_length": m, "target_stiffness": N/m, "load_mass": kg})`` pins any of
+    them for the episode (evaluation at chosen operating points; no reachability check).
 
     ## Version history
 
@@ -153,6 +171,7 @@ class CEPAMEnv(gym.Env, EzPickle):
             self.core.seed(int(self.np_random.integers(2**63)) if seed is None else seed)
             self._seeded = True
         self.core.reset()
+        _apply_options(self.core, options)
         info = {k: float(v[0]) for k, v in _info_arrays(self.core, scored=False).items()}
         if self.render_mode == "human":
             self.render()
@@ -220,6 +239,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             self.core.seed(int(self.np_random.integers(2**63)) if seed is None else seed)
             self._seeded = True
         self.core.reset()
+        _apply_options(self.core, options)
         self._elapsed[:] = 0
         return self.core.obs.astype(np.float32), _info_arrays(self.core, scored=False)
 

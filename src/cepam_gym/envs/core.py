@@ -76,7 +76,8 @@ class CEPAMBatch:
                  action_mode: str = "valve", control_dt: float = 0.02, sub_dt: float = 5e-4,
                  episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
                  randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
-                 action_latency_steps: int = 0, supply_drift_kpa: float = 0.0):
+                 action_latency_steps: int = 0, supply_drift_kpa: float = 0.0,
+                 task_options: Mapping[str, Any] | None = None):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
@@ -84,6 +85,13 @@ class CEPAMBatch:
             if task not in TASKS:
                 raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
             task = TASKS[task]
+        if task_options:
+            names = {f.name for f in dataclasses.fields(TaskSpec)} - {"name", "weights"}
+            bad = set(task_options) - names
+            if bad:
+                raise ValueError(f"task_options: unknown keys {sorted(bad)}; valid: {sorted(names)}")
+            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in task_options.items()}
+            task = dataclasses.replace(task, **opts)
         if reward_weights:
             names = {f.name for f in dataclasses.fields(RewardWeights)}
             bad = set(reward_weights) - names
@@ -117,6 +125,7 @@ class CEPAMBatch:
         self.obs_dim = 9 if task.track_stiffness else 8
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
+        self._stable_checked = False
         self.params = np.repeat(nominal_row[None], n, axis=0)
         self.state = np.zeros((n, pl.N_STATE))
         self.aux = np.zeros((n, pl.N_AUX))
@@ -165,11 +174,31 @@ class CEPAMBatch:
         draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.randomize.items()}
         return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array()
 
+    def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
+        """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
+        ``indices`` (scalars or per-env arrays); call right after :meth:`reset`. Used by the
+        benchmark harness and for evaluation at chosen operating points."""
+        idx = np.arange(self.num_envs) if indices is None else np.asarray(indices)
+        for arr, val, name in ((self.target_l, target_length, "target_length"),
+                               (self.target_k, target_stiffness, "target_stiffness"),
+                               (self.load, load_mass, "load_mass")):
+            if val is None:
+                continue
+            v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
+            if not np.isfinite(v).all():
+                raise ValueError(f"{name} must be finite, got {val!r}")
+            arr[idx] = v[:, None]
+        tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
+                   self.prev_action, self.task_vec, self.noise, self.obs)
+
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
         for i in idx:
             self.params[i] = self._sample_params(self.rngs[i])
+        if self.randomize or not self._stable_checked:
+            pl.check_stability(self.params[idx], self.sub_dt)
+            self._stable_checked = True
         tl, tkk, load, initial = episode_schedules([self.rngs[i] for i in idx], self.task,
                                                    self.params[idx], self.n_steps, self.control_dt)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load

@@ -50,7 +50,7 @@ def _loop1(fn, a, P, n_out, out):
 def _call(fn, n_out, params, *args):
     arrays = np.broadcast_arrays(*[np.asarray(a, dtype=float) for a in args])
     shape = arrays[0].shape
-    flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+    flat = [np.array(a, dtype=float).reshape(-1) for a in arrays]  # copies: broadcast views are read-only
     n = flat[0].shape[0]
     P = _param_rows(params, n)
     if P.shape[0] == n and n > 1 and shape != (n,):
@@ -110,7 +110,7 @@ def iso6358_flow(p_up, p_down, t_up, conductance, critical_ratio, laminar_ratio=
     """ISO 6358 mass flow [kg/s] from absolute ``p_up`` to ``p_down`` [Pa] (``p_up >= p_down``)."""
     cbr = np.array([[conductance, critical_ratio, laminar_ratio]], dtype=float)
     arrays = np.broadcast_arrays(*[np.asarray(a, dtype=float) for a in (p_up, p_down, t_up)])
-    flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+    flat = [np.array(a, dtype=float).reshape(-1) for a in arrays]  # copies: broadcast views are read-only
     out = np.empty((1, flat[0].shape[0]))
     _loop3(_flow, flat[0], flat[1], flat[2], cbr, 1, out)
     return out[0].reshape(arrays[0].shape)

@@ -1,0 +1,55 @@
+"""``cepam-gym bench``: score controllers on the fixed suites."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from .harness import run_suite
+from .suites import SUITES
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="cepam-gym bench", description=__doc__)
+    ap.add_argument("--controller", action="append", default=None,
+                    help="baseline | zero | random | a trained agent's run directory (repeatable)")
+    ap.add_argument("--suite", action="append", default=None,
+                    help=f"one of {list(SUITES)} or 'all' (repeatable; default all)")
+    ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)")
+    ap.add_argument("--json", action="store_true", help="print one JSON object per suite and controller")
+    ap.add_argument("--out-dir", default="runs/bench", help="where the table and plots go (without --json)")
+    args = ap.parse_args(argv)
+    controllers = args.controller or ["baseline"]
+    suites = args.suite or ["all"]
+    if "all" in suites:
+        suites = list(SUITES)
+    bad = [s for s in suites if s not in SUITES]
+    if bad:
+        ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
+    if args.episodes is not None and args.episodes < 1:
+        ap.error("--episodes must be >= 1")
+    rows, traces = [], {}
+    for s in suites:
+        for c in controllers:
+            metrics, tr = run_suite(c, s, episodes=args.episodes)
+            rows.append(metrics)
+            traces[(s, c)] = tr
+            if args.json:
+                print(json.dumps(metrics), flush=True)
+    if args.json:
+        return 0
+    from . import report
+
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    text = report.table(rows)
+    print(text)
+    (out / "table.txt").write_text(text + "\n")
+    (out / "results.json").write_text(json.dumps(rows, indent=2))
+    for (s, c), tr in traces.items():
+        name = f"traces_{s}_{Path(c).name}.png"
+        report.plot_traces(tr, f"{c} on {s} (episode 0)", out / name)
+    report.plot_bars(rows, out / "scores.png")
+    print(f"wrote {out}/table.txt, results.json, scores.png and traces_*.png")
+    return 0

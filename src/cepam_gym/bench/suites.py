@@ -1,0 +1,48 @@
+"""Fixed, seeded scenario suites of the benchmark harness."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+# Plausible spread of a hand-made CE-PAM and its rig around the nominal (balloon) parameters,
+# in the keys' own units. The baseline keeps using the nominal values.
+RANDOMIZE: dict[str, list[float]] = {
+    "cpam_rest_angle_deg": [16.5, 19.5],
+    "epam_sleeve_free_angle_deg": [16.5, 19.5],
+    "bladder_thickness_mm": [0.2, 0.45],
+    "sleeve_thickness_mm": [0.1, 0.3],
+    "valve_conductance_dm3_per_s_bar": [0.07, 0.13],
+    "dead_volume_cpam_cm3": [1.0, 3.0],
+    "dead_volume_epam_cm3": [1.0, 3.0],
+    "end_mass_g": [15.0, 30.0],
+    "damping_ns_per_m": [3.0, 8.0],
+    "coulomb_friction_n": [0.0, 0.3],
+    "elastic_stiffness_n_per_m": [0.0, 100.0],
+}
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    env_id: str
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    seed: int = 0
+    episodes: int = 20
+    doc: str = ""
+
+
+SUITES: dict[str, Suite] = {s.name: s for s in (
+    Suite("nominal", "cepam_gym/CEPAM-v0", {"task_options": {"load_kinds": ["step"]}}, seed=1000,
+          doc="default parameters, no noise, load steps"),
+    Suite("randomized", "cepam_gym/CEPAM-v0",
+          {"randomize": RANDOMIZE, "supply_drift_kpa": 5.0,
+           "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0}}, seed=2000,
+          doc="domain-randomized plant, sensor noise, supply drift, all load profiles"),
+    Suite("stiffness-at-fixed-length", "cepam_gym/CEPAMStiffness-v0", {}, seed=3000,
+          doc="paper section XII: 17.5 cm, changing stiffness"),
+    Suite("stress", "cepam_gym/CEPAM-v0",
+          {"task_options": {"load_range": [0.0, 0.45], "load_kinds": ["step", "random"],
+                            "pressure_margin": 0.95, "segment_duration": [1.0, 2.0]}}, seed=4000,
+          doc="large load steps, near-limit targets, fast target changes"),
+)}

@@ -1,0 +1,150 @@
+"""Model-based baseline: inverse static model + load estimate + pressure loop.
+
+Uses the *nominal* plant parameters (the env may run randomized ones: that is the point of the
+comparison) and the same physics functions as the plant (:mod:`cepam_gym.physics.api`).
+
+Per control step, for every env of a batch (shape ``(N, obs_dim)`` or a single ``(obs_dim,)``):
+
+1. **Measure** length, pressures and targets from the observation (what a rig has).
+2. **Load estimate**: in quasi-static equilibrium ``F(L, Pc, Pe) + (m_end + m_load) g = 0`` (paper
+   Eq. 25 with Eq. 41/45 via :func:`~cepam_gym.physics.api.force`), so the hanging weight is
+   ``-F`` from the measured length and pressures, low-pass filtered (``load_filter_s``). Because
+   it is computed at the *measured* length, it also absorbs force-model error: at steady state
+   the set-points that balance ``-F_nominal(L, P)`` at ``L*`` can only hold if ``L = L*``
+   (the nominal force is monotone in L), so the length error goes to zero even on a wrong model.
+3. **Inverse static model**: the pressures that hold ``L*`` with stiffness ``K*`` under that
+   weight, a 2x2 solve (:func:`~cepam_gym.physics.api.static_pressures`). **Infeasible targets**
+   are projected with this rule: the force balance is kept exact and ``K*`` is moved to the
+   nearest reachable stiffness at ``(L*, W)``
+   (:func:`~cepam_gym.tasks.schedules.stiffness_interval`); if no stiffness is reachable the
+   pressures are clipped to ``[0, min(supply, burst)]``. Without a stiffness target (the length
+   task) the middle of the reachable interval is used.
+4. **Pressure loop** per chamber, by action mode: ``"pressure"`` sends the set-points;
+   ``"valve"``/``"pwm"`` compute the valve opening that would close a fraction of the pressure gap
+   in one control period from the ISO 6358 flow model (feedforward) plus a PI on the pressure
+   error with conditional-integration anti-windup.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..physics import api
+from ..physics import layout as ix
+from ..tasks import kernel as tk
+from ..tasks.schedules import stiffness_interval
+
+
+class InverseStaticController:
+    """Baseline policy for the CE-PAM envs; ``act(obs, info=None)`` works on single and batched
+    observations. Build it from an env (single, vector or SB3 adapter) so it knows the
+    observation scaling, the action mode and the nominal parameters."""
+
+    def __init__(self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5,
+                 load_filter_s: float = 0.15):
+        core = _core_of(env)
+        self.task = core.task
+        self.task_vec = core.task_vec.copy()
+        self.params = core.nominal.to_array()  # nominal, never the randomized rows
+        self.nominal = core.nominal
+        self.mode = core.action_mode
+        self.dt = core.control_dt
+        self.gap_fraction = gap_fraction
+        self.kp, self.ki = kp, ki
+        self.alpha = 1.0 - np.exp(-self.dt / load_filter_s)
+        self.p_cap = min(core.nominal.supply_pressure, core.nominal.burst_pressure)
+        self.reset()
+
+    def reset(self, indices=None) -> None:
+        """Forget the filter and integrator states (all envs, or ``indices``)."""
+        if indices is None or not hasattr(self, "_weight"):
+            self._weight = None
+            self._integral = None
+        else:
+            self._weight[indices] = np.nan
+            self._integral[indices] = 0.0
+
+    # ------------------------------------------------------------------ helpers
+    def _decode(self, obs: np.ndarray):
+        t = self.task_vec
+        L = obs[:, 0] * t[tk.T_L_HALF] + t[tk.T_L_CENTER]
+        pc = obs[:, 2] * t[tk.T_P_SCALE]
+        pe = obs[:, 3] * t[tk.T_P_SCALE]
+        target_l = obs[:, 5] * t[tk.T_L_HALF] + t[tk.T_L_CENTER]
+        target_k = obs[:, 6] * t[tk.T_K_SCALE] if self.task.track_stiffness else None
+        return L, pc, pe, target_l, target_k
+
+    def setpoints(self, L_target, K_target, weight):
+        """Projected inverse static model: gauge pressures ``(Pc*, Pe*)`` [Pa] (arrays)."""
+        p = self.params
+        L_target = np.asarray(L_target, dtype=float)
+        k_lo, k_hi = stiffness_interval(L_target, weight, weight, p, self.task)
+        reachable = k_hi > k_lo
+        if K_target is None:
+            K = 0.5 * (k_lo + k_hi)
+        else:
+            K = np.clip(K_target, k_lo, np.maximum(k_lo, k_hi))
+        K = np.where(reachable, K, np.nan_to_num(K_target if K_target is not None else 800.0))
+        pc, pe, _ = api.static_pressures(L_target, K, weight, p)
+        return np.clip(pc, 0.0, self.p_cap), np.clip(pe, 0.0, self.p_cap)
+
+    def _valve_command(self, p_set, p_meas, vol, integral):
+        """Spool opening in [-1, 1] closing ``gap_fraction`` of the pressure gap in one period."""
+        p = self.params
+        patm, psup = p[ix.P_ATM], p[ix.P_SUP]
+        t = p[ix.T_AMB]
+        err = p_set - p_meas
+        # mass the chamber needs (isothermal estimate) and the flow a fully open valve gives now
+        dm = self.gap_fraction * err * vol / (ix.R_AIR * t)
+        c = p[ix.C_ONOFF] if self.mode == "pwm" else p[ix.C_PROP]
+        pa = p_meas + patm
+        full_in = api.iso6358_flow(psup, np.minimum(pa, psup), p[ix.T_SUP], c, p[ix.B_CRIT], p[ix.R_LAM])
+        full_out = api.iso6358_flow(np.maximum(pa, patm), patm, t, c, p[ix.B_CRIT], p[ix.R_LAM])
+        full = np.where(err > 0, full_in, full_out) * self.dt
+        ff = np.sign(err) * np.minimum(np.abs(dm) / np.maximum(full, 1e-12), 1.0)
+        scale = max(self.p_cap, 1.0)
+        u = ff + self.kp * err / scale + self.ki * integral
+        saturated = np.abs(u) >= 1.0
+        # conditional integration: integrate only while not pushing further into saturation
+        integral = np.where(saturated & (np.sign(err) == np.sign(u)), integral, integral + err / scale * self.dt)
+        return np.clip(u, -1.0, 1.0), integral
+
+    # --------------------------------------------------------------------- act
+    def act(self, obs, info=None) -> np.ndarray:
+        single = np.ndim(obs) == 1
+        obs = np.atleast_2d(np.asarray(obs, dtype=float))
+        n = obs.shape[0]
+        L, pc, pe, L_t, K_t = self._decode(obs)
+        p = self.params
+        w_now = -api.force(L, pc, pe, p)  # Eq. 25 balance: weight = -F
+        w_min = p[ix.M_END] * p[ix.GRAV]
+        if self._weight is None or self._weight.shape[0] != n:
+            self._weight = np.full(n, np.nan)
+            self._integral = np.zeros((n, 2))
+        fresh = np.isnan(self._weight)
+        self._weight = np.where(fresh, w_now, self._weight + self.alpha * (w_now - self._weight))
+        weight = np.maximum(self._weight, w_min)
+        pc_set, pe_set = self.setpoints(L_t, K_t, weight)
+        if self.mode == "pressure":
+            cap = self.task_vec[tk.T_SETPOINT_MAX]
+            action = np.stack([2 * pc_set / cap - 1, 2 * pe_set / cap - 1], axis=1)
+        else:
+            vc, ve, _, _ = api.chamber_volumes(L, p)
+            uc, self._integral[:, 0] = self._valve_command(pc_set, pc, vc, self._integral[:, 0])
+            ue, self._integral[:, 1] = self._valve_command(pe_set, pe, ve, self._integral[:, 1])
+            action = np.stack([uc, ue], axis=1)
+        action = np.clip(action, -1.0, 1.0).astype(np.float32)
+        return action[0] if single else action
+
+
+def _core_of(env):
+    for attr in ("core", "unwrapped", "venv", "env"):
+        obj = getattr(env, attr, None)
+        if attr == "core" and obj is not None:
+            return obj
+        if obj is not None and obj is not env:
+            try:
+                return _core_of(obj)
+            except TypeError:
+                pass
+    raise TypeError(f"cannot find the CE-PAM env inside {env!r}")

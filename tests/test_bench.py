@@ -1,0 +1,96 @@
+"""Benchmark metrics on hand-made traces, and the harness end to end."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from cepam_gym.bench.metrics import score_traces
+
+
+def _traces(T=100, N=2, dt=0.1):
+    tl = np.full((T, N), 0.17)
+    tl[50:] = 0.18  # a 1 cm step at t = 5 s
+    tr = {"length": tl.copy(), "target_length": tl, "stiffness": np.full((T, N), 800.0),
+          "target_stiffness": np.full((T, N), 800.0), "air_used": np.full((T, N), 1e-6),
+          "reward": np.full((T, N), -1.0), "alive": np.ones((T, N), dtype=bool),
+          "failed": np.zeros(N, dtype=bool), "dt": dt}
+    return tr
+
+
+def test_perfect_tracking_scores_zero_error():
+    m = score_traces(_traces())
+    assert m["length_rmse_mm"] == 0 and m["stiffness_rmse_pct"] == 0
+    assert m["settling_time_s"] == 0 and m["overshoot_pct"] == 0
+    assert m["score"] == 0 and m["failure_rate"] == 0
+    assert m["air_g_per_episode"] == pytest.approx(100 * 1e-6 * 1000)
+    assert m["mean_return"] == -100 and m["cvar10_return"] == -100
+
+
+def test_constant_offset_rmse_and_score():
+    tr = _traces()
+    tr["length"] = tr["length"] + 0.002  # 2 mm everywhere
+    tr["stiffness"] = tr["stiffness"] * 1.1  # 10 % everywhere
+    m = score_traces(tr)
+    assert m["length_rmse_mm"] == pytest.approx(2.0)
+    assert m["stiffness_rmse_pct"] == pytest.approx(10.0)
+    assert m["score"] == pytest.approx(2.0 / 5 + 10.0 / 20)
+    assert np.isclose(m["settling_time_s"], 5.0)  # never inside the 1 mm band: whole segment
+
+
+def test_settling_time_and_overshoot_of_a_step_response():
+    tr = _traces(N=1)
+    L = tr["length"]
+    # after the step at index 50: 3 samples at the old value, overshoot to 0.182, then on target
+    L[50:53] = 0.17
+    L[53] = 0.182
+    L[54:] = 0.18
+    m = score_traces(tr, track_stiffness=False)
+    assert m["stiffness_rmse_pct"] is None
+    assert m["overshoot_pct"] == pytest.approx(20.0)  # 2 mm beyond a 10 mm step
+    # segments: [0, 50) settled at once, [50, 100) settled from index 54: 0.4 s
+    assert m["settling_time_s"] == pytest.approx((0.0 + 0.4) / 2)
+
+
+def test_failures_and_cvar():
+    tr = _traces(N=10)
+    tr["reward"][:, 0] = -10.0  # one bad episode
+    tr["failed"][3] = True
+    tr["alive"][60:, 3] = False
+    m = score_traces(tr)
+    assert m["failure_rate"] == pytest.approx(0.1)
+    assert m["cvar10_return"] == pytest.approx(-1000.0)  # worst 10 % = the one bad episode
+    assert m["score"] == pytest.approx(2 * 0.1)
+
+
+def test_bench_cli_json_one_object_per_suite():
+    out = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "baseline",
+                          "--suite", "nominal", "--suite", "stiffness-at-fixed-length", "--episodes", "3",
+                          "--json"], capture_output=True, text=True, check=True)
+    rows = [json.loads(line) for line in out.stdout.splitlines()]
+    assert [r["suite"] for r in rows] == ["nominal", "stiffness-at-fixed-length"]
+    for r in rows:
+        for key in ("length_rmse_mm", "stiffness_rmse_pct", "settling_time_s", "overshoot_pct",
+                    "cvar10_return", "failure_rate", "air_g_per_episode", "score"):
+            assert np.isfinite(r[key])
+
+
+def test_baseline_beats_zero_and_random_on_nominal():
+    from cepam_gym.bench import run_suite
+
+    scores = {c: run_suite(c, "nominal", episodes=4)[0]["score"] for c in ("baseline", "zero", "random")}
+    assert scores["baseline"] < 0.5 * scores["zero"] and scores["baseline"] < 0.5 * scores["random"]
+
+
+def test_unknown_controller_and_suite_are_rejected():
+    from cepam_gym.bench import run_suite
+
+    with pytest.raises(ValueError, match="controller"):
+        run_suite("pid-from-mars", "nominal", episodes=1)
+    bad = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--suite", "moon"],
+                         capture_output=True, text=True)
+    assert bad.returncode != 0 and "moon" in bad.stderr
