@@ -54,7 +54,7 @@ PROPORTIONAL, ONOFF, PRESSURE = 0, 1, 2
 MODES = {"valve": PROPORTIONAL, "pwm": ONOFF, "pressure": PRESSURE}
 
 _MIN_MASS = 1e-15  # kg: keeps T = U/(m cv) defined if a chamber were ever emptied
-_PARALLEL_MIN_BATCH = 32  # below this the thread start-up costs more than it saves
+_PARALLEL_MIN_BATCH = 256  # below this thread start-up (and, on a busy 2-core VM, OpenMP wake-up) costs more than it saves
 
 
 @jit
