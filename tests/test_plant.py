@@ -190,7 +190,7 @@ def _random_batch(n, rng):
 @pytest.mark.parametrize("mode", [plant.PROPORTIONAL, plant.ONOFF, plant.PRESSURE])
 @pytest.mark.parametrize("per_plant", [True, False])
 def test_batch_equals_singles_bit_for_bit(mode, per_plant):
-    n = 64
+    n = plant._PARALLEL_MIN_BATCH + 8
     assert n >= plant._PARALLEL_MIN_BATCH  # the prange kernel runs for the batch
     rng = np.random.default_rng(7 + mode)
     P = _random_batch(n, rng) if per_plant else BASE.to_array()[None]
