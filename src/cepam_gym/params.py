@@ -212,6 +212,7 @@ class PlantParams:
         p[ix.F_COUL] = self.coulomb_friction
         p[ix.GRAV] = self.gravity
         p[ix.REG_GAIN] = self.regulator_gain
+        fill_derived(p)
         return p
 
     def replace(self, **changes: Any) -> "PlantParams":
@@ -278,6 +279,32 @@ class PlantParams:
         if not isinstance(data, dict):
             raise ValueError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
         return cls.from_dict(data, where=str(path))
+
+
+def fill_derived(p: np.ndarray) -> np.ndarray:
+    """Fill the derived columns of parameter row(s) ``p`` (layout.INV_BC ... K_AMB) in place."""
+    from .physics.layout import RHO0, T0  # noqa: F401  (documents where T0 comes from)
+
+    q = p.T
+    ta = q[ix.TA]
+    for b_i, n_i, inv_b, qq, tbn, tan, dk, inv_pnb in (
+            (ix.BC, ix.NC, ix.INV_BC, ix.QC, ix.TBN_C, ix.TAN_C, ix.DK_C, ix.INV_PNB_C),
+            (ix.BE, ix.NE, ix.INV_BE, ix.QE, ix.TBN_E, ix.TAN_E, ix.DK_E, ix.INV_PNB_E)):
+        b, n = q[b_i], q[n_i]
+        q[inv_b] = 1.0 / b
+        q[qq] = 1.0 / (4.0 * math.pi * n * n)
+        q[tbn] = ta * b / n
+        q[tan] = ta / n
+        q[dk] = b / (math.pi * n)
+        q[inv_pnb] = 1.0 / (math.pi * n * b)
+    q[ix.PTA2] = math.pi * ta * ta
+    bc = q[ix.B_CRIT]
+    q[ix.INV_1MB] = 1.0 / (1.0 - bc)
+    x = (q[ix.R_LAM] - bc) / (1.0 - bc)
+    q[ix.LAM_K] = np.sqrt(1.0 - x * x) / (1.0 - q[ix.R_LAM])
+    q[ix.K_SUP] = np.sqrt(T0 / q[ix.T_SUP])
+    q[ix.K_AMB] = np.sqrt(T0 / q[ix.T_AMB])
+    return p
 
 
 def _number(value: Any, key: str, where: str) -> float:

@@ -29,8 +29,8 @@ from numba import njit, prange
 from ._jit import jit
 from .physics import layout as ix
 from .physics.air import chamber_rates, state_from_pressure
-from .physics.load import load_step
-from .physics.muscle import braid_terms, chamber_volumes, closed_chamber_stiffness, force_from_slopes
+from .physics.load import load_constants, load_step_k
+from .physics.muscle import chamber_volumes, closed_chamber_stiffness, cpam_terms, epam_terms, force_from_slopes
 from .physics.valve import spool_step
 
 # ---------------------------------------------------------------- layouts
@@ -87,19 +87,17 @@ def _advance(x, inp, p, mode, dt, n_sub, out, aux):
     src = x[S_SRC]
     sre = x[S_SRE]
     t = x[S_T]
-    bc = p[ix.BC]
-    nc = p[ix.NC]
-    be = p[ix.BE]
-    ne = p[ix.NE]
-    ta = p[ix.TA]
     patm = p[ix.P_ATM]
     psup = p[ix.P_SUP]
     tsup = p[ix.T_SUP]
     tamb = p[ix.T_AMB]
-    bcrit = p[ix.B_CRIT]
-    rlam = p[ix.R_LAM]
+    ksup = p[ix.K_SUP]
+    kamb = p[ix.K_AMB]
+    vk = (p[ix.B_CRIT], p[ix.INV_1MB], p[ix.R_LAM], p[ix.LAM_K])
     cleak = p[ix.C_LEAK]
     ha = p[ix.HA]
+    vd_c = p[ix.VD_C]
+    vd_e = p[ix.VD_E]
     if mode == ONOFF:
         tau = p[ix.TAU_SWITCH]
         cvalve = p[ix.C_ONOFF]
@@ -111,31 +109,37 @@ def _advance(x, inp, p, mode, dt, n_sub, out, aux):
     zeta = p[ix.ZETA]
     decay = math.exp(-dt / tau)
     mass = p[ix.M_END] + inp[I_LOAD]
-    fext = inp[I_FEXT]
+    f_ext = mass * p[ix.GRAV] + inp[I_FEXT]  # gravity and external force, down (extension) positive
+    dt_over_m, dv_fric, damp_factor = load_constants(mass, p[ix.DAMP], p[ix.F_COUL], dt)
+    l_min = p[ix.L_MIN]
+    l_max = p[ix.L_MAX]
     air_used = 0.0
     pmax = -np.inf
     stop = 0.0
     dmc = 0.0
     dme = 0.0
     for _ in range(n_sub):
-        vc_out, vc_air, dvc, dvac, _a, _b = braid_terms(L, bc, nc, ta)
-        _c, ve_air, _d, dvae, _e, _f = braid_terms(L, be, ne, ta)
-        vol_c = vc_air + p[ix.VD_C]
-        vol_e = ve_air - vc_out + p[ix.VD_E]
-        pc = 0.4 * uc / vol_c - patm  # (gamma - 1) U / V, gauge
-        pe = 0.4 * ue / vol_e - patm
+        vc_out, vc_air, dvc, dvac, _a, _b = cpam_terms(L, p)
+        _c, ve_air, _d, dvae, _e, _f = epam_terms(L, p)
+        vol_c = vc_air + vd_c
+        vol_e = ve_air - vc_out + vd_e
+        pca = (ix.GAMMA - 1.0) * uc / vol_c  # absolute
+        pea = (ix.GAMMA - 1.0) * ue / vol_e
+        tc = uc / (mc * ix.CV)
+        te = ue / (me * ix.CV)
+        pc = pca - patm  # gauge
+        pe = pea - patm
         pmax = max(pmax, pc, pe)
         sc, src = spool_step(sc, src, _command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
         se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
-        dmc, duc, supc = chamber_rates(mc, uc, vol_c, dvac * v, cvalve * max(sc, 0.0),
-                                       cvalve * max(-sc, 0.0) + cleak, psup, tsup, patm, tamb,
-                                       bcrit, rlam, ha)
-        dme, due, supe = chamber_rates(me, ue, vol_e, (dvae - dvc) * v, cvalve * max(se, 0.0),
-                                       cvalve * max(-se, 0.0) + cleak, psup, tsup, patm, tamb,
-                                       bcrit, rlam, ha)
+        dmc, duc, supc = chamber_rates(pca, tc, math.sqrt(ix.T0 / tc), dvac * v, cvalve * max(sc, 0.0),
+                                       cvalve * max(-sc, 0.0) + cleak, psup, tsup, ksup, patm, tamb,
+                                       kamb, vk, ha)
+        dme, due, supe = chamber_rates(pea, te, math.sqrt(ix.T0 / te), (dvae - dvc) * v,
+                                       cvalve * max(se, 0.0), cvalve * max(-se, 0.0) + cleak, psup,
+                                       tsup, ksup, patm, tamb, kamb, vk, ha)
         force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
-        L, v, stop = load_step(L, v, force, mass, fext, p[ix.GRAV], p[ix.DAMP], p[ix.F_COUL],
-                               p[ix.L_MIN], p[ix.L_MAX], dt)
+        L, v, stop = load_step_k(L, v, force + f_ext, dt_over_m, dv_fric, damp_factor, l_min, l_max, dt)
         mc = max(mc + dt * dmc, _MIN_MASS)
         uc = max(uc + dt * duc, _MIN_MASS)
         me = max(me + dt * dme, _MIN_MASS)
@@ -169,10 +173,10 @@ def _measure(x, p, aux):
     L = x[S_L]
     vol_c, vol_e, _dvc, _dve = chamber_volumes(L, p)
     patm = p[ix.P_ATM]
-    pc = 0.4 * x[S_UC] / vol_c - patm
-    pe = 0.4 * x[S_UE] / vol_e - patm
-    _v1, _v2, dvc, dvac, d2vc, d2vac = braid_terms(L, p[ix.BC], p[ix.NC], p[ix.TA])
-    _v3, _v4, _s, dvae, _s2, d2vae = braid_terms(L, p[ix.BE], p[ix.NE], p[ix.TA])
+    pc = (ix.GAMMA - 1.0) * x[S_UC] / vol_c - patm
+    pe = (ix.GAMMA - 1.0) * x[S_UE] / vol_e - patm
+    _v1, _v2, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
+    _v3, _v4, _s, dvae, _s2, d2vae = epam_terms(L, p)
     force, k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae)
     aux[A_FORCE] = force
     aux[A_STIFF] = k

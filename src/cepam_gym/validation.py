@@ -113,7 +113,7 @@ def _single_force(params: PlantParams, which: str, pressure: float) -> Callable[
     radial = 0.0 if params.force_model == "basic" else 1.0
 
     def f1(L: float) -> float:
-        pa, _ = muscle.active_pressure(pressure, L, b, n, d_bladder, radial, params.kr_low, params.kr_high)
+        pa, _ = muscle.active_pressure(pressure, *muscle.radial_pressure(L, b, n, d_bladder, radial, params.kr_low, params.kr_high))
         return pa * muscle.braid_terms(L, b, n, ta)[3]
 
     return lambda L: np.array([f1(float(x)) for x in np.atleast_1d(L)])

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from .._jit import jit
 from .layout import CP, CV, GAMMA, R_AIR
-from .valve import signed_flow
+from .valve import signed_flow_k
 
 
 @jit
@@ -38,17 +38,17 @@ def state_from_pressure(p_abs, t, volume):
 
 
 @jit
-def chamber_rates(m, u, volume, dvol_dt, c_in, c_out, p_sup, t_sup, p_atm, t_amb, b, r_lam, ha):
+def chamber_rates(p, t, kt, dvol_dt, c_in, c_out, p_sup, t_sup, k_sup, p_atm, t_amb, k_amb, vk, ha):
     """Rates ``(dm/dt, dU/dt)`` of one chamber and the mass flow drawn from the supply.
 
+    ``p`` absolute pressure, ``t`` temperature and ``kt = sqrt(T0/t)`` of the chamber air;
     ``c_in`` connects the chamber to the supply, ``c_out`` to the atmosphere (exhaust plus
-    leakage). Reverse flows (chamber above supply, or below atmosphere) are allowed and carry the
-    upstream temperature.
+    leakage); ``vk = (b, 1/(1-b), r_lam, lam_k)`` the valve constants. Reverse flows (chamber above
+    supply, or below atmosphere) are allowed and carry the upstream temperature.
     """
-    t = u / (m * CV)
-    p = (GAMMA - 1.0) * u / volume
-    m_sup = signed_flow(p_sup, t_sup, p, t, c_in, b, r_lam)  # > 0: supply -> chamber
-    m_exh = signed_flow(p, t, p_atm, t_amb, c_out, b, r_lam)  # > 0: chamber -> atmosphere
+    b, inv_1mb, r_lam, lam_k = vk
+    m_sup = signed_flow_k(p_sup, k_sup, p, kt, c_in, b, inv_1mb, r_lam, lam_k)  # > 0: supply -> chamber
+    m_exh = signed_flow_k(p, kt, p_atm, k_amb, c_out, b, inv_1mb, r_lam, lam_k)  # > 0: chamber -> atm
     h_sup = CP * (t_sup if m_sup > 0.0 else t) * m_sup
     h_exh = CP * (t if m_exh > 0.0 else t_amb) * m_exh
     dm = m_sup - m_exh

@@ -118,8 +118,7 @@ def iso6358_flow(p_up, p_down, t_up, conductance, critical_ratio, laminar_ratio=
 
 @njit
 def _contact(L, p):
-    prc, _ = muscle.radial_pressure(L, p[ix.BC], p[ix.NC], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
-    pre, _ = muscle.radial_pressure(L, p[ix.BE], p[ix.NE], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    prc, _, pre, _ = muscle.contact_pressures(L, p)
     return prc, pre
 
 

@@ -49,8 +49,27 @@ F_COUL = 37  # Coulomb friction [N]
 GRAV = 38  # gravitational acceleration [m/s^2]
 # --- pressure set-point mode ---
 REG_GAIN = 39  # gain of the in-plant pressure regulator [1/Pa]: spool = gain * (p_set - p)
+# --- derived constants (filled by PlantParams.to_array): reciprocals and square roots computed
+# once per plant instead of once per sub-step; never set them by hand
+INV_BC = 40  # 1 / b_c
+INV_BE = 41  # 1 / b_e
+QC = 42  # 1 / (4 pi n_c^2)
+QE = 43  # 1 / (4 pi n_e^2)
+TBN_C = 44  # t_a b_c / n_c
+TBN_E = 45  # t_a b_e / n_e
+TAN_C = 46  # t_a / n_c
+TAN_E = 47  # t_a / n_e
+DK_C = 48  # b_c / (pi n_c)
+DK_E = 49  # b_e / (pi n_e)
+PTA2 = 50  # pi t_a^2
+INV_PNB_C = 51  # 1 / (pi n_c b_c)
+INV_PNB_E = 52  # 1 / (pi n_e b_e)
+INV_1MB = 53  # 1 / (1 - b)
+LAM_K = 54  # sqrt(1 - x_lam^2) / (1 - r_lam), x_lam = (r_lam - b) / (1 - b): laminar slope factor
+K_SUP = 55  # sqrt(T0 / T_supply)
+K_AMB = 56  # sqrt(T0 / T_ambient)
 
-N_PARAMS = 40
+N_PARAMS = 57
 
 NAMES = tuple(
     name

@@ -23,15 +23,29 @@ def load_step(L, v, force, mass, f_ext, gravity, damping, coulomb, l_min, l_max,
     Damping is implicit (unconditionally stable for any ``c``); Coulomb friction is applied as an
     impulse that can stop the motion but never reverse it (stick when the net force is below it).
     """
-    v_free = v + dt * (force + mass * gravity + f_ext) / mass
-    dv_fric = dt * coulomb / mass
+    k = load_constants(mass, damping, coulomb, dt)
+    return load_step_k(L, v, force + mass * gravity + f_ext, k[0], k[1], k[2], l_min, l_max, dt)
+
+
+@jit
+def load_constants(mass, damping, coulomb, dt):
+    """``(dt/M, Coulomb velocity impulse dt F_c/M, implicit damping factor 1/(1 + dt c/M))``:
+    constant over a control step, so the plant computes them once per step."""
+    return dt / mass, dt * coulomb / mass, 1.0 / (1.0 + dt * damping / mass)
+
+
+@jit
+def load_step_k(L, v, f_total, dt_over_m, dv_fric, damp_factor, l_min, l_max, dt):
+    """:func:`load_step` with the net force (pneumatic + gravity + external) and the
+    :func:`load_constants` precomputed."""
+    v_free = v + dt_over_m * f_total
     if v_free > dv_fric:
         v_free -= dv_fric
     elif v_free < -dv_fric:
         v_free += dv_fric
     else:
         v_free = 0.0
-    v_new = v_free / (1.0 + dt * damping / mass)
+    v_new = v_free * damp_factor
     L_new = L + dt * v_new
     at_stop = 0.0
     if L_new <= l_min:

@@ -53,19 +53,42 @@ def braid_terms(L, b, n, ta):
     * ``dV_air/dL = dV_out/dL + t_a b (2 cos^2 - 1) / (n sin) + pi t_a^2`` (Eq. 40, Eq. 45);
     * the second derivatives are exact (for the stiffness ``K = -dF/dL``).
     """
-    u = L / b
+    return braid_terms_k(L, b, 1.0 / b, 1.0 / (4.0 * math.pi * n * n), ta * b / n, ta / n,
+                         b / (math.pi * n), math.pi * ta * ta, ta)
+
+
+@jit
+def braid_terms_k(L, b, inv_b, q, tbn, tan, dk, pta2, ta):
+    """:func:`braid_terms` with the per-muscle constants precomputed: ``inv_b = 1/b``,
+    ``q = 1/(4 pi n^2)``, ``tbn = t_a b/n``, ``tan = t_a/n``, ``dk = b/(pi n)``, ``pta2 = pi t_a^2``
+    (the plant keeps them in its parameter row, so the sub-step loop has one division)."""
+    u = L * inv_b
     s2 = 1.0 - u * u
     s = math.sqrt(s2)
-    d_out = b * s / (n * math.pi)
-    d_air = d_out - 2.0 * ta
+    inv_s = 1.0 / s
+    d_out = dk * s  # Eq. 2
+    d_air = d_out - 2.0 * ta  # Eq. 34
     v_out = 0.25 * math.pi * d_out * d_out * L
     v_air = 0.25 * math.pi * d_air * d_air * L
-    four_pi_n2 = 4.0 * math.pi * n * n
-    dv_out = (b * b - 3.0 * L * L) / four_pi_n2
-    dv_air = dv_out + ta * b * (2.0 * u * u - 1.0) / (n * s) + math.pi * ta * ta
-    d2v_out = -6.0 * L / four_pi_n2
-    d2v_air = d2v_out + ta * u * (3.0 - 2.0 * u * u) / (n * s2 * s)
+    dv_out = (b * b - 3.0 * L * L) * q
+    dv_air = dv_out + tbn * (2.0 * u * u - 1.0) * inv_s + pta2
+    d2v_out = -6.0 * L * q
+    d2v_air = d2v_out + tan * u * (3.0 - 2.0 * u * u) * (inv_s * inv_s * inv_s)
     return v_out, v_air, dv_out, dv_air, d2v_out, d2v_air
+
+
+@jit
+def cpam_terms(L, p):
+    """:func:`braid_terms` of the CPAM of parameter row ``p``."""
+    return braid_terms_k(L, p[ix.BC], p[ix.INV_BC], p[ix.QC], p[ix.TBN_C], p[ix.TAN_C], p[ix.DK_C],
+                         p[ix.PTA2], p[ix.TA])
+
+
+@jit
+def epam_terms(L, p):
+    """:func:`braid_terms` of the EPAM of parameter row ``p``."""
+    return braid_terms_k(L, p[ix.BE], p[ix.INV_BE], p[ix.QE], p[ix.TBN_E], p[ix.TAN_E], p[ix.DK_E],
+                         p[ix.PTA2], p[ix.TA])
 
 
 @jit
@@ -77,29 +100,42 @@ def radial_pressure(L, b, n, d_bladder, radial, kr_lo, kr_hi):
     step). ``P_r`` is never negative: once the bladder touches the sleeve no pressure is lost.
     ``radial = 0`` switches it off (the paper's basic model).
     """
+    return radial_pressure_k(L, b, 1.0 / (math.pi * n * b), d_bladder, radial, kr_lo, kr_hi)
+
+
+@jit
+def radial_pressure_k(L, b, inv_pnb, d_bladder, radial, kr_lo, kr_hi):
+    """:func:`radial_pressure` with ``inv_pnb = 1 / (pi n b)`` precomputed."""
     if radial == 0.0:
         return 0.0, 0.0
     # D sin(theta) = b sin^2(theta) / (pi n) = (b^2 - L^2) / (pi n b)
-    x = (b * b - L * L) / (math.pi * n * b)
+    x = (b * b - L * L) * inv_pnb
     gap = d_bladder - x
     if gap <= 0.0:
         return 0.0, 0.0
     kr = kr_hi if x < 0.5 * d_bladder else kr_lo
-    return kr * gap, kr * 2.0 * L / (math.pi * n * b)
+    return kr * gap, kr * 2.0 * L * inv_pnb
 
 
 @jit
-def active_pressure(P, L, b, n, d_bladder, radial, kr_lo, kr_hi):
+def active_pressure(P, p_r, dpr_dl):
     """Pressure that does work on the braid, ``P_a = P - P_r`` (Eq. 26, 29, 31), and ``dP_a/dL``.
 
     ``P_a`` is never negative: a bladder below its contact pressure, or under suction, pushes no
     braid.
     """
-    p_r, dpr_dl = radial_pressure(L, b, n, d_bladder, radial, kr_lo, kr_hi)
     pa = P - p_r
     if pa <= 0.0:
         return 0.0, 0.0
     return pa, -dpr_dl
+
+
+@jit
+def contact_pressures(L, p):
+    """``(P_rc, dP_rc/dL, P_re, dP_re/dL)`` of the two bladders of parameter row ``p``."""
+    prc, dprc = radial_pressure_k(L, p[ix.BC], p[ix.INV_PNB_C], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    pre, dpre = radial_pressure_k(L, p[ix.BE], p[ix.INV_PNB_E], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    return prc, dprc, pre, dpre
 
 
 @jit
@@ -117,8 +153,8 @@ def cepam_force(L, pc, pe, p):
     its air volume, ``V_ae`` the EPAM's air volume. ``pc``, ``pe`` are gauge pressures [Pa].
     Returns ``(F, K, dF/dPc, dF/dPe)`` with ``K = -dF/dL`` at constant chamber pressures.
     """
-    _, _, dvc, dvac, d2vc, d2vac = braid_terms(L, p[ix.BC], p[ix.NC], p[ix.TA])
-    _, _, _, dvae, _, d2vae = braid_terms(L, p[ix.BE], p[ix.NE], p[ix.TA])
+    _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
+    _, _, _, dvae, _, d2vae = epam_terms(L, p)
     return force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae)
 
 
@@ -127,8 +163,9 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     """:func:`cepam_force` from precomputed volume slopes (the plant computes them once per step)."""
     kappa = p[ix.KAPPA]
     lam = p[ix.LAMBDA]
-    pac, dpac = active_pressure(pc, L, p[ix.BC], p[ix.NC], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
-    pae, dpae = active_pressure(pe, L, p[ix.BE], p[ix.NE], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    prc, dprc, pre, dpre = contact_pressures(L, p)
+    pac, dpac = active_pressure(pc, prc, dprc)
+    pae, dpae = active_pressure(pe, pre, dpre)
     ge = dvae - kappa * dvc - lam * dvac  # what multiplies P_ae
     dge = d2vae - kappa * d2vc - lam * d2vac
     k_el = p[ix.K_EL]
@@ -146,8 +183,8 @@ def chamber_volumes(L, p):
     ``V_cpam = V_ac + V_dead,c``; ``V_annulus = V_ae - V_c + V_dead,e`` (Eq. 21: the CPAM occupies
     its outer volume inside the EPAM). Returns ``(V_cpam, V_annulus, dV_cpam/dL, dV_annulus/dL)``.
     """
-    vc_out, vc_air, dvc, dvac, _, _ = braid_terms(L, p[ix.BC], p[ix.NC], p[ix.TA])
-    _, ve_air, _, dvae, _, _ = braid_terms(L, p[ix.BE], p[ix.NE], p[ix.TA])
+    vc_out, vc_air, dvc, dvac, _, _ = cpam_terms(L, p)
+    _, ve_air, _, dvae, _, _ = epam_terms(L, p)
     return vc_air + p[ix.VD_C], ve_air - vc_out + p[ix.VD_E], dvac, dvae - dvc
 
 

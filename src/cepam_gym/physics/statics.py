@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .._jit import jit
 from . import layout as ix
-from .muscle import braid_terms, radial_pressure
+from .muscle import contact_pressures, cpam_terms, epam_terms
 
 
 @jit
@@ -21,10 +21,9 @@ def static_pressures(L, K, weight, p):
     ``ok = 1.0`` when both active pressures are positive (the solution is physical; whether it
     lies under the supply pressure is the caller's check), else ``0.0``.
     """
-    _, _, dvc, dvac, d2vc, d2vac = braid_terms(L, p[ix.BC], p[ix.NC], p[ix.TA])
-    _, _, _, dvae, _, d2vae = braid_terms(L, p[ix.BE], p[ix.NE], p[ix.TA])
-    prc, dprc = radial_pressure(L, p[ix.BC], p[ix.NC], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
-    pre, dpre = radial_pressure(L, p[ix.BE], p[ix.NE], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
+    _, _, _, dvae, _, d2vae = epam_terms(L, p)
+    prc, dprc, pre, dpre = contact_pressures(L, p)
     ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
     dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
     k_el = p[ix.K_EL]

@@ -21,17 +21,25 @@ def iso6358_flow(p_up, p_down, t_up, c, b, r_lam):
     ``r_lam``. The ISO curve has an infinite slope at ``r = 1``; the linear piece keeps the pressure
     ODE well-conditioned (its slope bounds the stiffest eigenvalue the sub-step must resolve).
     """
+    x = (r_lam - b) / (1.0 - b)
+    return iso6358_flow_k(p_up, p_down, math.sqrt(T0 / t_up), c, b, 1.0 / (1.0 - b), r_lam,
+                          math.sqrt(1.0 - x * x) / (1.0 - r_lam))
+
+
+@jit
+def iso6358_flow_k(p_up, p_down, k_up, c, b, inv_1mb, r_lam, lam_k):
+    """:func:`iso6358_flow` with ``k_up = sqrt(T0/T_up)``, ``inv_1mb = 1/(1-b)`` and the laminar
+    factor ``lam_k = sqrt(1 - x_lam^2)/(1 - r_lam)`` precomputed."""
     if c <= 0.0 or p_up <= 0.0:
         return 0.0
     r = p_down / p_up
-    choked = c * RHO0 * p_up * math.sqrt(T0 / t_up)
+    choked = c * RHO0 * p_up * k_up
     if r <= b:
         return choked
     if r < r_lam:
-        x = (r - b) / (1.0 - b)
+        x = (r - b) * inv_1mb
         return choked * math.sqrt(1.0 - x * x)
-    x = (r_lam - b) / (1.0 - b)
-    return choked * math.sqrt(1.0 - x * x) * (1.0 - r) / (1.0 - r_lam)
+    return choked * lam_k * (1.0 - r)
 
 
 @jit
@@ -41,9 +49,17 @@ def signed_flow(pa, ta, pb, tb, c, b, r_lam):
     The upstream side's temperature is used, whichever it is; no square root of a negative number
     is ever taken because the direction is chosen first.
     """
+    x = (r_lam - b) / (1.0 - b)
+    return signed_flow_k(pa, math.sqrt(T0 / ta), pb, math.sqrt(T0 / tb), c, b, 1.0 / (1.0 - b),
+                         r_lam, math.sqrt(1.0 - x * x) / (1.0 - r_lam))
+
+
+@jit
+def signed_flow_k(pa, ka, pb, kb, c, b, inv_1mb, r_lam, lam_k):
+    """:func:`signed_flow` with the temperature factors ``k = sqrt(T0/T)`` precomputed."""
     if pa >= pb:
-        return iso6358_flow(pa, pb, ta, c, b, r_lam)
-    return -iso6358_flow(pb, pa, tb, c, b, r_lam)
+        return iso6358_flow_k(pa, pb, ka, c, b, inv_1mb, r_lam, lam_k)
+    return -iso6358_flow_k(pb, pa, kb, c, b, inv_1mb, r_lam, lam_k)
 
 
 @jit
