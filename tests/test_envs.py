@@ -59,6 +59,25 @@ def test_seeding_is_deterministic_bit_for_bit():
     assert not np.array_equal(a, c)
 
 
+def test_sensor_noise_reaches_observations_only():
+    def run(noise):
+        env = gym.make("cepam_gym/CEPAM-v0", sensor_noise=noise)
+        obs, info = env.reset(seed=3)
+        obs2, _, _, _, info2 = env.step(np.zeros(2))
+        return obs, obs2, info2
+
+    o0, o1, i_clean = run(None)
+    n0, n1, i_noisy = run({"length_mm": 1.0, "pressure_kpa": 5.0})
+    assert i_clean["length"] == i_noisy["length"]  # the plant is untouched
+    scale = gym.make("cepam_gym/CEPAM-v0").unwrapped.core.task_vec
+    from cepam_gym.tasks import kernel as tk
+
+    d_len = (n1[0] - o1[0]) * scale[tk.T_L_HALF]  # measured minus true length [m]
+    assert 1e-6 < abs(d_len) < 5e-3
+    assert n1[2] != o1[2] and n1[3] != o1[3]
+    assert n1[5] == o1[5]  # targets are not measured: no noise
+
+
 def test_info_keys_and_reward_terms_sum_to_reward():
     env = gym.make("cepam_gym/CEPAM-v0")
     _, info0 = env.reset(seed=0)

@@ -22,6 +22,27 @@ _AUX_INFO = {"stiffness": pl.A_STIFF, "stiffness_closed": pl.A_STIFF_CLOSED, "fo
              "temperature_e": pl.A_TE, "air_used": pl.A_AIR}
 
 
+_AUX_ITEMS = tuple(_AUX_INFO.items())
+_TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
+
+
+def _info_single(core: CEPAMBatch, scored: bool) -> dict[str, Any]:
+    """:func:`_info_arrays` of env 0 as Python floats, built without temporary arrays (the
+    single env's step is dominated by Python overhead, so this path is kept lean)."""
+    aux = core.aux[0].tolist()
+    k = min(max(int(core.t_idx[0]) - (1 if scored else 0), 0), core.n_steps - 1)
+    state = core.state[0].tolist()
+    info = {"length": state[pl.S_L], "velocity": state[pl.S_V]}
+    for name, col in _AUX_ITEMS:
+        info[name] = aux[col]
+    info["load_mass"] = float(core.load[0, k])
+    info["target_length"] = float(core.target_l[0, k])
+    info["target_stiffness"] = float(core.target_k[0, k])
+    if scored:
+        info.update(zip(_TERM_KEYS, core.terms[0].tolist()))
+    return info
+
+
 def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
     """Per-env info arrays: true plant quantities (SI), the targets scored, reward terms."""
     k = np.clip(core.t_idx - (1 if scored else 0), 0, core.n_steps - 1)
@@ -172,20 +193,19 @@ class CEPAMEnv(gym.Env, EzPickle):
             self._seeded = True
         self.core.reset()
         _apply_options(self.core, options)
-        info = {k: float(v[0]) for k, v in _info_arrays(self.core, scored=False).items()}
+        info = _info_single(self.core, scored=False)
         if self.render_mode == "human":
             self.render()
-        return self.core.obs[0].astype(np.float32), info
+        return self.core.obs[0].copy(), info
 
     def step(self, action):
-        a = self.core.check_actions(np.reshape(action, (1, -1)) if np.size(action) == 2 else action)
-        self.core.step(a)
+        self.core.step(self.core.check_actions(action))
         reason = int(self.core.reasons[0])
-        info = {k: float(v[0]) for k, v in _info_arrays(self.core, scored=True).items()}
+        info = _info_single(self.core, scored=True)
         info["termination_reason"] = tk.TERMINATION_REASONS[reason]
         if self.render_mode == "human":
             self.render()
-        return (self.core.obs[0].astype(np.float32), float(self.core.rewards[0]), reason != 0, False, info)
+        return (self.core.obs[0].copy(), float(self.core.rewards[0]), reason != 0, False, info)
 
     def render(self):
         if self.render_mode is None:
@@ -241,7 +261,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self.core.reset()
         _apply_options(self.core, options)
         self._elapsed[:] = 0
-        return self.core.obs.astype(np.float32), _info_arrays(self.core, scored=False)
+        return self.core.obs.copy(), _info_arrays(self.core, scored=False)
 
     def step(self, actions):
         a = self.core.check_actions(actions)
@@ -252,7 +272,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             np.zeros(self.num_envs, dtype=bool)
         infos = _info_arrays(self.core, scored=True)
         infos["termination_reason"] = np.array(tk.TERMINATION_REASONS, dtype=object)[self.core.reasons]
-        obs = self.core.obs.astype(np.float32)
+        obs = self.core.obs.copy()
         done = terminated | truncated
         if done.any():
             idx = np.flatnonzero(done)
@@ -262,7 +282,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             infos["_final_info"] = done
             self.core.reset(idx)
             self._elapsed[idx] = 0
-            obs = self.core.obs.astype(np.float32)
+            obs = self.core.obs.copy()
         return obs, self.core.rewards.copy(), terminated, truncated, infos
 
     def render(self):

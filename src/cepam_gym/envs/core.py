@@ -8,6 +8,7 @@ implements ``reset(indices)`` and ``step(actions)`` on them; the Gymnasium class
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, Mapping
 
 import numpy as np
@@ -136,13 +137,21 @@ class CEPAMBatch:
         self.t_idx = np.zeros(n, dtype=np.int64)
         self.prev_action = np.zeros((n, 2))
         self.queue = np.zeros((self.latency + 1, n, 2))
-        self.obs = np.zeros((n, self.obs_dim))
+        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         self.rewards = np.zeros(n)
         self.terms = np.zeros((n, tk.N_TERMS))
         self.reasons = np.zeros(n, dtype=np.int64)
-        self.noise = np.zeros((1, tk.N_NOISE))
+        self.has_noise = bool(self.noise_sd.any())
+        self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
         self.noise_rng = np.random.default_rng()
+        # prev_action doubles as the buffer of the action being applied (clipped in place by the
+        # kernel), so after a step it holds a_{t-1}; the kernel's arguments are bound once
+        self._single_action = self.prev_action
+        self._kernel_args = (self.state, self.prev_action, self.params, self.mode, self.sub_dt,
+                             self.n_sub, self.target_l, self.target_k, self.load, self.t_idx,
+                             self.task_vec, self.noise, self.inputs, self.obs, self.rewards,
+                             self.terms, self.aux, self.reasons)
 
     def _task_vector(self) -> np.ndarray:
         t, w = self.task, self.task.weights
@@ -216,36 +225,49 @@ class CEPAMBatch:
 
     # ------------------------------------------------------------------- step
     def _draw_noise(self) -> None:
-        if self.noise_sd.any():
-            self.noise = self.noise_rng.standard_normal((self.num_envs, tk.N_NOISE)) * self.noise_sd
-        elif self.noise.shape[0] != 1:
-            self.noise = np.zeros((1, tk.N_NOISE))
+        """Fresh sensor noise, written in place (the kernel's argument tuple holds this buffer)."""
+        if self.has_noise:
+            self.noise[:] = self.noise_rng.standard_normal((self.num_envs, tk.N_NOISE)) * self.noise_sd
 
     def check_actions(self, actions) -> np.ndarray:
+        """A float64 (N, 2) copy of ``actions``; ``ValueError`` on a wrong shape, NaN or inf.
+        Out-of-range values are clipped by the step kernel."""
+        if self.num_envs == 1 and np.shape(actions) == (2,):
+            # the single env's hot path: no temporary arrays
+            x0, x1 = float(actions[0]), float(actions[1])
+            if not (math.isfinite(x0) and math.isfinite(x1)):
+                raise ValueError(f"action contains NaN or inf: {actions!r}")
+            a = self._single_action
+            a[0, 0] = x0
+            a[0, 1] = x1
+            return a
         a = np.asarray(actions, dtype=np.float64)
         if a.shape != (self.num_envs, 2):
-            raise ValueError(f"action must have shape {(2,) if self.num_envs == 1 else (self.num_envs, 2)}, "
-                             f"got {np.shape(actions)}")
+            if a.size == 2 and self.num_envs == 1:
+                a = a.reshape(1, 2)
+            else:
+                raise ValueError(f"action must have shape {(2,) if self.num_envs == 1 else (self.num_envs, 2)}, "
+                                 f"got {np.shape(actions)}")
         if not np.isfinite(a).all():
             raise ValueError(f"action contains NaN or inf: {actions!r}")
-        return np.clip(a, -1.0, 1.0)
+        self.prev_action[:] = a
+        return self.prev_action
 
     def step(self, actions: np.ndarray) -> None:
         """Advance all envs one control period; results in ``obs``, ``rewards``, ``terms``,
-        ``reasons``, ``aux``. ``actions`` must come from :meth:`check_actions`."""
+        ``reasons``, ``aux``. ``actions`` must be what :meth:`check_actions` returned (the
+        ``prev_action`` buffer, clipped in place by the kernel)."""
         if self.latency:
             self.queue[:-1] = self.queue[1:]
             self.queue[-1] = actions
-            actions = np.ascontiguousarray(self.queue[0])
+            self.prev_action[:] = self.queue[0]  # what reaches the valves now
         if self.supply_drift:
             nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
             walk = self.noise_rng.standard_normal(self.num_envs) * self.supply_drift * np.sqrt(self.control_dt)
             self.params[:, ix.P_SUP] = np.clip(self.params[:, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
-        self._draw_noise()
-        tk.env_step(self.state, actions, self.params, self.mode, self.sub_dt, self.n_sub, self.target_l,
-                    self.target_k, self.load, self.t_idx, self.task_vec, self.noise, self.inputs, self.obs,
-                    self.rewards, self.terms, self.aux, self.reasons)
-        self.prev_action[:] = actions
+        if self.has_noise:
+            self._draw_noise()
+        tk.env_step(*self._kernel_args)
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""

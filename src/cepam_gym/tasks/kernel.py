@@ -81,7 +81,10 @@ def reward_terms(L, K, air, burst, a, target_l, target_k, task, terms):
 @jit
 def _env_row(x, a, p, mode, dt, n_sub, target_l, target_k, next_l, next_k, load, task, noise,
              inp, obs, terms, aux):
-    """One control step of one env. ``a`` is the (clipped) action the plant receives now."""
+    """One control step of one env. ``a`` is the action the plant receives now; it is clipped to
+    [-1, 1] here, in place, so the caller's buffer then holds what was applied."""
+    a[0] = max(-1.0, min(1.0, a[0]))
+    a[1] = max(-1.0, min(1.0, a[1]))
     if mode == pl.PRESSURE:
         half = 0.5 * task[T_SETPOINT_MAX]
         inp[pl.I_CMD_C] = half * (a[0] + 1.0)

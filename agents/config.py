@@ -1,0 +1,376 @@
+"""Training configs: YAML files of ``configs/`` as frozen dataclasses, validated on load.
+
+Layout of a config (every section optional except ``algorithm``; defaults below)::
+
+    algorithm: SAC                # SAC | PPO | TD3
+    total_timesteps: 300000       # environment steps, summed over the parallel envs
+    seed: 0
+    torch_threads: 1
+    env:
+      id: cepam_gym/CEPAM-v0      # any registered id
+      num_envs: 16                # plants stepped together by the native batched env
+      kwargs: {}                  # env kwargs (randomize, sensor_noise, reward_weights, ...)
+    normalize: {obs: false, reward: false, clip_obs: 10.0, clip_reward: 10.0}  # VecNormalize
+    agent:                        # what the policy sees and sends
+      residual: false             # true: action = baseline action + residual_scale * policy action
+      residual_scale: 0.5
+      baseline_in_obs: false      # append the baseline's action to the observation
+      history: 1                  # stack this many consecutive observations
+    hyperparameters: {}           # passed to the SB3 constructor, checked against its signature
+    policy_kwargs: {}             # e.g. {net_arch: [256, 256], activation_fn: relu}
+    eval: {every_steps: 20000, episodes: 16, suite: null, seed: 12345}
+    checkpoint: {every_steps: 50000, keep: 2, replay_buffer: true}
+    log_every_steps: 5000
+
+Unknown keys are rejected with the key's path and the valid keys. Numbers are parsed as numbers
+even where YAML 1.1 (PyYAML) reads them as strings (``1e-3``, ``3e5``). Units: steps and episodes
+are counts; everything physical lives in the env kwargs, which use the env's unit-named keys.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+ALGORITHMS = ("SAC", "PPO", "TD3")
+# constructor arguments the trainer sets itself (or that cannot come from YAML)
+_RESERVED = {"self", "policy", "env", "seed", "verbose", "tensorboard_log", "device", "policy_kwargs",
+             "_init_setup_model", "replay_buffer_class", "rollout_buffer_class"}
+ACTIVATIONS = {"relu": "ReLU", "tanh": "Tanh", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
+               "silu": "SiLU"}
+NOISE_TYPES = ("normal", "ornstein_uhlenbeck")
+
+_NUMBER = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
+
+
+class ConfigError(ValueError):
+    """A training config is invalid; the message names the offending key."""
+
+
+# --------------------------------------------------------------------------- parsing helpers
+def parse_number(value: Any) -> Any:
+    """``'1e-3'`` -> 0.001 (YAML 1.1 leaves such scalars as strings); other values unchanged."""
+    if isinstance(value, str) and _NUMBER.match(value.strip()):
+        v = float(value)
+        return int(v) if re.fullmatch(r"[+-]?\d+", value.strip()) else v
+    return value
+
+
+def _numbers_deep(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {k: _numbers_deep(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_numbers_deep(v) for v in value]
+    return parse_number(value)
+
+
+def _int(value: Any, where: str, minimum: int | None = None) -> int:
+    v = parse_number(value)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v or int(v) != v:
+        raise ConfigError(f"{where} must be an integer, got {value!r}")
+    v = int(v)
+    if minimum is not None and v < minimum:
+        raise ConfigError(f"{where} must be >= {minimum}, got {v}")
+    return v
+
+
+def _float(value: Any, where: str, minimum: float | None = None) -> float:
+    v = parse_number(value)
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ConfigError(f"{where} must be a number, got {value!r}")
+    v = float(v)
+    if not v == v or v in (float("inf"), float("-inf")):
+        raise ConfigError(f"{where} must be finite, got {value!r}")
+    if minimum is not None and v < minimum:
+        raise ConfigError(f"{where} must be >= {minimum}, got {v}")
+    return v
+
+
+def _bool(value: Any, where: str) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{where} must be true or false, got {value!r}")
+    return value
+
+
+def _mapping(value: Any, where: str) -> dict:
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where} must be a mapping, got {type(value).__name__} {value!r}")
+    bad = [k for k in value if not isinstance(k, str)]
+    if bad:
+        raise ConfigError(f"{where}: keys must be strings, got {bad!r}")
+    return dict(value)
+
+
+def _check_keys(data: Mapping, cls, where: str) -> None:
+    valid = [f.name for f in dataclasses.fields(cls)]
+    bad = [k for k in data if k not in valid]
+    if bad:
+        label = f"in {where}" if where else "at the top level"
+        raise ConfigError(f"unknown config key {bad[0]!r} {label}"
+                          f"{' (also: ' + ', '.join(map(repr, bad[1:])) + ')' if bad[1:] else ''}; "
+                          f"valid keys: {valid}")
+
+
+# --------------------------------------------------------------------------- sections
+@dataclass(frozen=True)
+class EnvConfig:
+    id: str = "cepam_gym/CEPAM-v0"
+    num_envs: int = 8
+    kwargs: dict = field(default_factory=dict)
+
+    @classmethod
+    def parse(cls, data: Any) -> "EnvConfig":
+        d = _mapping(data, "env")
+        _check_keys(d, cls, "env")
+        env_id = d.get("id", cls.id)
+        import gymnasium as gym
+
+        import cepam_gym  # noqa: F401  (registers the ids)
+
+        if not isinstance(env_id, str) or env_id not in gym.registry:
+            ids = sorted(k for k in gym.registry if k.startswith("cepam_gym/"))
+            raise ConfigError(f"env.id: unknown environment {env_id!r}; registered CE-PAM ids: {ids}")
+        kwargs = _numbers_deep(_mapping(d.get("kwargs"), "env.kwargs"))
+        _check_env_kwargs(kwargs, "env.kwargs")
+        return cls(env_id, _int(d.get("num_envs", cls.num_envs), "env.num_envs", 1), kwargs)
+
+
+def _check_env_kwargs(kwargs: Mapping, where: str) -> None:
+    """Reject kwargs the CE-PAM envs do not take (their values are checked by the env itself)."""
+    from cepam_gym.envs.cepam import CEPAMVectorEnv
+    from cepam_gym.envs.core import CEPAMBatch
+
+    names = set(inspect.signature(CEPAMBatch.__init__).parameters) | \
+        set(inspect.signature(CEPAMVectorEnv.__init__).parameters)
+    names -= {"self", "kwargs", "num_envs", "task", "render_mode"}
+    bad = sorted(set(kwargs) - names)
+    if bad:
+        raise ConfigError(f"{where}: unknown env kwarg {bad[0]!r}; valid: {sorted(names)}")
+
+
+@dataclass(frozen=True)
+class NormalizeConfig:
+    obs: bool = False
+    reward: bool = False
+    clip_obs: float = 10.0
+    clip_reward: float = 10.0
+
+    @property
+    def enabled(self) -> bool:
+        return self.obs or self.reward
+
+    @classmethod
+    def parse(cls, data: Any) -> "NormalizeConfig":
+        if data is None or data is False:
+            return cls()
+        if data is True:
+            return cls(obs=True, reward=True)
+        d = _mapping(data, "normalize")
+        _check_keys(d, cls, "normalize")
+        return cls(_bool(d.get("obs", False), "normalize.obs"), _bool(d.get("reward", False), "normalize.reward"),
+                   _float(d.get("clip_obs", 10.0), "normalize.clip_obs", 0.0),
+                   _float(d.get("clip_reward", 10.0), "normalize.clip_reward", 0.0))
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """What the policy sees and sends. With ``residual`` the action sent to the valves is
+    ``clip(baseline action + residual_scale * policy action, -1, 1)``: the learner corrects the
+    inverse-model baseline (:class:`cepam_gym.control.InverseStaticController`, nominal model)."""
+
+    residual: bool = False
+    residual_scale: float = 0.5
+    baseline_in_obs: bool = False
+    history: int = 1
+
+    @classmethod
+    def parse(cls, data: Any) -> "AgentConfig":
+        d = _mapping(data, "agent")
+        _check_keys(d, cls, "agent")
+        return cls(_bool(d.get("residual", False), "agent.residual"),
+                   _float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
+                   _bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
+                   _int(d.get("history", 1), "agent.history", 1))
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """Periodic evaluation: ``episodes`` seeded episodes, scored with the benchmark's combined
+    score (lower is better); the best model is kept. ``suite`` names a benchmark suite whose env
+    id and kwargs are used (with this ``seed``, not the suite's, so that the benchmark's own
+    episodes are never used to pick the model); without it, the training env is used."""
+
+    every_steps: int = 20000
+    episodes: int = 16
+    suite: str | None = None
+    seed: int = 12345
+
+    @classmethod
+    def parse(cls, data: Any) -> "EvalConfig":
+        d = _mapping(data, "eval")
+        _check_keys(d, cls, "eval")
+        suite = d.get("suite")
+        if suite is not None:
+            from cepam_gym.bench.suites import SUITES
+
+            if suite not in SUITES:
+                raise ConfigError(f"eval.suite: unknown suite {suite!r}; choose from {list(SUITES)}")
+        return cls(_int(d.get("every_steps", cls.every_steps), "eval.every_steps", 1),
+                   _int(d.get("episodes", cls.episodes), "eval.episodes", 1), suite,
+                   _int(d.get("seed", cls.seed), "eval.seed", 0))
+
+
+@dataclass(frozen=True)
+class CheckpointConfig:
+    every_steps: int = 50000
+    keep: int = 2  # checkpoints kept on disk (the newest)
+    replay_buffer: bool = True  # off-policy algorithms: save the replay buffer for --resume
+
+    @classmethod
+    def parse(cls, data: Any) -> "CheckpointConfig":
+        d = _mapping(data, "checkpoint")
+        _check_keys(d, cls, "checkpoint")
+        return cls(_int(d.get("every_steps", cls.every_steps), "checkpoint.every_steps", 1),
+                   _int(d.get("keep", cls.keep), "checkpoint.keep", 1),
+                   _bool(d.get("replay_buffer", True), "checkpoint.replay_buffer"))
+
+
+def algorithm_class(name: str):
+    import stable_baselines3 as sb3
+
+    return getattr(sb3, name)
+
+
+def _check_hyperparameters(algorithm: str, hp: dict) -> dict:
+    """Hyperparameters exist in the algorithm's constructor; numbers typed like its defaults."""
+    cls = algorithm_class(algorithm)
+    params = inspect.signature(cls.__init__).parameters
+    valid = sorted(set(params) - _RESERVED)
+    out = {}
+    for key, value in hp.items():
+        if key not in params or key in _RESERVED:
+            why = " (set by the trainer or another section)" if key in _RESERVED else ""
+            raise ConfigError(f"hyperparameters: unknown key {key!r} for {algorithm}{why}; valid keys: {valid}")
+        default = params[key].default
+        where = f"hyperparameters.{key}"
+        if key == "action_noise":
+            out[key] = _check_noise(value, where)
+        elif isinstance(default, bool):
+            out[key] = _bool(value, where)
+        elif isinstance(default, int) and isinstance(value, (int, float)) and not isinstance(value, bool):
+            out[key] = _int(value, where)
+        elif isinstance(default, float) and isinstance(value, (int, float)) and not isinstance(value, bool):
+            out[key] = float(value)
+        elif isinstance(default, (int, float)) and isinstance(value, str) and key != "ent_coef":
+            raise ConfigError(f"{where} must be a number, got {value!r}")
+        else:
+            out[key] = value
+    return out
+
+
+def _check_noise(value: Any, where: str) -> dict | None:
+    if value is None:
+        return None
+    d = _mapping(value, where)
+    bad = sorted(set(d) - {"type", "sigma"})
+    if bad:
+        raise ConfigError(f"{where}: unknown key {bad[0]!r}; valid keys: ['sigma', 'type']")
+    kind = d.get("type", "normal")
+    if kind not in NOISE_TYPES:
+        raise ConfigError(f"{where}.type must be one of {NOISE_TYPES}, got {kind!r}")
+    return {"type": kind, "sigma": _float(d.get("sigma", 0.1), f"{where}.sigma", 0.0)}
+
+
+def _check_policy_kwargs(algorithm: str, pk: dict) -> dict:
+    cls = algorithm_class(algorithm)
+    policy_cls = cls.policy_aliases["MlpPolicy"]
+    params = inspect.signature(policy_cls.__init__).parameters
+    valid = sorted(set(params) - {"self", "observation_space", "action_space", "lr_schedule"})
+    out = {}
+    for key, value in pk.items():
+        if key not in valid:
+            raise ConfigError(f"policy_kwargs: unknown key {key!r} for {algorithm}'s MlpPolicy; valid keys: {valid}")
+        if key == "activation_fn":
+            if value not in ACTIVATIONS:
+                raise ConfigError(f"policy_kwargs.activation_fn must be one of {sorted(ACTIVATIONS)}, got {value!r}")
+        out[key] = value
+    return out
+
+
+# --------------------------------------------------------------------------- the config
+@dataclass(frozen=True)
+class TrainConfig:
+    algorithm: str
+    total_timesteps: int = 100_000
+    seed: int = 0
+    torch_threads: int = 1
+    env: EnvConfig = field(default_factory=EnvConfig)
+    normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    hyperparameters: dict = field(default_factory=dict)
+    policy_kwargs: dict = field(default_factory=dict)
+    eval: EvalConfig = field(default_factory=EvalConfig)
+    checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
+    log_every_steps: int = 5000
+
+    @classmethod
+    def from_dict(cls, data: Any) -> "TrainConfig":
+        d = _mapping(data, "config")
+        _check_keys(d, cls, "")
+        if "algorithm" not in d:
+            raise ConfigError(f"config needs 'algorithm' (one of {list(ALGORITHMS)})")
+        algo = d["algorithm"]
+        if not isinstance(algo, str) or algo.upper() not in ALGORITHMS:
+            raise ConfigError(f"algorithm must be one of {list(ALGORITHMS)}, got {algo!r}")
+        algo = algo.upper()
+        hp = _check_hyperparameters(algo, _numbers_deep(_mapping(d.get("hyperparameters"), "hyperparameters")))
+        pk = _check_policy_kwargs(algo, _numbers_deep(_mapping(d.get("policy_kwargs"), "policy_kwargs")))
+        if algo == "PPO" and "action_noise" in hp:
+            raise ConfigError("hyperparameters.action_noise is for SAC and TD3, not PPO")
+        return cls(
+            algorithm=algo,
+            total_timesteps=_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
+            seed=_int(d.get("seed", cls.seed), "seed", 0),
+            torch_threads=_int(d.get("torch_threads", cls.torch_threads), "torch_threads", 1),
+            env=EnvConfig.parse(d.get("env")),
+            normalize=NormalizeConfig.parse(d.get("normalize")),
+            agent=AgentConfig.parse(d.get("agent")),
+            hyperparameters=hp,
+            policy_kwargs=pk,
+            eval=EvalConfig.parse(d.get("eval")),
+            checkpoint=CheckpointConfig.parse(d.get("checkpoint")),
+            log_every_steps=_int(d.get("log_every_steps", cls.log_every_steps), "log_every_steps", 1),
+        )
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def replace(self, **changes) -> "TrainConfig":
+        return dataclasses.replace(self, **changes)
+
+
+def load_config(path: str | Path) -> TrainConfig:
+    """Read and validate a training config (YAML). Errors name the file and the key."""
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"config file not found: {p}")
+    try:
+        data = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as e:
+        raise ConfigError(f"{p}: not valid YAML: {e}") from None
+    try:
+        return TrainConfig.from_dict(data)
+    except ConfigError as e:
+        raise ConfigError(f"{p}: {e}") from None
+
+
+def dump_config(cfg: TrainConfig, path: str | Path) -> None:
+    Path(path).write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))

@@ -1,0 +1,161 @@
+"""A trained agent as a controller: ``load_policy(run_dir, env)`` (used by the benchmark harness,
+``cepam-gym bench --controller runs/<run>``) and the evaluation loop used during training.
+
+A run directory (written by ``cepam-gym train``) holds ``config.yaml`` and the models:
+``best_model.zip`` (best periodic evaluation), ``model.zip`` (end of training) and
+``checkpoints/``; each with its ``VecNormalize`` statistics if the config normalizes observations.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+from .config import TrainConfig, algorithm_class
+from .features import Features
+
+MODEL_CHOICES = ("best", "final", "latest")
+
+
+class AgentPolicy:
+    """Deterministic policy of a trained model: ``act(obs)`` maps (N, obs_dim) -> (N, 2) float32
+    or (obs_dim,) -> (2,), through the run's features, observation normalization and residual."""
+
+    def __init__(self, model, features: Features, normalizer=None):
+        self.model = model
+        self.features = features
+        self.normalizer = normalizer
+        self.obs_dim = features.raw_dim
+        want = model.observation_space.shape
+        if want != (features.dim,):
+            raise ValueError(f"the model expects observations of shape {want}, the features give "
+                             f"({features.dim},): wrong env for this agent?")
+
+    def reset(self, indices=None) -> None:
+        self.features.reset(indices)
+
+    def act(self, obs, info=None) -> np.ndarray:
+        single = np.ndim(obs) == 1
+        o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
+        if o.shape[1] != self.obs_dim:
+            raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}), "
+                             f"got {np.shape(obs)}")
+        f, base = self.features(o)
+        if self.normalizer is not None:
+            f = self.normalizer.normalize_obs(f)
+        a, _ = self.model.predict(f, deterministic=True)
+        out = self.features.action(np.asarray(a, dtype=np.float32).reshape(-1, 2), base)
+        return out[0] if single else out
+
+
+# --------------------------------------------------------------------------- loading
+def _files(run: Path, which: str) -> tuple[Path, Path | None]:
+    """(model zip, VecNormalize pickle or None) of a run directory."""
+    candidates = {
+        "best": (run / "best_model.zip", run / "best_vecnormalize.pkl"),
+        "final": (run / "model.zip", run / "vecnormalize.pkl"),
+    }
+    latest = run / "checkpoints" / "latest.json"
+    if latest.is_file():
+        meta = json.loads(latest.read_text())
+        candidates["latest"] = (run / meta["model"], run / meta["vecnormalize"] if meta.get("vecnormalize") else None)
+    order = [which] if which != "auto" else ["best", "final", "latest"]
+    for key in order:
+        if key in candidates and candidates[key][0].is_file():
+            model, norm = candidates[key]
+            return model, norm if norm is not None and norm.is_file() else None
+    raise FileNotFoundError(f"no {'model' if which == 'auto' else which + ' model'} in run directory {run} "
+                            f"(looked for best_model.zip, model.zip, checkpoints/latest.json)")
+
+
+def load_run_config(run: str | Path) -> TrainConfig:
+    import yaml
+
+    path = Path(run) / "config.yaml"
+    if not path.is_file():
+        raise FileNotFoundError(f"{run} is not a training run directory: no config.yaml")
+    return TrainConfig.from_dict(yaml.safe_load(path.read_text()))
+
+
+def load_normalizer(path: Path | None):
+    if path is None:
+        return None
+    with open(path, "rb") as f:
+        vn = pickle.load(f)
+    return vn if vn.norm_obs else None
+
+
+def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
+    """The agent of a run directory (or ``run_dir/<file>.zip``), ready to act on ``env`` (a
+    Gymnasium single or vector CE-PAM env, or the SB3 adapter). ``which``: ``auto`` (best model,
+    else final, else the latest checkpoint), ``best``, ``final`` or ``latest``."""
+    import torch
+
+    spec = Path(spec)
+    if spec.suffix == ".zip":
+        run, model_path = spec.parent, spec
+        norm = spec.with_name(spec.name.replace("model", "vecnormalize").replace(".zip", ".pkl"))
+        norm_path = norm if norm.is_file() and norm != spec else None
+    else:
+        run = spec
+        if not run.is_dir():
+            raise ValueError(f"unknown controller {str(spec)!r}: not a run directory or model .zip "
+                             f"(use baseline, zero, random, or a trained agent's run directory)")
+        if which not in (*MODEL_CHOICES, "auto"):
+            raise ValueError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
+        model_path, norm_path = _files(run, which)
+    cfg = load_run_config(run)
+    core = _core(env)
+    trained_mode = cfg.env.kwargs.get("action_mode", "valve")
+    if core.action_mode != trained_mode:
+        raise ValueError(f"agent {run} was trained with action_mode={trained_mode!r}, the env uses "
+                         f"{core.action_mode!r}")
+    torch.set_num_threads(max(1, cfg.torch_threads))
+    model = algorithm_class(cfg.algorithm).load(str(model_path), device="cpu")
+    features = Features(env, cfg.agent, core.obs_dim)
+    return AgentPolicy(model, features, load_normalizer(norm_path))
+
+
+def _core(env):
+    from cepam_gym.control.baseline import _core_of
+
+    return _core_of(env)
+
+
+# --------------------------------------------------------------------------- evaluation
+def evaluate(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int) -> dict:
+    """Score the policy ``make_policy(venv)`` builds for the eval env (an object with
+    ``reset``/``act``) on ``episodes`` seeded episodes with the benchmark's metrics (the same loop
+    as :func:`cepam_gym.bench.run_suite`, which takes only controller names)."""
+    import gymnasium as gym
+
+    from cepam_gym.bench.harness import TRACE_KEYS
+    from cepam_gym.bench.metrics import score_traces
+
+    venv = gym.make_vec(env_id, num_envs=episodes, **env_kwargs)
+    core = venv.unwrapped.core
+    steps = core.n_steps
+    policy = make_policy(venv)
+    obs, info = venv.reset(seed=seed)
+    policy.reset()
+    tr = {k: np.zeros((steps, episodes)) for k in TRACE_KEYS}
+    tr["reward"] = np.zeros((steps, episodes))
+    tr["alive"] = np.ones((steps, episodes), dtype=bool)
+    alive = np.ones(episodes, dtype=bool)
+    for t in range(steps):
+        obs, reward, term, trunc, info = venv.step(policy.act(obs, info))
+        src = info.get("final_info", info) if (term | trunc).any() else info
+        for k in TRACE_KEYS:
+            tr[k][t] = src[k]
+        tr["reward"][t] = reward
+        tr["alive"][t] = alive
+        alive &= ~term
+        if (term | trunc).any():
+            policy.reset(np.flatnonzero(term | trunc))
+    tr["failed"] = ~alive
+    tr["dt"] = core.control_dt
+    venv.close()
+    return score_traces(tr, core.task.track_stiffness)
