@@ -64,10 +64,13 @@ def _rollout(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"run": _run, "rollout": _rollout}
-    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation", "bench": "cepam_gym.bench.cli"}
+    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation", "bench": "cepam_gym.bench.cli",
+            "train": "agents.train", "eval": "agents.evaluate"}
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: cepam-gym {run,bench,demo,validate,rollout} [options]\n"
+        print("usage: cepam-gym {run,bench,train,eval,demo,validate,rollout} [options]\n"
               "  bench     score controllers on the benchmark suites\n"
+              "  train     train an agent from a YAML config (configs/quick.yaml)\n"
+              "  eval      score a trained agent beside the baseline (--run DIR)\n"
               "  run       the main job on the default config\n"
               "  demo      plant step response plot\n"
               "  validate  the paper's reported numbers beside the model's\n"

@@ -1,0 +1,488 @@
+"""``cepam-gym train``: train SAC, PPO or TD3 on a CE-PAM env from a YAML config.
+
+    cepam-gym train --config configs/quick.yaml [--total-timesteps N] [--seed S] [--out DIR] [--resume]
+
+The run directory (default ``runs/<config name>-s<seed>``) receives:
+
+| file | what |
+|---|---|
+| ``config.yaml`` | the resolved config (command-line overrides applied): ``--config DIR/config.yaml`` reproduces the run |
+| ``run.json`` | seed, command line, package versions, git commit, and one entry per training session |
+| ``model.zip``, ``vecnormalize.pkl`` | the model at the end of training (and its observation statistics) |
+| ``best_model.zip``, ``best_vecnormalize.pkl`` | the model with the best periodic evaluation score |
+| ``checkpoints/`` | periodic checkpoints, ``latest.json`` pointing at the newest (``--resume`` starts there) |
+| ``evaluations.json`` | every periodic evaluation (benchmark metrics) |
+| ``tb/``, ``logs/`` | TensorBoard events and CSV: SB3's losses, episode returns, the env's reward terms, length and stiffness errors, evaluation scores |
+
+Ctrl-C saves a checkpoint of the current model (and the replay buffer) before exiting with 130;
+``--resume`` continues from the newest checkpoint with the step count it had.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from .config import ConfigError, TrainConfig, algorithm_class, dump_config, load_config
+
+EXIT_INTERRUPTED = 130
+
+
+# --------------------------------------------------------------------------- run directory
+def package_versions() -> dict:
+    from importlib import metadata
+
+    out = {"python": platform.python_version(), "platform": platform.platform()}
+    for name in ("cepam-gym", "stable-baselines3", "torch", "numpy", "gymnasium", "numba", "scipy", "pyyaml"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def git_state() -> dict:
+    root = Path(__file__).resolve().parent.parent
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
+                                timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+                               capture_output=True, text=True, timeout=10).stdout.strip() != ""
+        return {"commit": commit or None, "dirty": dirty if commit else None}
+    except (OSError, subprocess.SubprocessError):
+        return {"commit": None, "dirty": None}
+
+
+def _write_json(path: Path, data) -> None:
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=str))
+    os.replace(tmp, path)
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+# --------------------------------------------------------------------------- building blocks
+def make_train_env(cfg: TrainConfig, seed: int):
+    """SB3 VecEnv: native batched env (one process) -> agent features -> VecNormalize (optional)."""
+    from cepam_gym.envs.sb3 import make_sb3_vec_env
+
+    from .features import make_agent_vec_env
+
+    env = make_sb3_vec_env(cfg.env.id, num_envs=cfg.env.num_envs, seed=seed, **cfg.env.kwargs)
+    return make_agent_vec_env(env, cfg.agent)
+
+
+def _normalize(env, cfg: TrainConfig, load_from: Path | None = None):
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if not cfg.normalize.enabled:
+        return env
+    if load_from is not None:
+        vn = VecNormalize.load(str(load_from), env)
+        vn.training = True
+        return vn
+    gamma = cfg.hyperparameters.get("gamma", 0.99)
+    return VecNormalize(env, norm_obs=cfg.normalize.obs, norm_reward=cfg.normalize.reward,
+                        clip_obs=cfg.normalize.clip_obs, clip_reward=cfg.normalize.clip_reward, gamma=gamma)
+
+
+def _hyperparameters(cfg: TrainConfig) -> dict:
+    hp = dict(cfg.hyperparameters)
+    noise = hp.pop("action_noise", None)
+    if noise is not None:
+        from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+        cls = NormalActionNoise if noise["type"] == "normal" else OrnsteinUhlenbeckActionNoise
+        hp["action_noise"] = cls(np.zeros(2), np.full(2, noise["sigma"]))
+    if isinstance(hp.get("train_freq"), list):
+        hp["train_freq"] = tuple(hp["train_freq"])
+    return hp
+
+
+def _policy_kwargs(cfg: TrainConfig) -> dict:
+    pk = dict(cfg.policy_kwargs)
+    if "activation_fn" in pk:
+        import torch.nn
+
+        from .config import ACTIVATIONS
+
+        pk["activation_fn"] = getattr(torch.nn, ACTIVATIONS[pk["activation_fn"]])
+    return pk
+
+
+def _eval_env_spec(cfg: TrainConfig) -> tuple[str, dict]:
+    if cfg.eval.suite is None:
+        return cfg.env.id, dict(cfg.env.kwargs)
+    from cepam_gym.bench.suites import SUITES
+
+    s = SUITES[cfg.eval.suite]
+    return s.env_id, dict(s.env_kwargs)
+
+
+# --------------------------------------------------------------------------- the callback
+def _make_callback_class():
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class RunCallback(BaseCallback):
+        """Logs the env's reward terms and errors, evaluates, keeps the best model, checkpoints,
+        and draws the progress bar (with the latest evaluation score)."""
+
+        def __init__(self, trainer: "Trainer"):
+            super().__init__(verbose=0)
+            self.t = trainer
+            self._sums: dict[str, float] = {}
+            self._count = 0
+
+        def _on_training_start(self) -> None:
+            n = self.num_timesteps
+            cfg = self.t.cfg
+            self.next_log = (n // cfg.log_every_steps + 1) * cfg.log_every_steps
+            self.next_eval = (n // cfg.eval.every_steps + 1) * cfg.eval.every_steps
+            self.next_ckpt = (n // cfg.checkpoint.every_steps + 1) * cfg.checkpoint.every_steps
+            self.t.open_progress(n)
+
+        def _on_step(self) -> bool:
+            self._accumulate(self.locals.get("infos") or [])
+            n = self.num_timesteps
+            if n >= self.next_log:
+                self._log()
+                self.next_log += self.t.cfg.log_every_steps * max(1, (n - self.next_log) // self.t.cfg.log_every_steps + 1)
+            if n >= self.next_eval:
+                self.t.evaluate(n)
+                self.next_eval += self.t.cfg.eval.every_steps * max(1, (n - self.next_eval) // self.t.cfg.eval.every_steps + 1)
+            if n >= self.next_ckpt:
+                self.t.save_checkpoint(n)
+                self.next_ckpt += self.t.cfg.checkpoint.every_steps * max(1, (n - self.next_ckpt) // self.t.cfg.checkpoint.every_steps + 1)
+            self.t.progress_to(n)
+            return True
+
+        def _accumulate(self, infos) -> None:
+            if not infos or "length" not in infos[0]:
+                return
+            keys = self.t.info_keys
+            vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
+            L, Lt = vals[:, keys.index("length")], vals[:, keys.index("target_length")]
+            row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
+            row["length_error_mm"] = 1000.0 * np.abs(L - Lt).sum()
+            if self.t.track_stiffness:
+                K, Kt = vals[:, keys.index("stiffness")], vals[:, keys.index("target_stiffness")]
+                row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
+            for k, v in row.items():
+                self._sums[k] = self._sums.get(k, 0.0) + float(v)
+            self._count += len(infos)
+
+        def _log(self) -> None:
+            if self._count:
+                for k, v in self._sums.items():
+                    self.logger.record(f"env/{k}", v / self._count)
+            self.logger.record("time/wall_s", time.perf_counter() - self.t.t0 + self.t.wall_before)
+            self.logger.dump(self.num_timesteps)
+            self._sums, self._count = {}, 0
+
+    return RunCallback
+
+
+class Trainer:
+    """One training session of one run directory (new or resumed)."""
+
+    def __init__(self, cfg: TrainConfig, run_dir: Path, resume: bool = False, quiet: bool = False,
+                 argv: list[str] | None = None):
+        self.cfg, self.run, self.resume, self.quiet = cfg, Path(run_dir), resume, quiet
+        self.argv = argv
+        self.ckpt_dir = self.run / "checkpoints"
+        self.best_score = float("inf")
+        self.last_score: float | None = None
+        self.evaluations: list[dict] = []
+        self.bar = None
+        self.wall_before = 0.0
+        self.t0 = time.perf_counter()
+
+    # ----------------------------------------------------------------- set-up
+    def setup(self) -> None:
+        import torch
+        from stable_baselines3.common.logger import Logger, make_output_format
+        from stable_baselines3.common.utils import set_random_seed
+
+        cfg = self.cfg
+        torch.set_num_threads(cfg.torch_threads)
+        self.run.mkdir(parents=True, exist_ok=True)
+        self.ckpt_dir.mkdir(exist_ok=True)
+        algo = algorithm_class(cfg.algorithm)
+        latest = self._latest() if self.resume else None
+        start = int(latest["steps"]) if latest else 0
+        # a resumed session draws new episodes: seed + steps done
+        seed = cfg.seed + start
+        env = make_train_env(cfg, seed)
+        raw = env
+        env = _normalize(env, cfg, self.run / latest["vecnormalize"] if latest and latest.get("vecnormalize") else None)
+        if latest:
+            self.model = algo.load(str(self.run / latest["model"]), env=env, device="cpu")
+            if latest.get("replay_buffer") and hasattr(self.model, "load_replay_buffer"):
+                self.model.load_replay_buffer(str(self.run / latest["replay_buffer"]))
+            set_random_seed(seed)
+            if (self.run / "evaluations.json").is_file():
+                self.evaluations = json.loads((self.run / "evaluations.json").read_text())
+                scores = [e["score"] for e in self.evaluations if e.get("score") is not None]
+                self.best_score = min(scores, default=float("inf"))
+                self.last_score = scores[-1] if scores else None
+            self.wall_before = float(latest.get("wall_s", 0.0))
+        else:
+            self.model = algo("MlpPolicy", env, seed=cfg.seed, verbose=0, device="cpu",
+                              policy_kwargs=_policy_kwargs(cfg), **_hyperparameters(cfg))
+        self.env = env
+        self.vecnorm = env if cfg.normalize.enabled else None
+        self.start_step = int(self.model.num_timesteps)
+        (self.run / "logs").mkdir(exist_ok=True)
+        self.model.set_logger(Logger(str(self.run), [
+            make_output_format("tensorboard", str(self.run / "tb")),
+            make_output_format("csv", str(self.run / "logs"), log_suffix=f"_{self.start_step}")]))
+        core = raw.unwrapped.venv.core  # SB3 adapter -> CEPAMVectorEnv -> batch
+        self.track_stiffness = bool(core.task.track_stiffness)
+        self.info_keys = ["length", "target_length", "stiffness", "target_stiffness"] + \
+            [f"reward_{t}" for t in _reward_terms()]
+        self.eval_id, self.eval_kwargs = _eval_env_spec(cfg)
+        self._write_run_json(status="running")
+
+    def _latest(self) -> dict:
+        path = self.ckpt_dir / "latest.json"
+        if not path.is_file():
+            raise FileNotFoundError(f"--resume: no checkpoint in {self.run} (no checkpoints/latest.json)")
+        return json.loads(path.read_text())
+
+    def _write_run_json(self, status: str, **extra) -> None:
+        path = self.run / "run.json"
+        data = json.loads(path.read_text()) if path.is_file() else {
+            "seed": self.cfg.seed, "created": _now(), "versions": package_versions(), "git": git_state(),
+            "sessions": []}
+        session = {"started": getattr(self, "_started", None) or _now(), "argv": self.argv,
+                   "start_step": self.start_step, "status": status, "versions": package_versions(), **extra}
+        self._started = session["started"]
+        if data["sessions"] and data["sessions"][-1].get("started") == session["started"]:
+            data["sessions"][-1] = session
+        else:
+            data["sessions"].append(session)
+        data["status"] = status
+        _write_json(path, data)
+
+    # ----------------------------------------------------------------- progress
+    def open_progress(self, n: int) -> None:
+        if self.quiet or self.bar is not None:
+            return
+        from tqdm import tqdm
+
+        tty = sys.stderr.isatty()
+        self.bar = tqdm(total=self.cfg.total_timesteps, initial=n, unit="step", unit_scale=True,
+                        dynamic_ncols=True, mininterval=0.5 if tty else 30.0, file=sys.stderr,
+                        desc=f"{self.cfg.algorithm} {self.run.name}")
+        self._bar_n = n
+        self._postfix()
+
+    def progress_to(self, n: int) -> None:
+        if self.bar is not None and n > self._bar_n:
+            self.bar.update(n - self._bar_n)
+            self._bar_n = n
+
+    def _postfix(self) -> None:
+        if self.bar is None:
+            return
+        if self.last_score is None:
+            self.bar.set_postfix_str("eval score: -")
+        else:
+            self.bar.set_postfix_str(f"eval score {self.last_score:.3f} (best {self.best_score:.3f}, lower is better)")
+
+    # ----------------------------------------------------------------- evaluation and saving
+    def evaluate(self, n: int) -> dict:
+        from .features import Features
+        from .policy import AgentPolicy, evaluate
+
+        cfg = self.cfg
+        normalizer = self.vecnorm if (self.vecnorm is not None and cfg.normalize.obs) else None
+
+        def make(venv):
+            return AgentPolicy(self.model, Features(venv, cfg.agent, venv.unwrapped.core.obs_dim), normalizer)
+
+        t = time.perf_counter()
+        m = evaluate(make, self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed)
+        m = {"step": int(n), "wall_s": round(self.wall(), 2), "eval_s": round(time.perf_counter() - t, 2), **m}
+        self.evaluations.append(m)
+        _write_json(self.run / "evaluations.json", self.evaluations)
+        for k in ("score", "length_rmse_mm", "stiffness_rmse_pct", "mean_return", "failure_rate", "settling_time_s"):
+            if m.get(k) is not None:
+                self.model.logger.record(f"eval/{k}", m[k])
+        self.last_score = m["score"]
+        if m["score"] < self.best_score:
+            self.best_score = m["score"]
+            self.model.save(str(self.run / "best_model.zip"))
+            if self.vecnorm is not None:
+                self.vecnorm.save(str(self.run / "best_vecnormalize.pkl"))
+            _write_json(self.run / "best.json", {"step": int(n), **m})
+        self.model.logger.record("eval/best_score", self.best_score)
+        self._postfix()
+        return m
+
+    def wall(self) -> float:
+        return self.wall_before + time.perf_counter() - self.t0
+
+    def save_checkpoint(self, n: int, interrupted: bool = False) -> Path:
+        model_rel = f"checkpoints/model_{n}.zip"
+        self.model.save(str(self.run / model_rel))
+        meta = {"steps": int(n), "model": model_rel, "vecnormalize": None, "replay_buffer": None,
+                "wall_s": round(self.wall(), 2), "interrupted": interrupted, "saved": _now()}
+        if self.vecnorm is not None:
+            meta["vecnormalize"] = f"checkpoints/vecnormalize_{n}.pkl"
+            self.vecnorm.save(str(self.run / meta["vecnormalize"]))
+        if self.cfg.checkpoint.replay_buffer and hasattr(self.model, "save_replay_buffer"):
+            meta["replay_buffer"] = "checkpoints/replay_buffer.pkl"
+            self.model.save_replay_buffer(str(self.run / meta["replay_buffer"]))
+        _write_json(self.ckpt_dir / "latest.json", meta)
+        self._prune()
+        return self.run / model_rel
+
+    def _prune(self) -> None:
+        steps = sorted(int(p.stem.split("_")[1]) for p in self.ckpt_dir.glob("model_*.zip"))
+        for s in steps[:-self.cfg.checkpoint.keep]:
+            for p in (self.ckpt_dir / f"model_{s}.zip", self.ckpt_dir / f"vecnormalize_{s}.pkl"):
+                p.unlink(missing_ok=True)
+
+    # ----------------------------------------------------------------- the session
+    def learn(self, callbacks=()) -> int:
+        from stable_baselines3.common.callbacks import CallbackList
+
+        cfg = self.cfg
+        remaining = cfg.total_timesteps - self.start_step
+        self.t0 = time.perf_counter()
+        if remaining <= 0:
+            self._say(f"{self.run}: already at {self.start_step} >= total_timesteps {cfg.total_timesteps} steps; "
+                      "pass a larger --total-timesteps to train further")
+            return 0
+        cb = CallbackList([_make_callback_class()(self), *callbacks])
+        self._say(f"training {cfg.algorithm} on {cfg.env.id} x{cfg.env.num_envs} for {remaining} steps "
+                  f"(from step {self.start_step}) -> {self.run}")
+        try:
+            self.model.learn(remaining, callback=cb, reset_num_timesteps=not self.resume or self.start_step == 0,
+                             progress_bar=False)
+        except KeyboardInterrupt:
+            n = int(self.model.num_timesteps)
+            self._close_bar()
+            path = self.save_checkpoint(n, interrupted=True)
+            self._write_run_json("interrupted", end_step=n, wall_s=round(self.wall(), 2), ended=_now())
+            self._say(f"interrupted at step {n}: saved {path}; continue with "
+                      f"cepam-gym train --out {self.run} --resume")
+            return EXIT_INTERRUPTED
+        n = int(self.model.num_timesteps)
+        self.evaluate(n)
+        self.model.logger.dump(n)
+        self._close_bar()
+        self.model.save(str(self.run / "model.zip"))
+        if self.vecnorm is not None:
+            self.vecnorm.save(str(self.run / "vecnormalize.pkl"))
+        self.save_checkpoint(n)
+        summary = {"steps": n, "wall_s": round(self.wall(), 2), "best_score": self.best_score,
+                   "final_score": self.last_score, "best": json.loads((self.run / "best.json").read_text())}
+        _write_json(self.run / "summary.json", summary)
+        self._write_run_json("finished", end_step=n, wall_s=round(self.wall(), 2), ended=_now())
+        self._say(f"done: {n} steps in {self.wall():.0f} s; final eval score {self.last_score:.3f}, best "
+                  f"{self.best_score:.3f} (step {summary['best']['step']}); models in {self.run}")
+        return 0
+
+    def _close_bar(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+    def _say(self, msg: str) -> None:
+        if not self.quiet:
+            print(msg, flush=True)
+
+    def close(self) -> None:
+        self._close_bar()
+        self.env.close()
+
+
+def _reward_terms():
+    from cepam_gym.tasks.kernel import REWARD_TERMS
+
+    return REWARD_TERMS
+
+
+def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, callbacks=(), quiet: bool = False,
+          argv: list[str] | None = None) -> int:
+    """Train (or resume) one run; returns the exit code (0, or 130 after Ctrl-C)."""
+    run = Path(run_dir)
+    if not resume:
+        if (run / "config.yaml").exists():
+            raise FileExistsError(f"run directory {run} already holds a run: pass --resume to continue it "
+                                  "or --out for a new directory")
+        run.mkdir(parents=True, exist_ok=True)
+        dump_config(cfg, run / "config.yaml")
+    else:
+        dump_config(cfg, run / "config.yaml")  # total_timesteps may have been raised
+    t = Trainer(cfg, run, resume=resume, quiet=quiet, argv=argv)
+    t.setup()
+    try:
+        return t.learn(callbacks)
+    finally:
+        t.close()
+
+
+# --------------------------------------------------------------------------- command line
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ap = argparse.ArgumentParser(prog="cepam-gym train", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--config", help="training config (YAML), e.g. configs/quick.yaml")
+    ap.add_argument("--total-timesteps", type=int, help="override the config's total_timesteps")
+    ap.add_argument("--seed", type=int, help="override the config's seed")
+    ap.add_argument("--out", help="run directory (default runs/<config name>-s<seed>)")
+    ap.add_argument("--resume", action="store_true",
+                    help="continue the run in --out (or the default directory) from its newest checkpoint")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar or messages")
+    args = ap.parse_args(argv)
+    if args.total_timesteps is not None and args.total_timesteps < 1:
+        ap.error("--total-timesteps must be >= 1")
+    if args.seed is not None and args.seed < 0:
+        ap.error("--seed must be >= 0")
+    try:
+        if args.resume:
+            from .policy import load_run_config
+
+            if args.out is None and args.config is None:
+                ap.error("--resume needs --out DIR (or --config to find the default directory)")
+            if args.out is not None:
+                run = Path(args.out)
+            else:
+                seed = args.seed if args.seed is not None else load_config(args.config).seed
+                run = Path("runs") / f"{Path(args.config).stem}-s{seed}"
+            if not (run / "config.yaml").is_file():
+                ap.error(f"--resume: {run} is not a run directory (no config.yaml)")
+            cfg = load_run_config(run)
+            if args.seed is not None and args.seed != cfg.seed:
+                ap.error(f"--resume: the run was seeded with {cfg.seed}, not {args.seed}")
+        else:
+            if args.config is None:
+                ap.error("--config is required (e.g. configs/quick.yaml)")
+            cfg = load_config(args.config)
+            if args.seed is not None:
+                cfg = cfg.replace(seed=args.seed)
+            run = Path(args.out) if args.out else Path("runs") / f"{Path(args.config).stem}-s{cfg.seed}"
+        if args.total_timesteps is not None:
+            cfg = cfg.replace(total_timesteps=args.total_timesteps)
+        return train(cfg, run, resume=args.resume, quiet=args.quiet, argv=["train", *argv])
+    except (ConfigError, FileExistsError, FileNotFoundError) as e:
+        print(f"cepam-gym train: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
