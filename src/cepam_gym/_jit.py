@@ -8,3 +8,6 @@ machine code on disk beside the sources, so a second process starts in well unde
 from numba import njit
 
 jit = njit(cache=True, error_model="numpy")
+# for the small functions of the sub-step loop: inlined at numba IR level, so the loop keeps its
+# values in registers instead of passing tuples across calls
+jit_inline = njit(cache=True, error_model="numpy", inline="always")

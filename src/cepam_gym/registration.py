@@ -10,6 +10,9 @@ ENV_IDS = {
     "cepam_gym/CEPAMStiffness-v0": "stiffness",
 }
 MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
+# ids that need the [mujoco] extra (imported only by gym.make): not in ENV_IDS, which lists the
+# rig envs with native vector entry points
+MUJOCO_ENV_IDS = {"cepam_gym/CEPAMJoint-v0": "cepam_gym.mujoco.joint:CEPAMJointEnv"}
 
 
 def register_envs() -> None:
@@ -23,3 +26,6 @@ def register_envs() -> None:
             max_episode_steps=MAX_EPISODE_STEPS,
             kwargs={"task": task},
         )
+    for env_id, entry_point in MUJOCO_ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS)

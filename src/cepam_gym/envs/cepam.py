@@ -60,6 +60,18 @@ def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
 
 
 _PIN_KEYS = ("target_length", "target_stiffness", "load_mass")
+RENDERERS = ("numpy", "mujoco")
+
+
+def _check_renderer(renderer: str) -> None:
+    """``renderer="numpy"``: the 2-D drawing of :mod:`cepam_gym.envs.render` (no extra needed);
+    ``"mujoco"``: the 3-D rig of :class:`cepam_gym.mujoco.rig.RigRenderer` (the ``[mujoco]`` extra)."""
+    if renderer not in RENDERERS:
+        raise ValueError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
+    if renderer == "mujoco":
+        from ..mujoco._mj import require_mujoco
+
+        require_mujoco()  # fail now, with the install hint, rather than at the first render()
 
 
 def _apply_options(core: CEPAMBatch, options: dict | None) -> None:
@@ -160,6 +172,7 @@ _DOC = """
     | ``supply_drift_kpa`` | 0.0 | random-walk intensity of the supply pressure, kPa/sqrt(s), clipped to +-20 % |
     | ``task_options`` | ``{}`` | override TaskSpec fields: ``length_range`` [m], ``load_range`` [kg], ``load_kinds``, ``segment_duration`` [s], ``stiffness_range`` [N/m], ``pressure_margin`` |
     | ``render_mode`` | ``None`` | ``"rgb_array"`` or ``"human"`` |
+    | ``renderer`` | ``"numpy"`` | ``"numpy"`` (2-D drawing) or ``"mujoco"`` (3-D rig, ``pip install 'cepam-gym[mujoco]'``, headless with ``MUJOCO_GL=egl``) |
 
     ``reset(options={"target_length": m, "target_stiffness": N/m, "load_mass": kg})`` pins any of
     them for the episode (evaluation at chosen operating points; no reachability check).
@@ -174,8 +187,11 @@ class CEPAMEnv(gym.Env, EzPickle):
     __doc__ = "CE-PAM length and stiffness regulation under changing loads (single env)." + _DOC
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
 
-    def __init__(self, task: str = "cepam", render_mode: str | None = None, **kwargs: Any):
-        EzPickle.__init__(self, task=task, render_mode=render_mode, **kwargs)
+    def __init__(self, task: str = "cepam", render_mode: str | None = None, renderer: str = "numpy",
+                 **kwargs: Any):
+        EzPickle.__init__(self, task=task, render_mode=render_mode, renderer=renderer, **kwargs)
+        _check_renderer(renderer)
+        self.renderer = renderer
         self.core = CEPAMBatch(1, task=task, **kwargs)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -184,6 +200,7 @@ class CEPAMEnv(gym.Env, EzPickle):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         self._renderer = None
+        self._mujoco = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -211,15 +228,27 @@ class CEPAMEnv(gym.Env, EzPickle):
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
             return None
-        from .render import draw
+        if self.renderer == "mujoco":
+            if self._mujoco is None:
+                from ..mujoco.rig import RigRenderer
 
-        frame = draw(self.core, 0)
+                self._mujoco = RigRenderer()
+            frame = self._mujoco.render_core(self.core, 0)
+        else:
+            from .render import draw
+
+            frame = draw(self.core, 0)
         if self.render_mode == "rgb_array":
             return frame
-        from .render import HumanWindow
-
         if self._renderer is None:
-            self._renderer = HumanWindow()
+            if self.renderer == "mujoco":
+                from ..mujoco.video import FrameWindow
+
+                self._renderer = FrameWindow(frame.shape)
+            else:
+                from .render import HumanWindow
+
+                self._renderer = HumanWindow()
         self._renderer.show(frame)
         return None
 
@@ -227,6 +256,9 @@ class CEPAMEnv(gym.Env, EzPickle):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        if self._mujoco is not None:
+            self._mujoco.close()
+            self._mujoco = None
 
 
 class CEPAMVectorEnv(VectorEnv, EzPickle):
@@ -238,9 +270,12 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.SAME_STEP, "render_fps": 50}
 
     def __init__(self, num_envs: int = 1, task: str = "cepam", max_episode_steps: int | None = 500,
-                 render_mode: str | None = None, **kwargs: Any):
+                 render_mode: str | None = None, renderer: str = "numpy", **kwargs: Any):
         EzPickle.__init__(self, num_envs=num_envs, task=task, max_episode_steps=max_episode_steps,
-                          render_mode=render_mode, **kwargs)
+                          render_mode=render_mode, renderer=renderer, **kwargs)
+        _check_renderer(renderer)
+        self.renderer = renderer
+        self._mujoco = None
         self.core = CEPAMBatch(num_envs, task=task, **kwargs)
         self.num_envs = self.core.num_envs
         self.max_episode_steps = max_episode_steps
@@ -288,6 +323,17 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
+        if self.renderer == "mujoco":
+            if self._mujoco is None:
+                from ..mujoco.rig import RigRenderer
+
+                self._mujoco = RigRenderer()
+            return tuple(self._mujoco.render_core(self.core, i) for i in range(self.num_envs))
         from .render import draw
 
         return tuple(draw(self.core, i) for i in range(self.num_envs))
+
+    def close_extras(self, **kwargs):
+        if self._mujoco is not None:
+            self._mujoco.close()
+            self._mujoco = None
