@@ -9,18 +9,25 @@ Layout of a config (every section optional except ``algorithm``; defaults below)
     env:
       id: cepam_gym/CEPAM-v0      # any registered id
       num_envs: 16                # plants stepped together by the native batched env
+      suite: null                 # start the kwargs from a benchmark suite's (e.g. randomized)
       kwargs: {}                  # env kwargs (randomize, sensor_noise, reward_weights, ...)
     normalize: {obs: false, reward: false, clip_obs: 10.0, clip_reward: 10.0}  # VecNormalize
-    agent:                        # what the policy sees and sends
+    agent:                        # what the policy sees and sends (see AgentConfig)
       residual: false             # true: action = baseline action + residual_scale * policy action
       residual_scale: 0.5
       baseline_in_obs: false      # append the baseline's action to the observation
       history: 1                  # stack this many consecutive observations
+      target_shift: false         # true: the policy also shifts the baseline's length/stiffness targets
+      target_shift_length_mm: 5.0
+      target_shift_stiffness: 0.4 # stiffness target times exp(+-0.4) at most
+      target_shift_filter_s: 0.0  # low-pass time constant of the shifts [s] (0: none)
+      obs_filters_s: []           # append low-passed observations with these time constants [s]
     hyperparameters: {}           # passed to the SB3 constructor, checked against its signature
     policy_kwargs: {}             # e.g. {net_arch: [256, 256], activation_fn: relu}
     eval: {every_steps: 20000, episodes: 16, suite: null, seed: 12345}
     checkpoint: {every_steps: 50000, keep: 2, replay_buffer: true}
     log_every_steps: 5000
+    time_limit_minutes: null      # stop (and save as finished) after this much training wall time
 
 Unknown keys are rejected with the key's path and the valid keys. Numbers are parsed as numbers
 even where YAML 1.1 (PyYAML) reads them as strings (``1e-3``, ``3e5``). Units: steps and episodes
@@ -122,14 +129,27 @@ def _check_keys(data: Mapping, cls, where: str) -> None:
 # --------------------------------------------------------------------------- sections
 @dataclass(frozen=True)
 class EnvConfig:
+    """``suite`` (optional) starts the kwargs from a benchmark suite's (e.g. ``randomized``: the
+    same plant spread, noise and drift); ``kwargs`` are then merged over them, key by key. The
+    resolved config stores the merged kwargs."""
+
     id: str = "cepam_gym/CEPAM-v0"
     num_envs: int = 8
+    suite: str | None = None
     kwargs: dict = field(default_factory=dict)
 
     @classmethod
     def parse(cls, data: Any) -> "EnvConfig":
         d = _mapping(data, "env")
         _check_keys(d, cls, "env")
+        suite = d.get("suite")
+        base: dict = {}
+        if suite is not None:
+            from cepam_gym.bench.suites import SUITES
+
+            if suite not in SUITES:
+                raise ConfigError(f"env.suite: unknown suite {suite!r}; choose from {list(SUITES)}")
+            base = _numbers_deep(SUITES[suite].env_kwargs)
         env_id = d.get("id", cls.id)
         import gymnasium as gym
 
@@ -138,9 +158,9 @@ class EnvConfig:
         if not isinstance(env_id, str) or env_id not in gym.registry:
             ids = sorted(k for k in gym.registry if k.startswith("cepam_gym/"))
             raise ConfigError(f"env.id: unknown environment {env_id!r}; registered CE-PAM ids: {ids}")
-        kwargs = _numbers_deep(_mapping(d.get("kwargs"), "env.kwargs"))
+        kwargs = {**base, **_numbers_deep(_mapping(d.get("kwargs"), "env.kwargs"))}
         _check_env_kwargs(kwargs, "env.kwargs")
-        return cls(env_id, _int(d.get("num_envs", cls.num_envs), "env.num_envs", 1), kwargs)
+        return cls(env_id, _int(d.get("num_envs", cls.num_envs), "env.num_envs", 1), suite, kwargs)
 
 
 def _check_env_kwargs(kwargs: Mapping, where: str) -> None:
@@ -180,25 +200,66 @@ class NormalizeConfig:
                    _float(d.get("clip_reward", 10.0), "normalize.clip_reward", 0.0))
 
 
+def _filters(value: Any, where: str) -> list:
+    if not isinstance(value, (list, tuple)):
+        raise ConfigError(f"{where} must be a list of time constants in seconds, got {value!r}")
+    out = [_float(v, f"{where}[{i}]", 0.0) for i, v in enumerate(value)]
+    if any(v <= 0 for v in out):
+        raise ConfigError(f"{where}: time constants must be > 0 s, got {value!r}")
+    return out
+
+
 @dataclass(frozen=True)
 class AgentConfig:
-    """What the policy sees and sends. With ``residual`` the action sent to the valves is
-    ``clip(baseline action + residual_scale * policy action, -1, 1)``: the learner corrects the
-    inverse-model baseline (:class:`cepam_gym.control.InverseStaticController`, nominal model)."""
+    """What the policy sees and sends, on top of the inverse-model baseline
+    (:class:`cepam_gym.control.InverseStaticController`, nominal model):
+
+    * ``target_shift``: the policy's first actions move the targets the baseline is given: the
+      length by up to ``target_shift_length_mm``, the stiffness by a factor up to
+      ``exp(+-target_shift_stiffness)`` (length-only tasks: the length shift only), low-pass
+      filtered with time constant ``target_shift_filter_s`` if > 0. The baseline then computes
+      pressures and valve commands for the shifted targets.
+    * ``residual``: the policy's (remaining) two actions are added to the valve commands:
+      ``clip(baseline + residual_scale * a, -1, 1)``.
+    * ``baseline_in_obs``: the baseline's action is appended to the observation (not with
+      ``target_shift``: the baseline acts only after the policy has chosen the shift).
+    * ``history``: the last ``history`` observations are stacked.
+    * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
+      restarted with each episode) are appended: a cheap memory over seconds.
+
+    With neither ``target_shift`` nor ``residual`` the policy drives the valves directly."""
 
     residual: bool = False
     residual_scale: float = 0.5
     baseline_in_obs: bool = False
     history: int = 1
+    target_shift: bool = False
+    target_shift_length_mm: float = 5.0
+    target_shift_stiffness: float = 0.4
+    target_shift_filter_s: float = 0.0  # first-order low-pass of the shifts (0: none) [s]
+    obs_filters_s: list = field(default_factory=list)  # time constants [s] of low-passed copies of the observation
+
+    @property
+    def uses_baseline(self) -> bool:
+        return self.residual or self.baseline_in_obs or self.target_shift
 
     @classmethod
     def parse(cls, data: Any) -> "AgentConfig":
         d = _mapping(data, "agent")
         _check_keys(d, cls, "agent")
-        return cls(_bool(d.get("residual", False), "agent.residual"),
-                   _float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
-                   _bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
-                   _int(d.get("history", 1), "agent.history", 1))
+        out = cls(_bool(d.get("residual", False), "agent.residual"),
+                  _float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
+                  _bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
+                  _int(d.get("history", 1), "agent.history", 1),
+                  _bool(d.get("target_shift", False), "agent.target_shift"),
+                  _float(d.get("target_shift_length_mm", 5.0), "agent.target_shift_length_mm", 0.0),
+                  _float(d.get("target_shift_stiffness", 0.4), "agent.target_shift_stiffness", 0.0),
+                  _float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
+                  _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"))
+        if out.target_shift and out.baseline_in_obs:
+            raise ConfigError("agent.baseline_in_obs cannot be used with agent.target_shift (the baseline "
+                              "acts after the policy has chosen the shift); drop one of them")
+        return out
 
 
 @dataclass(frozen=True)
@@ -320,6 +381,7 @@ class TrainConfig:
     eval: EvalConfig = field(default_factory=EvalConfig)
     checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
     log_every_steps: int = 5000
+    time_limit_minutes: float | None = None
 
     @classmethod
     def from_dict(cls, data: Any) -> "TrainConfig":
@@ -348,6 +410,8 @@ class TrainConfig:
             eval=EvalConfig.parse(d.get("eval")),
             checkpoint=CheckpointConfig.parse(d.get("checkpoint")),
             log_every_steps=_int(d.get("log_every_steps", cls.log_every_steps), "log_every_steps", 1),
+            time_limit_minutes=None if d.get("time_limit_minutes") is None else
+            _float(d["time_limit_minutes"], "time_limit_minutes", 0.0),
         )
 
     def to_dict(self) -> dict:
@@ -357,11 +421,25 @@ class TrainConfig:
         return dataclasses.replace(self, **changes)
 
 
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"  # the shipped configs
+
+
+def resolve_config_path(path: str | Path) -> Path:
+    """A config file: the path itself, else a shipped config by name (``quick`` ->
+    ``configs/quick.yaml`` of the repository)."""
+    p = Path(path)
+    if p.is_file():
+        return p
+    named = CONFIG_DIR / (p.name if p.suffix in (".yaml", ".yml") else f"{p.name}.yaml")
+    if p.parent == Path(".") and named.is_file():
+        return named
+    shipped = sorted(q.stem for q in CONFIG_DIR.glob("*.yaml"))
+    raise ConfigError(f"config file not found: {p} (shipped configs: {shipped})")
+
+
 def load_config(path: str | Path) -> TrainConfig:
     """Read and validate a training config (YAML). Errors name the file and the key."""
-    p = Path(path)
-    if not p.is_file():
-        raise ConfigError(f"config file not found: {p}")
+    p = resolve_config_path(path)
     try:
         data = yaml.safe_load(p.read_text())
     except yaml.YAMLError as e:

@@ -1,8 +1,11 @@
 """What the agent sees and sends, shared by training (a VecEnv wrapper) and deployment
 (:func:`agents.policy.load_policy`), so that both run exactly the same code.
 
-* ``baseline_in_obs``: the inverse-model baseline's action is appended to the env observation.
-* ``residual``: the action sent to the env is ``clip(baseline + residual_scale * a, -1, 1)``.
+* ``target_shift``: the policy's first actions shift the targets (length, stiffness) that the
+  inverse-model baseline is given; the baseline's valve commands for them go to the env.
+* ``residual``: the policy's (last) two actions are added: ``clip(baseline + residual_scale * a, -1, 1)``.
+* ``baseline_in_obs``: the baseline's action is appended to the env observation.
+* ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
 * ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
   starts with copies of its first one.
 
@@ -22,19 +25,50 @@ class Features:
         self.cfg = cfg
         self.raw_dim = int(raw_dim)
         self.baseline = None
-        if cfg.residual or cfg.baseline_in_obs:
+        self.n_shift = 0
+        if cfg.uses_baseline:
             from cepam_gym.control import InverseStaticController
+            from cepam_gym.tasks import kernel as tk
 
             self.baseline = InverseStaticController(env)
-        self.frame_dim = self.raw_dim + (2 if cfg.baseline_in_obs else 0)
+            track_k = self.baseline.task.track_stiffness
+            if cfg.target_shift:
+                self.n_shift = 2 if track_k else 1
+                # observation columns of the targets and the length scaling (see tasks.kernel)
+                self._col_l = 5
+                self._col_k = 6 if track_k else None
+                self._dl = cfg.target_shift_length_mm * 1e-3 / self.baseline.task_vec[tk.T_L_HALF]
+                tau = cfg.target_shift_filter_s
+                self._alpha = 1.0 - np.exp(-self.baseline.dt / tau) if tau > 0 else 1.0
+        # target shifts, then two valve commands (residual, or the valves themselves without a
+        # baseline in the loop)
+        self.n_actions = self.n_shift + (2 if (cfg.residual or not cfg.target_shift) else 0)
+        # with filtered shifts, the filter state is observed too (else the policy cannot know it)
+        self._shift_obs = self.n_shift if (cfg.target_shift and cfg.target_shift_filter_s > 0) else 0
+        self.frame_dim = self.raw_dim + (2 if cfg.baseline_in_obs else 0) + self._shift_obs + \
+            self.raw_dim * len(cfg.obs_filters_s)
+        if cfg.obs_filters_s:
+            from cepam_gym.control.baseline import _core_of
+
+            dt = _core_of(env).control_dt
+            self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
+        self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
+        self._ema_fresh: np.ndarray | None = None
         self.dim = self.frame_dim * cfg.history
         self._hist: np.ndarray | None = None  # (N, history, frame_dim)
         self._fresh: np.ndarray | None = None  # (N,) bool: next frame starts an episode
+        self._obs: np.ndarray | None = None  # the last raw observation (target_shift acts on it)
+        self._shift: np.ndarray | None = None  # filtered target shifts (N, n_shift); NaN: new episode
 
     @property
     def trivial(self) -> bool:
         """True when features are the raw observation and actions pass through unchanged."""
-        return self.baseline is None and self.cfg.history == 1
+        return self.baseline is None and self.cfg.history == 1 and not self.cfg.obs_filters_s
+
+    @property
+    def acts_late(self) -> bool:
+        """The baseline acts in :meth:`action` (after the policy), not in :meth:`__call__`."""
+        return self.cfg.target_shift
 
     def reset(self, indices=None) -> None:
         """Forget the state of all envs, or of ``indices`` (their episodes ended)."""
@@ -47,6 +81,14 @@ class Features:
             self._hist = self._fresh = None
         else:
             self._fresh[np.asarray(indices)] = True
+        if indices is None or self._ema is None:
+            self._ema = self._ema_fresh = None
+        else:
+            self._ema_fresh[np.asarray(indices)] = True
+        if indices is None or self._shift is None:
+            self._shift = None
+        else:
+            self._shift[np.asarray(indices)] = np.nan
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Features (N, dim) float32 and the baseline's action (N, 2) (None without a baseline)
@@ -54,8 +96,23 @@ class Features:
         obs = np.asarray(obs, dtype=np.float32)
         if obs.ndim != 2 or obs.shape[1] != self.raw_dim:
             raise ValueError(f"observation must have shape (N, {self.raw_dim}), got {obs.shape}")
-        base = self.baseline.act(obs) if self.baseline is not None else None
+        self._obs = obs
+        base = self.baseline.act(obs) if (self.baseline is not None and not self.acts_late) else None
         frame = np.concatenate([obs, base], axis=1) if self.cfg.baseline_in_obs else obs
+        if self._shift_obs:
+            state = np.zeros((obs.shape[0], self.n_shift)) if self._shift is None or \
+                self._shift.shape[0] != obs.shape[0] else np.nan_to_num(self._shift)
+            frame = np.concatenate([frame, state.astype(np.float32)], axis=1)
+        if self.cfg.obs_filters_s:
+            n = obs.shape[0]
+            if self._ema is None or self._ema.shape[1] != n:
+                self._ema = np.repeat(obs[None].astype(np.float64), len(self._ema_alpha), axis=0)
+                self._ema_fresh = np.zeros(n, dtype=bool)
+            else:
+                self._ema[:, self._ema_fresh] = obs[self._ema_fresh]
+                self._ema_fresh[:] = False
+                self._ema += self._ema_alpha[:, None, None] * (obs[None] - self._ema)
+            frame = np.concatenate([frame, *self._ema.astype(np.float32)], axis=1)
         if self.cfg.history == 1:
             return frame.astype(np.float32), base
         n = obs.shape[0]
@@ -80,19 +137,39 @@ class Features:
         b = self.baseline
         copy = (lambda a: None if a is None else a.copy())
         return (copy(self._hist), copy(self._fresh),
-                None if b is None else (copy(b._weight), copy(b._integral)))
+                None if b is None else (copy(b._weight), copy(b._integral)), self._obs, copy(self._shift),
+                copy(self._ema), copy(self._ema_fresh))
 
     def _restore(self, saved) -> None:
-        self._hist, self._fresh, b = saved
+        self._hist, self._fresh, b, self._obs, self._shift, self._ema, self._ema_fresh = saved
         if b is not None:
             self.baseline._weight, self.baseline._integral = b
 
     def action(self, a: np.ndarray, base: np.ndarray | None) -> np.ndarray:
-        """The env action for the policy's action ``a`` (N, 2)."""
+        """The env action (N, 2) for the policy's action ``a`` (N, n_actions) on the observation
+        last passed to :meth:`__call__`."""
         a = np.asarray(a, dtype=np.float32)
+        if a.ndim != 2 or a.shape[1] != self.n_actions:
+            raise ValueError(f"policy action must have shape (N, {self.n_actions}), got {a.shape}")
+        a = np.clip(a, -1.0, 1.0)
+        if self.cfg.target_shift:
+            shift = a[:, :self.n_shift].astype(np.float64)
+            if self._alpha < 1.0:
+                if self._shift is None or self._shift.shape != shift.shape:
+                    self._shift = shift.copy()
+                fresh = np.isnan(self._shift[:, 0])
+                self._shift = np.where(fresh[:, None], shift, self._shift + self._alpha * (shift - self._shift))
+                shift = self._shift
+            o = np.array(self._obs, dtype=np.float64)
+            o[:, self._col_l] += self._dl * shift[:, 0]
+            if self._col_k is not None:
+                o[:, self._col_k] *= np.exp(self.cfg.target_shift_stiffness * shift[:, 1])
+            base = self.baseline.act(o)
         if self.cfg.residual:
-            return np.clip(base + self.cfg.residual_scale * a, -1.0, 1.0).astype(np.float32)
-        return np.clip(a, -1.0, 1.0)
+            return np.clip(base + self.cfg.residual_scale * a[:, self.n_shift:], -1.0, 1.0).astype(np.float32)
+        if self.cfg.target_shift:
+            return base.astype(np.float32)
+        return a
 
 
 def make_agent_vec_env(venv, cfg: AgentConfig):
@@ -104,7 +181,8 @@ def make_agent_vec_env(venv, cfg: AgentConfig):
     class AgentVecEnv(VecEnvWrapper):
         def __init__(self, venv, features: Features):
             space = spaces.Box(-10.0, 10.0, (features.dim,), np.float32)
-            super().__init__(venv, observation_space=space)
+            act = spaces.Box(-1.0, 1.0, (features.n_actions,), np.float32)
+            super().__init__(venv, observation_space=space, action_space=act)
             self.features = features
             self._base = None
 
@@ -115,7 +193,7 @@ def make_agent_vec_env(venv, cfg: AgentConfig):
             return f
 
         def step_async(self, actions) -> None:
-            a = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, 2)
+            a = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, self.features.n_actions)
             self.venv.step_async(self.features.action(a, self._base))
 
         def step_wait(self):

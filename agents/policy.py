@@ -33,6 +33,9 @@ class AgentPolicy:
         if want != (features.dim,):
             raise ValueError(f"the model expects observations of shape {want}, the features give "
                              f"({features.dim},): wrong env for this agent?")
+        if model.action_space.shape != (features.n_actions,):
+            raise ValueError(f"the model sends actions of shape {model.action_space.shape}, the agent config "
+                             f"expects ({features.n_actions},): wrong env for this agent?")
 
     def reset(self, indices=None) -> None:
         self.features.reset(indices)
@@ -47,7 +50,7 @@ class AgentPolicy:
         if self.normalizer is not None:
             f = self.normalizer.normalize_obs(f)
         a, _ = self.model.predict(f, deterministic=True)
-        out = self.features.action(np.asarray(a, dtype=np.float32).reshape(-1, 2), base)
+        out = self.features.action(np.asarray(a, dtype=np.float32).reshape(len(o), -1), base)
         return out[0] if single else out
 
 
@@ -128,34 +131,9 @@ def _core(env):
 # --------------------------------------------------------------------------- evaluation
 def evaluate(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int) -> dict:
     """Score the policy ``make_policy(venv)`` builds for the eval env (an object with
-    ``reset``/``act``) on ``episodes`` seeded episodes with the benchmark's metrics (the same loop
-    as :func:`cepam_gym.bench.run_suite`, which takes only controller names)."""
-    import gymnasium as gym
-
-    from cepam_gym.bench.harness import TRACE_KEYS
+    ``reset``/``act``) on ``episodes`` seeded episodes with the benchmark's rollout and metrics."""
+    from cepam_gym.bench.harness import record
     from cepam_gym.bench.metrics import score_traces
 
-    venv = gym.make_vec(env_id, num_envs=episodes, **env_kwargs)
-    core = venv.unwrapped.core
-    steps = core.n_steps
-    policy = make_policy(venv)
-    obs, info = venv.reset(seed=seed)
-    policy.reset()
-    tr = {k: np.zeros((steps, episodes)) for k in TRACE_KEYS}
-    tr["reward"] = np.zeros((steps, episodes))
-    tr["alive"] = np.ones((steps, episodes), dtype=bool)
-    alive = np.ones(episodes, dtype=bool)
-    for t in range(steps):
-        obs, reward, term, trunc, info = venv.step(policy.act(obs, info))
-        src = info.get("final_info", info) if (term | trunc).any() else info
-        for k in TRACE_KEYS:
-            tr[k][t] = src[k]
-        tr["reward"][t] = reward
-        tr["alive"][t] = alive
-        alive &= ~term
-        if (term | trunc).any():
-            policy.reset(np.flatnonzero(term | trunc))
-    tr["failed"] = ~alive
-    tr["dt"] = core.control_dt
-    venv.close()
-    return score_traces(tr, core.task.track_stiffness)
+    tr, track_k = record(make_policy, env_id, env_kwargs, episodes, seed)
+    return score_traces(tr, track_k)

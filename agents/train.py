@@ -165,6 +165,10 @@ def _make_callback_class():
                 self.t.save_checkpoint(n)
                 self.next_ckpt += self.t.cfg.checkpoint.every_steps * max(1, (n - self.next_ckpt) // self.t.cfg.checkpoint.every_steps + 1)
             self.t.progress_to(n)
+            limit = self.t.cfg.time_limit_minutes
+            if limit is not None and self.t.wall() >= 60.0 * limit:
+                self.t.stopped_by_time = True
+                return False
             return True
 
         def _accumulate(self, infos) -> None:
@@ -205,6 +209,7 @@ class Trainer:
         self.last_score: float | None = None
         self.evaluations: list[dict] = []
         self.bar = None
+        self.stopped_by_time = False
         self.wall_before = 0.0
         self.t0 = time.perf_counter()
 
@@ -388,10 +393,13 @@ class Trainer:
         if self.vecnorm is not None:
             self.vecnorm.save(str(self.run / "vecnormalize.pkl"))
         self.save_checkpoint(n)
-        summary = {"steps": n, "wall_s": round(self.wall(), 2), "best_score": self.best_score,
+        summary = {"steps": n, "wall_s": round(self.wall(), 2), "stopped_by_time_limit": self.stopped_by_time,
+                   "best_score": self.best_score,
                    "final_score": self.last_score, "best": json.loads((self.run / "best.json").read_text())}
         _write_json(self.run / "summary.json", summary)
         self._write_run_json("finished", end_step=n, wall_s=round(self.wall(), 2), ended=_now())
+        if self.stopped_by_time:
+            self._say(f"time limit of {cfg.time_limit_minutes} min reached at step {n} (of {cfg.total_timesteps})")
         self._say(f"done: {n} steps in {self.wall():.0f} s; final eval score {self.last_score:.3f}, best "
                   f"{self.best_score:.3f} (step {summary['best']['step']}); models in {self.run}")
         return 0

@@ -82,3 +82,13 @@ def test_baseline_accepts_single_and_batched_obs():
     ctl_v = InverseStaticController(venv)
     obs, info = venv.reset(seed=1)
     assert ctl_v.act(obs, info).shape == (3, 2)
+
+
+def test_reset_of_some_envs_before_any_action_is_harmless():
+    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=3)
+    ctl = InverseStaticController(venv)
+    ctl.reset(np.array([1]))  # an autoreset can come before the first act()
+    obs, info = venv.reset(seed=0)
+    assert ctl.act(obs, info).shape == (3, 2)
+    ctl.reset(np.array([0, 2]))  # and after it: those envs restart their load filter
+    assert np.isnan(ctl._weight[[0, 2]]).all() and not np.isnan(ctl._weight[1])

@@ -7,20 +7,48 @@ import sys
 
 
 def _run(argv: list[str]) -> int:
-    """The main job. Today: the plant step response, the reproduction table, and a rollout of
-    each registered env with random actions, written into ``runs/main``."""
+    """The main job on the default config: the plant's step response, the paper reproduction
+    table, then train an agent on ``configs/quick.yaml`` (a few minutes on 2 cores) and score it
+    beside the inverse-model baseline on the ``nominal`` and ``randomized`` suites. Everything
+    lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
+    ``agent/`` (model, logs, config) and ``agent/eval/`` (table.txt, results.json, plots)."""
     from pathlib import Path
 
     from . import demo, validation
 
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
     ap.add_argument("--out-dir", default="runs/main")
+    ap.add_argument("--config", default="configs/quick.yaml", help="training config (YAML)")
+    ap.add_argument("--episodes", type=int, default=20, help="benchmark episodes per suite")
+    ap.add_argument("--no-train", action="store_true", help="skip training: plant, reproduction, baseline only")
     args = ap.parse_args(argv)
     out = Path(args.out_dir)
-    png = demo.step_response(out_dir=out)
-    print(f"step response plot: {png}")
-    validation.main([])
-    return _rollout(["--out-dir", str(out)])
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"[1/3] plant step response: {demo.step_response(out_dir=out)}", flush=True)
+    print("[2/3] the paper's reported numbers beside the model's", flush=True)
+    validation.main(["--out-dir", str(out / "validate")])
+    if args.no_train:
+        from .bench import cli as bench_cli
+
+        return bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
+                               "--episodes", str(args.episodes), "--out-dir", str(out / "bench")])
+    if not Path(args.config).exists():
+        print(f"cepam-gym run: training config {args.config} not found (run from the repository "
+              "root, or pass --config)", file=sys.stderr)
+        return 2
+    try:
+        from agents import evaluate, train
+    except ImportError as e:
+        print(f"cepam-gym run: training needs the [train] extra ({e}); `make run` installs it",
+              file=sys.stderr)
+        return 2
+    print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
+    run_dir = out / "agent"
+    code = train.main(["--config", args.config, "--out", str(run_dir)])
+    if code:
+        return code
+    return evaluate.main(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
+                          "--episodes", str(args.episodes)])
 
 
 def _rollout(argv: list[str]) -> int:
@@ -65,16 +93,19 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"run": _run, "rollout": _rollout}
     lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation", "bench": "cepam_gym.bench.cli",
-            "train": "agents.train", "eval": "agents.evaluate"}
+            "train": "agents.train", "eval": "agents.evaluate", "video": "cepam_gym.mujoco.video",
+            "calibrate": "cepam_gym.calibration"}
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: cepam-gym {run,bench,train,eval,demo,validate,rollout} [options]\n"
+        print("usage: cepam-gym {run,bench,train,eval,demo,validate,calibrate,rollout,video} [options]\n"
               "  bench     score controllers on the benchmark suites\n"
               "  train     train an agent from a YAML config (configs/quick.yaml)\n"
               "  eval      score a trained agent beside the baseline (--run DIR)\n"
               "  run       the main job on the default config\n"
               "  demo      plant step response plot\n"
               "  validate  the paper's reported numbers beside the model's\n"
-              "  rollout   random-action episodes of every registered id")
+              "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
+              "  rollout   random-action episodes of every registered id\n"
+              "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)")
         return 0
     cmd, rest = argv[0], argv[1:]
     if cmd in commands:

@@ -57,26 +57,26 @@ def make_controller(spec: str, env):
     return load_policy(spec, env)
 
 
-def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = None,
-              max_steps: int | None = None) -> tuple[dict, dict]:
-    """Run ``episodes`` seeded episodes in one batched env; return ``(metrics, traces)``."""
+def record(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int,
+           max_steps: int | None = None) -> tuple[dict, bool]:
+    """Run the policy ``make_policy(venv)`` builds (an object with ``reset``/``act``) on
+    ``episodes`` seeded episodes in one batched env; return ``(traces, tracks_stiffness)`` with
+    the traces :func:`~cepam_gym.bench.metrics.score_traces` scores. The one rollout loop of the
+    harness and of the agents' periodic evaluation."""
     import gymnasium as gym
 
-    suite = SUITES[suite] if isinstance(suite, str) else suite
-    n = episodes or suite.episodes
-    venv = gym.make_vec(suite.env_id, num_envs=n, **suite.env_kwargs)
+    venv = gym.make_vec(env_id, num_envs=episodes, **env_kwargs)
     core = venv.unwrapped.core
     steps = max_steps or core.n_steps
-    ctl = make_controller(controller_spec, venv)
-    obs, info = venv.reset(seed=suite.seed)
-    ctl.reset()
-    tr = {k: np.zeros((steps, n)) for k in TRACE_KEYS}
-    tr["reward"] = np.zeros((steps, n))
-    tr["alive"] = np.ones((steps, n), dtype=bool)
-    alive = np.ones(n, dtype=bool)
+    policy = make_policy(venv)
+    obs, info = venv.reset(seed=seed)
+    policy.reset()
+    tr = {k: np.zeros((steps, episodes)) for k in TRACE_KEYS}
+    tr["reward"] = np.zeros((steps, episodes))
+    tr["alive"] = np.ones((steps, episodes), dtype=bool)
+    alive = np.ones(episodes, dtype=bool)
     for t in range(steps):
-        action = ctl.act(obs, info)
-        obs, reward, term, trunc, info = venv.step(action)
+        obs, reward, term, trunc, info = venv.step(policy.act(obs, info))
         src = info.get("final_info", info) if (term | trunc).any() else info
         for k in TRACE_KEYS:
             tr[k][t] = src[k]
@@ -84,9 +84,18 @@ def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = N
         tr["alive"][t] = alive
         alive &= ~term
         if (term | trunc).any():
-            ctl.reset(np.flatnonzero(term | trunc))
+            policy.reset(np.flatnonzero(term | trunc))
     tr["failed"] = ~alive
     tr["dt"] = core.control_dt
     venv.close()
-    metrics = {"suite": suite.name, "controller": controller_spec, **score_traces(tr, core.task.track_stiffness)}
+    return tr, core.task.track_stiffness
+
+
+def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = None,
+              max_steps: int | None = None) -> tuple[dict, dict]:
+    """Run ``episodes`` seeded episodes of a suite; return ``(metrics, traces)``."""
+    suite = SUITES[suite] if isinstance(suite, str) else suite
+    tr, track_k = record(lambda venv: make_controller(controller_spec, venv), suite.env_id,
+                         suite.env_kwargs, episodes or suite.episodes, suite.seed, max_steps)
+    metrics = {"suite": suite.name, "controller": controller_spec, **score_traces(tr, track_k)}
     return metrics, tr

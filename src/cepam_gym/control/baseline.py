@@ -57,7 +57,7 @@ class InverseStaticController:
 
     def reset(self, indices=None) -> None:
         """Forget the filter and integrator states (all envs, or ``indices``)."""
-        if indices is None or not hasattr(self, "_weight"):
+        if indices is None or getattr(self, "_weight", None) is None:
             self._weight = None
             self._integral = None
         else:
