@@ -56,7 +56,6 @@ def _rollout(argv: list[str]) -> int:
     from pathlib import Path
 
     import gymnasium as gym
-    import numpy as np
 
     from . import ENV_IDS
 

@@ -283,7 +283,7 @@ class PlantParams:
 
 def fill_derived(p: np.ndarray) -> np.ndarray:
     """Fill the derived columns of parameter row(s) ``p`` (layout.INV_BC ... K_AMB) in place."""
-    from .physics.layout import RHO0, T0  # noqa: F401  (documents where T0 comes from)
+    from .physics.layout import T0
 
     q = p.T
     ta = q[ix.TA]

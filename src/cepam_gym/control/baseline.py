@@ -113,23 +113,31 @@ class InverseStaticController:
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
         obs = np.atleast_2d(np.asarray(obs, dtype=float))
-        n = obs.shape[0]
         L, pc, pe, L_t, K_t = self._decode(obs)
         p = self.params
         w_now = -api.force(L, pc, pe, p)  # Eq. 25 balance: weight = -F
         w_min = p[ix.M_END] * p[ix.GRAV]
+        weight = np.maximum(self._filtered(w_now), w_min)
+        pc_set, pe_set = self.setpoints(L_t, K_t, weight)
+        return self._drive(pc_set, pe_set, L, pc, pe, self.task_vec[tk.T_SETPOINT_MAX], single)
+
+    def _filtered(self, load_now: np.ndarray) -> np.ndarray:
+        """Low-pass filter of the load estimate (the hanging weight here; subclasses may filter
+        another load, e.g. a joint torque); an env that just started takes the estimate as is."""
+        n = load_now.shape[0]
         if self._weight is None or self._weight.shape[0] != n:
             self._weight = np.full(n, np.nan)
             self._integral = np.zeros((n, 2))
         fresh = np.isnan(self._weight)
-        self._weight = np.where(fresh, w_now, self._weight + self.alpha * (w_now - self._weight))
-        weight = np.maximum(self._weight, w_min)
-        pc_set, pe_set = self.setpoints(L_t, K_t, weight)
+        self._weight = np.where(fresh, load_now, self._weight + self.alpha * (load_now - self._weight))
+        return self._weight
+
+    def _drive(self, pc_set, pe_set, L, pc, pe, setpoint_max: float, single: bool) -> np.ndarray:
+        """Actions that bring the chambers to the set-points, by action mode (step 4 above)."""
         if self.mode == "pressure":
-            cap = self.task_vec[tk.T_SETPOINT_MAX]
-            action = np.stack([2 * pc_set / cap - 1, 2 * pe_set / cap - 1], axis=1)
+            action = np.stack([2 * pc_set / setpoint_max - 1, 2 * pe_set / setpoint_max - 1], axis=1)
         else:
-            vc, ve, _, _ = api.chamber_volumes(L, p)
+            vc, ve, _, _ = api.chamber_volumes(L, self.params)
             uc, self._integral[:, 0] = self._valve_command(pc_set, pc, vc, self._integral[:, 0])
             ue, self._integral[:, 1] = self._valve_command(pe_set, pe, ve, self._integral[:, 1])
             action = np.stack([uc, ue], axis=1)

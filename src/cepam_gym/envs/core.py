@@ -41,6 +41,26 @@ def resolve_params(plant: PlantParams | str | Mapping[str, Any] | None) -> Plant
     raise TypeError(f"plant must be a PlantParams, preset name, YAML path or dict, got {type(plant).__name__}")
 
 
+def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tuple[int, int]:
+    """``(sub-steps per control step, control steps per episode)``; ``ValueError`` when the
+    sub-step does not divide the control period or a duration is not positive."""
+    if not (control_dt > 0 and sub_dt > 0):
+        raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
+    n_sub = round(control_dt / sub_dt)
+    if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
+        raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
+    if not episode_seconds > 0:
+        raise ValueError(f"episode_seconds must be > 0, got {episode_seconds}")
+    return int(n_sub), max(1, round(episode_seconds / control_dt))
+
+
+def check_action_mode(action_mode: str) -> int:
+    """The plant's valve mode of an env ``action_mode`` (``ValueError`` naming the valid ones)."""
+    if action_mode not in pl.MODES:
+        raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+    return pl.MODES[action_mode]
+
+
 def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
     out = {}
     keys = PlantParams.edge_keys()
@@ -100,19 +120,10 @@ class CEPAMBatch:
                 raise ValueError(f"reward_weights: unknown terms {sorted(bad)}; valid: {sorted(names)}")
             task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **reward_weights))
         self.task = task
-        if action_mode not in pl.MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
-        self.mode = pl.MODES[action_mode]
-        if not (control_dt > 0 and sub_dt > 0):
-            raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
-        n_sub = round(control_dt / sub_dt)
-        if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
-            raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
-        self.control_dt, self.sub_dt, self.n_sub = float(control_dt), float(sub_dt), int(n_sub)
-        if not episode_seconds > 0:
-            raise ValueError(f"episode_seconds must be > 0, got {episode_seconds}")
-        self.n_steps = max(1, round(episode_seconds / control_dt))
+        self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
+        self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
         self.randomize = _check_randomize(randomize)
         self.noise_sd = _check_noise(sensor_noise)

@@ -56,7 +56,7 @@ from gymnasium.utils import EzPickle
 
 from .. import plant as pl
 from ..control.baseline import InverseStaticController
-from ..envs.core import _check_randomize, resolve_params
+from ..envs.core import _check_randomize, check_action_mode, check_timing, resolve_params
 from ..params import PlantParams
 from ..physics import api
 from ..physics import layout as ix
@@ -401,19 +401,10 @@ class CEPAMJointEnv(gym.Env, EzPickle):
                           task_options=task_options, reward_weights=reward_weights,
                           randomize=randomize, render_mode=render_mode, width=width, height=height)
         self.mujoco = require_mujoco()
-        if action_mode not in pl.MODES:
-            raise ValueError(f"action_mode must be one of {tuple(pl.MODES)}, got {action_mode!r}")
+        self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
-        self.mode = pl.MODES[action_mode]
-        if not (control_dt > 0 and sub_dt > 0):
-            raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
-        n_sub = round(control_dt / sub_dt)
-        if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
-            raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
-        self.control_dt, self.sub_dt, self.n_sub = float(control_dt), float(sub_dt), int(n_sub)
-        if not episode_seconds > 0:
-            raise ValueError(f"episode_seconds must be > 0, got {episode_seconds}")
-        self.n_steps = max(1, round(episode_seconds / control_dt))
+        self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
+        self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
         self.randomize = _check_randomize(randomize)
         self.geometry = JointGeometry.from_kwargs(joint)
@@ -737,7 +728,6 @@ class JointInverseStaticController(InverseStaticController):
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
         obs = np.atleast_2d(np.asarray(obs, dtype=float))
-        n = obs.shape[0]
         p, g = self.params, self.geometry
         half = 0.5 * self.angle_max
         ps = self.nominal.supply_pressure
@@ -748,22 +738,10 @@ class JointInverseStaticController(InverseStaticController):
         L = g.length(th, p)
         r, grav = g.lever_arm, p[ix.GRAV]
         tau_now = -r * (api.force(L, pc, pe, p) + p[ix.M_END] * grav) - g.gravity_torque(th, grav)
-        if self._weight is None or self._weight.shape[0] != n:
-            self._weight = np.full(n, np.nan)  # here: the filtered external torque [N m]
-            self._integral = np.zeros((n, 2))
-        fresh = np.isnan(self._weight)
-        self._weight = np.where(fresh, tau_now, self._weight + self.alpha * (tau_now - self._weight))
-        weight = g.equivalent_weight(th_t, np.maximum(self._weight, 0.0), p)
+        # the filtered load is the external torque [N m] here
+        weight = g.equivalent_weight(th_t, np.maximum(self._filtered(tau_now), 0.0), p)
         pc_set, pe_set = self.setpoints(g.length(th_t, p), k_t, weight)
-        if self.mode == "pressure":
-            action = np.stack([2 * pc_set / self.setpoint_max - 1, 2 * pe_set / self.setpoint_max - 1], axis=1)
-        else:
-            vc, ve, _, _ = api.chamber_volumes(L, p)
-            uc, self._integral[:, 0] = self._valve_command(pc_set, pc, vc, self._integral[:, 0])
-            ue, self._integral[:, 1] = self._valve_command(pe_set, pe, ve, self._integral[:, 1])
-            action = np.stack([uc, ue], axis=1)
-        action = np.clip(action, -1.0, 1.0).astype(np.float32)
-        return action[0] if single else action
+        return self._drive(pc_set, pe_set, L, pc, pe, self.setpoint_max, single)
 
 
 def _joint_env_of(env) -> CEPAMJointEnv:
