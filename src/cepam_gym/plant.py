@@ -106,14 +106,14 @@ def volumes_at(L, p):
 
 
 @jit_inline
-def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, vol_c, vol_e, sc, se, src, sre, valves):
-    """First half of a sub-step at fixed length: chamber pressures, spool update, valve flows and
-    wall heat. Returns ``(pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)`` with gauge
+def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc, se, src, sre, valves):
+    """First half of a sub-step at fixed length (``inv_vol = 1 / chamber volume``): chamber
+    pressures, spool update, valve flows and wall heat. Returns ``(pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)`` with gauge
     pressures [Pa] and rates [kg/s, W]; the ``p dV`` work is left to :func:`substep_air`."""
     tau, cvalve, order, zeta, decay = valves
     patm = p[ix.P_ATM]
-    pca = (ix.GAMMA - 1.0) * uc / vol_c  # absolute
-    pea = (ix.GAMMA - 1.0) * ue / vol_e
+    pca = (ix.GAMMA - 1.0) * uc * inv_vol_c  # absolute
+    pea = (ix.GAMMA - 1.0) * ue * inv_vol_e
     tc = uc / (mc * ix.CV)
     te = ue / (me * ix.CV)
     pc = pca - patm  # gauge
@@ -173,15 +173,19 @@ def _advance(x, inp, p, mode, dt, n_sub, out, aux):
     dmc = 0.0
     dme = 0.0
     vol_c, vol_e, dvc, dvac, dvae = volumes_at(L, p)
+    inv_c = 1.0 / vol_c
+    inv_e = 1.0 / vol_e
     for _ in range(n_sub):
         pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
-            mode, inp, p, t, dt, mc, uc, me, ue, vol_c, vol_e, sc, se, src, sre, valves)
+            mode, inp, p, t, dt, mc, uc, me, ue, inv_c, inv_e, sc, se, src, sre, valves)
         pmax = max(pmax, pc, pe)
         force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
         L, v, stop = load_step_k(L, v, force + f_ext, dt_over_m, dv_fric, damp_factor, l_min, l_max, dt)
         vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)
-        mc, uc, me, ue = substep_air(mc, uc, me, ue, dmc, duc, dme, due, vol_c / vol_c_new,
-                                     vol_e / vol_e_new, dt)
+        inv_c = 1.0 / vol_c_new  # one division serves the work ratio and the next pressures
+        inv_e = 1.0 / vol_e_new
+        mc, uc, me, ue = substep_air(mc, uc, me, ue, dmc, duc, dme, due, vol_c * inv_c,
+                                     vol_e * inv_e, dt)
         vol_c = vol_c_new
         vol_e = vol_e_new
         air_used += dt * sup

@@ -60,7 +60,7 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     x[pl.S_V] = velocity
     vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
     pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_rates(
-        mode, inp, p, x[pl.S_T], dt, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE], vol_c, vol_e,
+        mode, inp, p, x[pl.S_T], dt, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE], 1.0 / vol_c, 1.0 / vol_e,
         x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE], pl.valve_setup(mode, p, dt))
     x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE] = sc, se, src, sre
     x[pl.S_T] += dt
