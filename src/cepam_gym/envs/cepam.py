@@ -164,7 +164,7 @@ _DOC = """
     | ``plant`` | ``None`` (balloon preset) | PlantParams, preset name, YAML path, or dict of unit-named keys |
     | ``action_mode`` | ``"valve"`` | see above |
     | ``control_dt``, ``sub_dt`` | 0.02, 5e-4 | seconds |
-    | ``episode_seconds`` | 10.0 | length of the target and load schedule |
+    | ``episode_seconds`` | 10.0 | length of the target and load schedule (beyond it the last targets hold); the episode itself is truncated by ``max_episode_steps`` (500 from the registration: pass both to change the episode length) |
     | ``reward_weights`` | ``{}`` | override any of the weights above |
     | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, sampled per episode |
     | ``sensor_noise`` | ``None`` | ``{"length_mm", "velocity_mm_s", "pressure_kpa"}`` standard deviations |
