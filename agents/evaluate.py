@@ -52,6 +52,7 @@ def comparison_markdown(cmp: list[dict], run: Path, which: str) -> str:
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
     from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.metrics import RIG
     from cepam_gym.bench.suites import SUITES
 
     ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
@@ -68,8 +69,8 @@ def main(argv: list[str] | None = None) -> int:
     if not (run / "config.yaml").is_file():
         ap.error(f"--run {run}: not a training run directory (no config.yaml)")
     suites = args.suite or ["nominal", "randomized"]
-    if "all" in suites:
-        suites = list(SUITES)
+    if "all" in suites:  # the rig suites: agents are trained on the rig's observations
+        suites = [s for s in SUITES if SUITES[s].traces is RIG]
     bad = [s for s in suites if s not in SUITES]
     if bad:
         ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")

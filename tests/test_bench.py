@@ -94,3 +94,28 @@ def test_unknown_controller_and_suite_are_rejected():
     bad = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--suite", "moon"],
                          capture_output=True, text=True)
     assert bad.returncode != 0 and "moon" in bad.stderr
+
+
+def test_joint_trace_spec_scores_the_angle_in_degrees():
+    from cepam_gym.bench.metrics import JOINT
+
+    tr = _traces(N=1)
+    tr["target_length"] = np.full_like(tr["target_length"], 0.8)  # rad
+    tr["length"] = tr["target_length"] + np.deg2rad(1.0)  # 1 deg off: inside the 2 deg band
+    tr["target_stiffness"] = tr["stiffness"] = np.full_like(tr["stiffness"], 0.4)  # N m/rad
+    m = score_traces(tr, True, JOINT)
+    assert "length_rmse_mm" not in m
+    assert m["angle_rmse_deg"] == pytest.approx(1.0)
+    assert m["score"] == pytest.approx(1.0 / JOINT.score_norm)
+    assert m["settling_time_s"] == 0
+
+
+def test_joint_suite_needs_mujoco_only_when_used():
+    r = subprocess.run([sys.executable, "-c",
+                        "import sys; sys.modules['mujoco'] = None  # as if not installed\n"
+                        "from cepam_gym.bench import harness, cli, report\n"
+                        "from cepam_gym.bench.suites import SUITES, available\n"
+                        "assert 'joint' in SUITES and not available('joint') and available('nominal')\n"
+                        "assert 'cepam_gym.mujoco.joint' not in sys.modules\n"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr

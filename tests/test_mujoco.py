@@ -275,3 +275,33 @@ def test_video_command_writes_an_episode(mujoco, tmp_path):
     out = tmp_path / "rig.mp4"  # MP4 with ffmpeg, else a GIF beside it
     assert main(["video", "--controller", "baseline", "--seconds", "0.2", "--out", str(out)]) == 0
     assert out.exists() or out.with_suffix(".gif").exists()
+
+
+# ------------------------------------------------------------------------- benchmark harness
+def test_joint_bench_suite_baseline_beats_zero(mujoco):
+    from cepam_gym.bench import run_suite
+
+    m = {c: run_suite(c, "joint", episodes=4)[0] for c in ("baseline", "zero")}
+    for r in m.values():
+        assert r["suite"] == "joint" and r["episodes"] == 4 and "length_rmse_mm" not in r
+        assert np.isfinite(r["angle_rmse_deg"]) and np.isfinite(r["stiffness_rmse_pct"])
+    assert m["baseline"]["failure_rate"] == 0
+    assert m["baseline"]["angle_rmse_deg"] < 10.0
+    assert m["baseline"]["angle_rmse_deg"] < 0.5 * m["zero"]["angle_rmse_deg"]
+    assert m["baseline"]["score"] < 0.5 * m["zero"]["score"]
+
+
+def test_joint_bench_cli_json_and_table(mujoco, tmp_path):
+    import json
+
+    from cepam_gym.bench.cli import main
+
+    out = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "baseline",
+                          "--suite", "joint", "--episodes", "2", "--json"],
+                         capture_output=True, text=True, timeout=300, check=True)
+    (row,) = [json.loads(line) for line in out.stdout.splitlines()]
+    assert row["suite"] == "joint" and np.isfinite(row["angle_rmse_deg"]) and np.isfinite(row["score"])
+    assert main(["--controller", "zero", "--suite", "joint", "--episodes", "1",
+                 "--out-dir", str(tmp_path)]) == 0
+    assert "ang RMS deg" in (tmp_path / "table.txt").read_text()
+    assert (tmp_path / "traces_joint_zero.png").stat().st_size > 0

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 import cepam_gym  # noqa: F401  (registers the ids)
 
-from .metrics import score_traces
+from .metrics import RIG, TraceSpec, score_traces
 from .suites import SUITES, Suite
 
-TRACE_KEYS = ("length", "target_length", "stiffness", "target_stiffness", "pressure_c",
-              "pressure_e", "load_mass", "air_used")
+TRACE_KEYS = tuple(RIG.info_keys)  # the trace columns (a suite's TraceSpec maps them to info keys)
 
 
 class ZeroController:
@@ -40,7 +41,13 @@ class RandomController:
 
 
 def make_controller(spec: str, env):
-    """``baseline``, ``zero``, ``random``, or a run directory / model file of a trained agent."""
+    """``baseline``, ``zero``, ``random``, or a run directory / model file of a trained agent.
+    On a joint env (``cepam_gym/CEPAMJoint-v0``) the joint's controllers
+    (:func:`cepam_gym.mujoco.joint.make_joint_controller`)."""
+    if _is_joint_env(env):
+        from ..mujoco.joint import make_joint_controller
+
+        return make_joint_controller(spec, env)
     if spec == "baseline":
         from ..control import InverseStaticController
 
@@ -57,17 +64,40 @@ def make_controller(spec: str, env):
     return load_policy(spec, env)
 
 
+def _is_joint_env(env) -> bool:
+    # a joint env exists only once its module is imported: never import mujoco just to check
+    joint = sys.modules.get("cepam_gym.mujoco.joint")
+    if joint is None:
+        return False
+    try:
+        joint._joint_env_of(env)
+    except TypeError:
+        return False
+    return True
+
+
+def _env_facts(venv) -> tuple[int, float, bool]:
+    """``(n_steps, control_dt, tracks_stiffness)`` of a native batched rig env (its ``core``) or
+    of a gymnasium vector env of single envs (``get_attr``: ``n_steps``, ``control_dt``, ``task``)."""
+    core = getattr(venv.unwrapped, "core", None)
+    if core is not None:
+        return core.n_steps, core.control_dt, core.task.track_stiffness
+    n_steps, dt, task = (venv.get_attr(k)[0] for k in ("n_steps", "control_dt", "task"))
+    return int(n_steps), float(dt), bool(getattr(task, "track_stiffness", True))
+
+
 def record(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int,
-           max_steps: int | None = None) -> tuple[dict, bool]:
+           max_steps: int | None = None, spec: TraceSpec = RIG) -> tuple[dict, bool]:
     """Run the policy ``make_policy(venv)`` builds (an object with ``reset``/``act``) on
     ``episodes`` seeded episodes in one batched env; return ``(traces, tracks_stiffness)`` with
-    the traces :func:`~cepam_gym.bench.metrics.score_traces` scores. The one rollout loop of the
-    harness and of the agents' periodic evaluation."""
+    the traces :func:`~cepam_gym.bench.metrics.score_traces` scores; ``spec.info_keys`` says which
+    ``info`` key fills each trace column. The one rollout loop of the harness and of the agents'
+    periodic evaluation."""
     import gymnasium as gym
 
     venv = gym.make_vec(env_id, num_envs=episodes, **env_kwargs)
-    core = venv.unwrapped.core
-    steps = max_steps or core.n_steps
+    n_steps, control_dt, track_k = _env_facts(venv)
+    steps = max_steps or n_steps
     policy = make_policy(venv)
     obs, info = venv.reset(seed=seed)
     policy.reset()
@@ -79,16 +109,16 @@ def record(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int,
         obs, reward, term, trunc, info = venv.step(policy.act(obs, info))
         src = info.get("final_info", info) if (term | trunc).any() else info
         for k in TRACE_KEYS:
-            tr[k][t] = src[k]
+            tr[k][t] = src[spec.info_keys[k]]
         tr["reward"][t] = reward
         tr["alive"][t] = alive
         alive &= ~term
         if (term | trunc).any():
             policy.reset(np.flatnonzero(term | trunc))
     tr["failed"] = ~alive
-    tr["dt"] = core.control_dt
+    tr["dt"] = control_dt
     venv.close()
-    return tr, core.task.track_stiffness
+    return tr, track_k
 
 
 def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = None,
@@ -96,6 +126,8 @@ def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = N
     """Run ``episodes`` seeded episodes of a suite; return ``(metrics, traces)``."""
     suite = SUITES[suite] if isinstance(suite, str) else suite
     tr, track_k = record(lambda venv: make_controller(controller_spec, venv), suite.env_id,
-                         suite.env_kwargs, episodes or suite.episodes, suite.seed, max_steps)
-    metrics = {"suite": suite.name, "controller": controller_spec, **score_traces(tr, track_k)}
+                         suite.env_kwargs, episodes or suite.episodes, suite.seed, max_steps,
+                         suite.traces)
+    metrics = {"suite": suite.name, "controller": controller_spec,
+               **score_traces(tr, track_k, suite.traces)}
     return metrics, tr

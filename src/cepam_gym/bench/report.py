@@ -6,17 +6,21 @@ from pathlib import Path
 
 import numpy as np
 
-COLUMNS = (("length_rmse_mm", "len RMSE mm"), ("stiffness_rmse_pct", "K RMSE %"),
+COLUMNS = (("length_rmse_mm", "len RMSE mm"), ("angle_rmse_deg", "ang RMS deg"),
+           ("stiffness_rmse_pct", "K RMSE %"),
            ("settling_time_s", "settle s"), ("overshoot_pct", "overshoot %"),
            ("cvar10_return", "CVaR10 ret"), ("failure_rate", "fail"),
            ("air_g_per_episode", "air g/ep"), ("score", "score"))
 
 
 def table(rows: list[dict]) -> str:
-    head = f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in COLUMNS)
+    # the tracking-error columns only when some row has them (rig suites: mm, joint suite: deg)
+    cols = [(k, t) for k, t in COLUMNS
+            if k not in ("length_rmse_mm", "angle_rmse_deg") or any(k in r for r in rows)]
+    head = f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in cols)
     lines = [head, "-" * len(head)]
     for r in rows:
-        cells = "".join(f"{'-':>12s}" if r.get(k) is None else f"{r[k]:12.3f}" for k, _ in COLUMNS)
+        cells = "".join(f"{'-':>12s}" if r.get(k) is None else f"{r[k]:12.3f}" for k, _ in cols)
         lines.append(f"{r['suite']:27s} {str(r['controller'])[:14]:14s}{cells}")
     return "\n".join(lines)
 
@@ -30,21 +34,27 @@ def _plt():
     return plt
 
 
-def plot_traces(tr: dict, title: str, path: Path, episode: int = 0) -> Path:
+def plot_traces(tr: dict, title: str, path: Path, episode: int = 0, spec=None) -> Path:
+    """Episode ``episode`` of the traces; ``spec`` (a :class:`~cepam_gym.bench.metrics.TraceSpec`,
+    default the rig's) names the columns and their units."""
+    from .metrics import RIG
+
+    spec = spec or RIG
     plt = _plt()
     t = np.arange(tr["length"].shape[0]) * tr["dt"]
     fig, ax = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
-    ax[0].plot(t, 100 * tr["length"][:, episode], label="length")
-    ax[0].plot(t, 100 * tr["target_length"][:, episode], "--", label="target")
-    ax[0].set_ylabel("length [cm]")
-    ax[1].plot(t, tr["stiffness"][:, episode], label="stiffness")
-    ax[1].plot(t, tr["target_stiffness"][:, episode], "--", label="target")
-    ax[1].set_ylabel("stiffness [N/m]")
+    (qn, qu, qs), (kn, ku, ks), (ln, lu, ls) = spec.plot_quantity, spec.plot_stiffness, spec.plot_load
+    ax[0].plot(t, qs * tr["length"][:, episode], label=qn)
+    ax[0].plot(t, qs * tr["target_length"][:, episode], "--", label="target")
+    ax[0].set_ylabel(f"{qn} [{qu}]")
+    ax[1].plot(t, ks * tr["stiffness"][:, episode], label=kn)
+    ax[1].plot(t, ks * tr["target_stiffness"][:, episode], "--", label="target")
+    ax[1].set_ylabel(f"{kn} [{ku}]")
     ax[2].plot(t, tr["pressure_c"][:, episode] / 1e3, label="Pc (CPAM)")
     ax[2].plot(t, tr["pressure_e"][:, episode] / 1e3, label="Pe (annulus)")
     ax[2].set_ylabel("gauge [kPa]")
-    ax[3].plot(t, 1000 * tr["load_mass"][:, episode])
-    ax[3].set_ylabel("load [g]")
+    ax[3].plot(t, ls * tr["load_mass"][:, episode])
+    ax[3].set_ylabel(f"{ln} [{lu}]")
     ax[3].set_xlabel("time [s]")
     for a in ax[:3]:
         a.legend(loc="upper right", fontsize=8)

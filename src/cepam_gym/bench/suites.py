@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from .metrics import JOINT, RIG, TraceSpec
+
 # Plausible spread of a hand-made CE-PAM and its rig around the nominal (balloon) parameters,
 # in the keys' own units. The baseline keeps using the nominal values.
 RANDOMIZE: dict[str, list[float]] = {
@@ -30,6 +32,8 @@ class Suite:
     seed: int = 0
     episodes: int = 20
     doc: str = ""
+    traces: TraceSpec = RIG  # what the trace columns hold and how they are scored
+    extra: str = ""  # the pip extra the env needs ("mujoco"); left out of 'all' without it
 
 
 SUITES: dict[str, Suite] = {s.name: s for s in (
@@ -45,4 +49,14 @@ SUITES: dict[str, Suite] = {s.name: s for s in (
           {"task_options": {"load_range": [0.0, 0.45], "load_kinds": ["step", "random"],
                             "pressure_margin": 0.95, "segment_duration": [1.0, 2.0]}}, seed=4000,
           doc="large load steps, near-limit targets, fast target changes"),
+    Suite("joint", "cepam_gym/CEPAMJoint-v0", {}, seed=5000, traces=JOINT, extra="mujoco",
+          doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques"),
 )}
+
+
+def available(name: str) -> bool:
+    """Whether the suite's extra (if any) is installed, without importing it."""
+    import importlib.util
+
+    extra = SUITES[name].extra
+    return not extra or importlib.util.find_spec(extra) is not None

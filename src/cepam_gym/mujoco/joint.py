@@ -752,6 +752,8 @@ def _joint_env_of(env) -> CEPAMJointEnv:
         nxt = getattr(e, "unwrapped", None)
         if nxt is e or nxt is None:
             nxt = getattr(e, "env", None)
+        if nxt is None and getattr(e, "envs", None):  # a SyncVectorEnv: same nominal plant in each
+            nxt = e.envs[0]
         if nxt is None:
             break
         e = nxt
