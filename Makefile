@@ -12,7 +12,7 @@ $(VENV)/.installed: pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q $(TORCH)
-	$(PY) -m pip install -q -e ".[train,test,mujoco]"
+	$(PY) -m pip install -q -e ".[train,test,mujoco,zoo]"
 	touch $@
 
 run: install  ## the main job on the default config

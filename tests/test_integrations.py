@@ -1,0 +1,93 @@
+"""Integrations (issue 8): Gymnasium id strings and RL Zoo3 with the shipped hyperparams/."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import cepam_gym  # noqa: F401  (registers the ids)
+from cepam_gym.registration import ENV_IDS
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_ids_resolve_after_import(env_id):
+    assert env_id in gym.registry
+    env = gym.make(env_id)
+    try:
+        obs, _ = env.reset(seed=0)
+        assert env.observation_space.contains(obs)
+        obs, *_ = env.step(env.action_space.sample())
+        assert np.all(np.isfinite(obs))
+    finally:
+        env.close()
+
+
+def test_module_prefixed_id_make():
+    env = gym.make("cepam_gym:cepam_gym/CEPAM-v0")
+    try:
+        assert env.spec.id == "cepam_gym/CEPAM-v0"
+        env.reset(seed=0)
+        env.step(env.action_space.sample())
+    finally:
+        env.close()
+
+
+def test_module_prefixed_id_make_vec():
+    from cepam_gym.envs.cepam import CEPAMVectorEnv
+
+    venv = gym.make_vec("cepam_gym:cepam_gym/CEPAM-v0", num_envs=4)
+    try:
+        assert isinstance(venv, CEPAMVectorEnv)  # the native batched env, not a SyncVectorEnv
+        assert venv.num_envs == 4
+        obs, _ = venv.reset(seed=0)
+        assert obs.shape[0] == 4
+        obs, rew, term, trunc, _ = venv.step(venv.action_space.sample())
+        assert rew.shape == (4,) and np.all(np.isfinite(obs))
+    finally:
+        venv.close()
+
+
+def test_module_prefixed_id_in_fresh_interpreter():
+    """The prefix imports the package: no explicit ``import cepam_gym`` needed."""
+    code = ("import gymnasium as gym; "
+            "e = gym.make('cepam_gym:cepam_gym/CEPAMLength-v0'); e.reset(seed=0); "
+            "v = gym.make_vec('cepam_gym:cepam_gym/CEPAM-v0', num_envs=4); v.reset(seed=0); "
+            "print(type(v).__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "CEPAMVectorEnv" in out.stdout
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_hyperparams_files_have_all_ids(algo):
+    import yaml
+
+    with open(ROOT / "hyperparams" / f"{algo}.yml") as f:
+        hp = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 loads them
+    assert set(ENV_IDS) <= set(hp)
+    for env_id in ENV_IDS:
+        env = gym.make(env_id, **hp[env_id]["env_kwargs"])  # the kwargs are accepted
+        env.reset(seed=0)
+        env.close()
+
+
+@pytest.mark.slow
+def test_rl_zoo3_train_ppo(tmp_path):
+    pytest.importorskip("rl_zoo3")
+    cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "cepam_gym/CEPAM-v0",
+           "--gym-packages", "cepam_gym", "-conf", str(ROOT / "hyperparams" / "ppo.yml"),
+           "-n", "500", "-f", str(tmp_path), "--seed", "0", "--num-threads", "1"]
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=300, env=env)
+    assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
+    run = tmp_path / "ppo" / "cepam_gym-CEPAM-v0_1"
+    assert (run / "cepam_gym-CEPAM-v0.zip").is_file()
+    assert (run / "cepam_gym-CEPAM-v0" / "vecnormalize.pkl").is_file()
