@@ -37,3 +37,24 @@ def make_renderer(mujoco, model, height: int, width: int):
             f"MuJoCo could not open an OpenGL context for offscreen rendering (MUJOCO_GL={gl}): {e}. "
             "Headless: MUJOCO_GL=egl (GPU or Mesa EGL), or MUJOCO_GL=osmesa after installing "
             "libosmesa6; with a display: MUJOCO_GL=glfw") from e
+
+
+_SCENE = """  <visual>
+    <global offwidth="{w}" offheight="{h}"/>
+    <quality shadowsize="2048"/>
+    <headlight ambient="0.45 0.45 0.45" diffuse="0.55 0.55 0.55" specular="0.1 0.1 0.1"/>
+  </visual>
+  <asset>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.93 0.93 0.93" rgb2="0.86 0.86 0.88"
+             width="256" height="256"/>
+    <material name="grid" texture="grid" texrepeat="8 8"/>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1="1 1 1" rgb2="0.8 0.84 0.9" width="256" height="256"/>
+    <material name="metal" rgba="0.55 0.57 0.6 1" specular="0.6" shininess="0.6"/>
+    <material name="dark" rgba="0.18 0.18 0.2 1" specular="0.4"/>
+"""
+
+
+def scene_header(width: int, height: int) -> str:
+    """The MJCF lines the rig and the joint share: offscreen size, lighting, floor and metal
+    materials. It opens an ``<asset>`` block that the caller's model closes."""
+    return _SCENE.format(w=width, h=height)

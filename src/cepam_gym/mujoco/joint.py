@@ -62,7 +62,7 @@ from ..physics import api
 from ..physics import layout as ix
 from ..tasks.schedules import _segments, load_profile, stiffness_interval
 from ..tasks.spec import LOAD_KINDS, TaskSpec
-from ._mj import make_renderer, require_mujoco
+from ._mj import make_renderer, require_mujoco, scene_header
 from .coupling import PlantLink
 from .rig import default_camera, geom_ids, set_muscle_geoms
 
@@ -155,13 +155,9 @@ class JointTask:
             raise ValueError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
         if not 0 <= self.torque_range[0] <= self.torque_range[1]:
             raise ValueError(f"torque_range must be 0 <= low <= high (extension torques), got {self.torque_range}")
-        bad = [k for k in self.load_kinds if k not in LOAD_KINDS]
-        if bad or not self.load_kinds:
-            raise ValueError(f"load_kinds must be a non-empty subset of {LOAD_KINDS}, got {self.load_kinds}")
-        if not 0 < self.segment_duration[0] <= self.segment_duration[1]:
-            raise ValueError(f"segment_duration must be 0 < low <= high, got {self.segment_duration}")
-        if not 0 < self.pressure_margin <= 1:
-            raise ValueError(f"pressure_margin must be in (0, 1], got {self.pressure_margin}")
+        # the fields shared with the rig's TaskSpec are checked by TaskSpec itself
+        TaskSpec("joint", load_kinds=tuple(self.load_kinds), segment_duration=tuple(self.segment_duration),
+                 pressure_margin=self.pressure_margin)
 
     def muscle_spec(self, geom: JointGeometry, p) -> TaskSpec:
         """The same task seen by the muscle (lengths, stiffness K = K_joint / r^2), for the
@@ -235,19 +231,7 @@ JOINT_XML = """
   <option timestep="{dt}" integrator="Euler" gravity="0 0 -{g}">
     <flag energy="enable"/>
   </option>
-  <visual>
-    <global offwidth="{w}" offheight="{h}"/>
-    <quality shadowsize="2048"/>
-    <headlight ambient="0.45 0.45 0.45" diffuse="0.55 0.55 0.55" specular="0.1 0.1 0.1"/>
-  </visual>
-  <asset>
-    <texture name="grid" type="2d" builtin="checker" rgb1="0.93 0.93 0.93" rgb2="0.86 0.86 0.88"
-             width="256" height="256"/>
-    <material name="grid" texture="grid" texrepeat="8 8"/>
-    <texture name="sky" type="skybox" builtin="gradient" rgb1="1 1 1" rgb2="0.8 0.84 0.9" width="256" height="256"/>
-    <material name="metal" rgba="0.55 0.57 0.6 1" specular="0.6" shininess="0.6"/>
-    <material name="dark" rgba="0.18 0.18 0.2 1" specular="0.4"/>
-    <material name="shell" rgba="0.93 0.78 0.62 1" specular="0.2"/>
+{scene}    <material name="shell" rgba="0.93 0.78 0.62 1" specular="0.2"/>
   </asset>
   <default>
     <geom contype="0" conaffinity="0"/>
@@ -281,7 +265,8 @@ def joint_xml(geom: JointGeometry, p, sub_dt: float = 5e-4, width: int = 480, he
     r = geom.lever_arm
     top = float(p[ix.L_MAX]) + 0.045  # the plate: room for the end cap and the rack at theta = 0
     return JOINT_XML.format(
-        dt=sub_dt, g=p[ix.GRAV], w=width, h=height, floor=-(geom.link_length + 0.08), top=top,
+        scene=scene_header(width, height),
+        dt=sub_dt, g=p[ix.GRAV], floor=-(geom.link_length + 0.08), top=top,
         plate_z=top + 0.005, r=r, cap=0.004, qmax=geom.max_angle(p),
         damping=geom.joint_damping + p[ix.DAMP] * r * r, armature=p[ix.M_END] * r * r,
         friction=p[ix.F_COUL] * r, solref=max(0.002, 2.0 * sub_dt), lc=geom.link_com,

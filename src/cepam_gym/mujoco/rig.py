@@ -27,7 +27,7 @@ import numpy as np
 from .. import plant as pl
 from ..physics import layout as ix
 from ..physics.muscle import braid_diameter
-from ._mj import make_renderer, require_mujoco
+from ._mj import make_renderer, require_mujoco, scene_header
 
 PLATE_Z = 0.36  # m: underside of the mounting plate, where the CE-PAM is clamped
 STEEL_DENSITY = 7850.0  # kg/m^3: sets the drawn size of the hanging load
@@ -38,19 +38,7 @@ RIG_XML = """
 <mujoco model="cepam_rig">
   <compiler angle="radian"/>
   <option timestep="{dt}" integrator="Euler" gravity="0 0 -{g}"/>
-  <visual>
-    <global offwidth="{w}" offheight="{h}"/>
-    <quality shadowsize="2048"/>
-    <headlight ambient="0.45 0.45 0.45" diffuse="0.55 0.55 0.55" specular="0.1 0.1 0.1"/>
-  </visual>
-  <asset>
-    <texture name="grid" type="2d" builtin="checker" rgb1="0.93 0.93 0.93" rgb2="0.86 0.86 0.88"
-             width="256" height="256"/>
-    <material name="grid" texture="grid" texrepeat="8 8"/>
-    <texture name="sky" type="skybox" builtin="gradient" rgb1="1 1 1" rgb2="0.8 0.84 0.9" width="256" height="256"/>
-    <material name="metal" rgba="0.55 0.57 0.6 1" specular="0.6" shininess="0.6"/>
-    <material name="dark" rgba="0.18 0.18 0.2 1" specular="0.4"/>
-  </asset>
+{scene}  </asset>
   <default>
     <geom contype="0" conaffinity="0"/>
   </default>
@@ -88,7 +76,8 @@ def rig_xml(params_row=None, sub_dt: float = 5e-4, width: int = 480, height: int
     p = _row(params_row)
     top = PLATE_Z
     return RIG_XML.format(
-        dt=sub_dt, g=p[ix.GRAV], w=width, h=height, plate_z=top + 0.006, arm_z=top + 0.02,
+        scene=scene_header(width, height),
+        dt=sub_dt, g=p[ix.GRAV], plate_z=top + 0.006, arm_z=top + 0.02,
         stand_top=top + 0.028, tube_z=top - 0.105, tube_half=0.105, top=top,
         lmin=p[ix.L_MIN], lmax=p[ix.L_MAX], cap=_CAP_HALF, cap2=2 * _CAP_HALF,
         hook_end=2 * _CAP_HALF + _HOOK)
