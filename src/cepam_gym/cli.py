@@ -6,12 +6,26 @@ import argparse
 import sys
 
 
+def fresh_dir(path):
+    """``path`` if it does not exist yet, else ``path-2``, ``path-3``...: the main job never
+    overwrites (or refuses to run over) an earlier run."""
+    from pathlib import Path
+
+    path = Path(path)
+    candidate, k = path, 2
+    while candidate.exists():
+        candidate = path.with_name(f"{path.name}-{k}")
+        k += 1
+    return candidate
+
+
 def _run(argv: list[str]) -> int:
     """The main job on the default config: the plant's step response, the paper reproduction
     table, then train an agent on ``configs/quick.yaml`` (a few minutes on 2 cores) and score it
     beside the inverse-model baseline on the ``nominal`` and ``randomized`` suites. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
-    ``agent/`` (model, logs, config) and ``agent/eval/`` (table.txt, results.json, plots)."""
+    ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs) and ``agent/eval/``
+    (table.txt, results.json, plots)."""
     from pathlib import Path
 
     from . import demo, validation
@@ -43,7 +57,7 @@ def _run(argv: list[str]) -> int:
               file=sys.stderr)
         return 2
     print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
-    run_dir = out / "agent"
+    run_dir = fresh_dir(out / "agent")
     code = train.main(["--config", args.config, "--out", str(run_dir)])
     if code:
         return code
