@@ -45,14 +45,19 @@ class InverseStaticController:
         core = _core_of(env)
         self.task = core.task
         self.task_vec = core.task_vec.copy()
-        self.params = core.nominal.to_array()  # nominal, never the randomized rows
-        self.nominal = core.nominal
-        self.mode = core.action_mode
-        self.dt = core.control_dt
+        self._configure(core.nominal, core.nominal.to_array(), core.action_mode, core.control_dt,
+                        gap_fraction, kp, ki, load_filter_s)
+
+    def _configure(self, nominal, params_row, mode, dt, gap_fraction, kp, ki, load_filter_s) -> None:
+        """Plant model, loop gains and filter shared by every controller built on this one."""
+        self.params = params_row  # nominal, never the randomized rows
+        self.nominal = nominal
+        self.mode = mode
+        self.dt = dt
         self.gap_fraction = gap_fraction
         self.kp, self.ki = kp, ki
-        self.alpha = 1.0 - np.exp(-self.dt / load_filter_s)
-        self.p_cap = min(core.nominal.supply_pressure, core.nominal.burst_pressure)
+        self.alpha = 1.0 - np.exp(-dt / load_filter_s)
+        self.p_cap = min(nominal.supply_pressure, nominal.burst_pressure)
         self.reset()
 
     def reset(self, indices=None) -> None:

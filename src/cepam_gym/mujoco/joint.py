@@ -697,18 +697,11 @@ class JointInverseStaticController(InverseStaticController):
                  load_filter_s: float = 0.15):
         j = _joint_env_of(env)
         self.geometry = j.geometry
-        self.params = j.nominal_row.copy()  # nominal, never the randomized rows
-        self.nominal = j.nominal
-        self.task = j.task.muscle_spec(j.geometry, self.params)
-        self.mode = j.action_mode
-        self.dt = j.control_dt
-        self.gap_fraction = gap_fraction
-        self.kp, self.ki = kp, ki
-        self.alpha = 1.0 - np.exp(-self.dt / load_filter_s)
-        self.p_cap = min(j.nominal.supply_pressure, j.nominal.burst_pressure)
         self.setpoint_max = j.setpoint_max
         self.angle_max = j.angle_max
-        self.reset()
+        self.task = j.task.muscle_spec(j.geometry, j.nominal_row)
+        self._configure(j.nominal, j.nominal_row.copy(), j.action_mode, j.control_dt,
+                        gap_fraction, kp, ki, load_filter_s)
 
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
