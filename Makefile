@@ -12,7 +12,7 @@ $(VENV)/.installed: pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q $(TORCH)
-	$(PY) -m pip install -q -e ".[train,test,mujoco,zoo]"
+	$(PY) -m pip install -q -e ".[train,test,mujoco,zoo,distributed]"
 	touch $@
 
 run: install  ## the main job on the default config
