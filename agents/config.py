@@ -421,7 +421,18 @@ class TrainConfig:
         return dataclasses.replace(self, **changes)
 
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"  # the shipped configs
+def _shipped_config_dir() -> Path:
+    """``configs/`` of the source tree (editable install, checkout), else the copy a wheel installs
+    as data files under ``<prefix>/share/cepam-gym/configs`` (pyproject ``data-files``)."""
+    import sys
+
+    tree = Path(__file__).resolve().parent.parent / "configs"
+    if tree.is_dir():
+        return tree
+    return Path(sys.prefix) / "share" / "cepam-gym" / "configs"
+
+
+CONFIG_DIR = _shipped_config_dir()  # the shipped configs
 
 
 def resolve_config_path(path: str | Path) -> Path:

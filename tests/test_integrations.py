@@ -73,6 +73,12 @@ def test_hyperparams_files_have_all_ids(algo):
     with open(ROOT / "hyperparams" / f"{algo}.yml") as f:
         hp = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 loads them
     assert set(ENV_IDS) <= set(hp)
+    from cepam_gym.bench.suites import SUITES
+
+    randomized = SUITES["randomized"].env_kwargs
+    for env_id in ENV_IDS:  # the training distribution is the benchmark's randomized suite
+        kw = hp[env_id]["env_kwargs"]
+        assert kw["randomize"] == randomized["randomize"] and kw["sensor_noise"] == randomized["sensor_noise"]
     for env_id in ENV_IDS:
         env = gym.make(env_id, **hp[env_id]["env_kwargs"])  # the kwargs are accepted
         env.reset(seed=0)

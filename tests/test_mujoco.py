@@ -164,14 +164,16 @@ def test_joint_env_pickles_and_is_deterministic(mujoco):
 
 
 def _sealed_energy(mujoco, env):
-    """Hinge kinetic + gravity energy (MuJoCo), end-cap gravity, chamber air internal energy and
-    the work against the atmosphere ``p_atm (Vc + Ve)``: constant for sealed, undamped motion."""
+    """Hinge kinetic + gravity energy (MuJoCo), end-cap gravity, chamber air internal energy, the
+    work against the atmosphere ``p_atm (Vc + Ve)`` and the bladder spring: constant for sealed,
+    undamped motion."""
     u = env.unwrapped
     mujoco.mj_forward(u.model, u.data)
     p, x, aux = u.params, u.link.x, u.aux
     mech = u.data.energy[0] + u.data.energy[1] - p[ix.M_END] * p[ix.GRAV] * x[pl.S_L]
     air = x[pl.S_UC] + x[pl.S_UE] + p[ix.P_ATM] * (aux[pl.A_VC] + aux[pl.A_VE])
-    return mech + air, u.data.energy[1]
+    spring = 0.5 * p[ix.K_EL] * (x[pl.S_L] - p[ix.L_EL0]) ** 2  # the bladder elasticity
+    return mech + air + spring, u.data.energy[1]
 
 
 def _sealed_oscillation(mujoco, sub_dt: float):

@@ -109,7 +109,7 @@ def test_table_reads_the_conditions_from_the_data_file(tmp_path, experiments):
     doc = yaml.safe_load(v.REPORTED_PATH.read_text())
     for e in doc["experiments"]:
         if e["id"] == "cepam_stiffness_pe75_pc125":
-            e["pc_kpa"] = 150
+            e["pc_kpa"] = 200
     path = tmp_path / "reported.yaml"
     path.write_text(yaml.safe_dump(doc))
     edited = {e.id: e for e in v.load_experiments(path)}["cepam_stiffness_pe75_pc125"]

@@ -7,20 +7,23 @@ from typing import Any
 
 from .metrics import JOINT, RIG, TraceSpec
 
-# Plausible spread of a hand-made CE-PAM and its rig around the nominal (balloon) parameters,
-# in the keys' own units. The baseline keeps using the nominal values.
+# Plausible spread of a hand-made CE-PAM and its rig around the nominal (default, calibrated)
+# parameters, in the keys' own units: centred on the nominal value except the Coulomb friction,
+# which can only add (nominal 0). Braid angles +/- 1.5 deg (a quarter of the calibration's 1 sd),
+# walls and elasticity about +/- 35 %, valve and volumes +/- 30-50 %. The baseline keeps using the
+# nominal values.
 RANDOMIZE: dict[str, list[float]] = {
-    "cpam_rest_angle_deg": [16.5, 19.5],
-    "epam_sleeve_free_angle_deg": [16.5, 19.5],
-    "bladder_thickness_mm": [0.2, 0.45],
-    "sleeve_thickness_mm": [0.1, 0.3],
+    "cpam_rest_angle_deg": [27.4, 30.4],
+    "epam_sleeve_free_angle_deg": [17.7, 20.7],
+    "bladder_thickness_mm": [0.04, 0.09],
+    "sleeve_thickness_mm": [0.02, 0.06],
     "valve_conductance_dm3_per_s_bar": [0.07, 0.13],
     "dead_volume_cpam_cm3": [1.0, 3.0],
     "dead_volume_epam_cm3": [1.0, 3.0],
-    "end_mass_g": [15.0, 30.0],
-    "damping_ns_per_m": [3.0, 8.0],
+    "end_mass_g": [15.0, 25.0],
+    "damping_ns_per_m": [3.0, 7.0],
     "coulomb_friction_n": [0.0, 0.3],
-    "elastic_stiffness_n_per_m": [0.0, 100.0],
+    "elastic_stiffness_n_per_m": [110.0, 220.0],
 }
 
 
