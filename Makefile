@@ -2,28 +2,42 @@
 # requirement would pull a multi-GB CUDA build.
 VENV ?= .venv
 PY := $(VENV)/bin/python
+# Ray RLlib pins gymnasium exactly (ray 2.60: gymnasium==1.2.2), so the [distributed] extra gets a
+# venv of its own: the main one keeps the newest gymnasium, and RLlib is tested as its users run it.
+RAY_VENV ?= .venv-ray
+RAY_PY := $(RAY_VENV)/bin/python
 TORCH := torch==2.13.0
 
-.PHONY: install run test bench clean
+.PHONY: install install-distributed run test bench clean
 
 install: $(VENV)/.installed
+
+install-distributed: $(RAY_VENV)/.installed
 
 $(VENV)/.installed: pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q $(TORCH)
-	$(PY) -m pip install -q -e ".[train,test,mujoco,zoo,distributed]"
+	$(PY) -m pip install -q -e ".[train,test,mujoco,zoo]"
+	touch $@
+
+$(RAY_VENV)/.installed: pyproject.toml
+	python3 -m venv $(RAY_VENV)
+	$(RAY_PY) -m pip install -q --upgrade pip
+	$(RAY_PY) -m pip install -q $(TORCH)
+	$(RAY_PY) -m pip install -q -e ".[train,test,distributed]"
 	touch $@
 
 run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run
 
-test: install
+test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray
 	$(PY) -m pytest -q
+	$(RAY_PY) -m pytest -q tests/test_rllib.py
 
 bench: install
 	$(PY) benchmarks/throughput.py
 	$(PY) benchmarks/plant_throughput.py
 
 clean:
-	rm -rf $(VENV) runs
+	rm -rf $(VENV) $(RAY_VENV) runs
