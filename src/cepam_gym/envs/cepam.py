@@ -145,7 +145,7 @@ _DOC = """
     | term | value | weight kwarg (default) |
     |---|---|---|
     | length | ``-w |L - L*| / 1 cm`` (error clipped at 5 cm) | ``length`` (1.0) |
-    | stiffness | ``-w |K - K*| / K*`` (clipped at 2); K at constant pressures | ``stiffness`` (0.5) |
+    | stiffness | ``-w |K - K*| / K*`` (clipped at 2); K at constant pressures | ``stiffness`` (2.5: 20 % weighs like 5 mm, as in the benchmark score) |
     | effort | ``-w mean(a^2)`` | ``effort`` (0.05) |
     | air | ``-w (air drawn from supply this step) / 10 mg`` | ``air`` (0.05) |
     | burst | ``-w`` once when a chamber exceeds the burst pressure | ``burst`` (100) |
