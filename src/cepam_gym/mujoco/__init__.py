@@ -10,9 +10,10 @@ import it when built and raise an ``ImportError`` naming the extra (``pip instal
   ``gym.make("cepam_gym/CEPAM-v0", render_mode="rgb_array", renderer="mujoco")``) and
   :class:`~cepam_gym.mujoco.rig.RigSimulator` (the free end's mechanics run in MuJoCo).
 * :mod:`cepam_gym.mujoco.joint`: ``cepam_gym/CEPAMJoint-v0``, a hinge driven by a CE-PAM through a
-  pulley, and its inverse-static baseline.
+  pinion, and its inverse-static baseline; :mod:`cepam_gym.mujoco.joint_task`: its geometry, task,
+  reward weights and MJCF (no MuJoCo import).
 * :mod:`cepam_gym.mujoco.video`: ``cepam-gym video``.
 * :mod:`cepam_gym.mujoco.coupling`: the plant sub-step with the length imposed by MuJoCo.
 """
 
-__all__ = ["rig", "joint", "video", "coupling"]
+__all__ = ["rig", "joint", "joint_task", "video", "coupling"]

@@ -1,0 +1,217 @@
+"""The joint task of ``cepam_gym/CEPAMJoint-v0``: the hinge geometry (muscle length <-> angle,
+loads -> the rig's equivalent hanging weight), targets and torque profiles, reward weights, and
+the MJCF model. The env itself is :mod:`cepam_gym.mujoco.joint` (its docstring explains the
+mechanism and the coupling)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Mapping
+
+import numpy as np
+
+from ..physics import layout as ix
+from ..tasks.schedules import _segments, load_profile, stiffness_interval
+from ..tasks.spec import LOAD_KINDS, TaskSpec
+from ._mj import scene_header
+
+_CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
+_TRIES = 8
+
+
+@dataclass(frozen=True)
+class JointGeometry:
+    """The hinge and its link. Lengths m, masses kg, damping N m s/rad."""
+
+    lever_arm: float = 0.025  # pinion radius r: muscle length per radian
+    link_length: float = 0.14  # elbow to hand
+    link_mass: float = 0.15  # forearm segment + hand of the device
+    link_com: float = 0.07  # elbow to the link's centre of mass
+    joint_damping: float = 0.01  # hinge viscous damping (besides the muscle's own, mapped)
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ValueError(f"joint geometry {f.name} must be a finite number, got {v!r}")
+        for name in ("lever_arm", "link_length", "link_mass", "link_com"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"joint geometry {name} must be > 0, got {getattr(self, name)}")
+        if self.joint_damping < 0:
+            raise ValueError(f"joint geometry joint_damping must be >= 0, got {self.joint_damping}")
+        if self.link_com > self.link_length:
+            raise ValueError(f"link_com ({self.link_com} m) must not exceed link_length ({self.link_length} m)")
+
+    @classmethod
+    def from_kwargs(cls, joint: Mapping[str, float] | "JointGeometry" | None) -> "JointGeometry":
+        if joint is None:
+            return cls()
+        if isinstance(joint, JointGeometry):
+            return joint
+        names = {f.name for f in fields(cls)}
+        bad = set(joint) - names
+        if bad:
+            raise ValueError(f"joint: unknown keys {sorted(bad)}; valid: {sorted(names)}")
+        return cls(**{k: float(v) for k, v in joint.items()})
+
+    # geometry through the pinion, for a plant parameter row p
+    def length(self, angle, p):
+        """Muscle length [m] at joint angle [rad]: ``L = L_max - r theta``."""
+        return p[ix.L_MAX] - self.lever_arm * np.asarray(angle, dtype=float)
+
+    def angle(self, length, p):
+        """Joint angle [rad] at muscle length [m]."""
+        return (p[ix.L_MAX] - np.asarray(length, dtype=float)) / self.lever_arm
+
+    def max_angle(self, p) -> float:
+        """Full flexion [rad]: the muscle's lower end stop."""
+        return float((p[ix.L_MAX] - p[ix.L_MIN]) / self.lever_arm)
+
+    def gravity_torque(self, angle, g):
+        """Extension torque [N m] of the link's weight at ``angle``: ``m g l_c sin(theta)``."""
+        return self.link_mass * g * self.link_com * np.sin(angle)
+
+    def equivalent_weight(self, angle, external_torque, p):
+        """The downward force [N] on the muscle's free end that the joint's loads amount to (what
+        the rig's hanging weight is): ``m_end g + (tau_ext + m g l_c sin theta) / r``."""
+        g = p[ix.GRAV]
+        return p[ix.M_END] * g + (np.asarray(external_torque, dtype=float)
+                                  + self.gravity_torque(angle, g)) / self.lever_arm
+
+
+@dataclass(frozen=True)
+class JointTask:
+    """Targets and loads of the joint task. Angles rad, stiffness N m/rad, torques N m, times s."""
+
+    angle_range: tuple[float, float] = (0.2, 1.6)  # targets; muscle 19.0-15.5 cm with r = 2.5 cm
+    stiffness_range: tuple[float, float] = (0.15, 0.8)  # joint stiffness K r^2, clipped to what is reachable
+    torque_range: tuple[float, float] = (0.0, 0.04)  # external extension torque
+    load_kinds: tuple[str, ...] = LOAD_KINDS  # profile of the external torque
+    segment_duration: tuple[float, float] = (2.0, 4.0)
+    pressure_margin: float = 0.85
+
+    def __post_init__(self):
+        lo, hi = self.angle_range
+        if not 0 <= lo < hi:
+            raise ValueError(f"angle_range must be increasing and >= 0, got {self.angle_range}")
+        if not 0 < self.stiffness_range[0] < self.stiffness_range[1]:
+            raise ValueError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
+        if not 0 <= self.torque_range[0] <= self.torque_range[1]:
+            raise ValueError(f"torque_range must be 0 <= low <= high (extension torques), got {self.torque_range}")
+        # the fields shared with the rig's TaskSpec are checked by TaskSpec itself
+        TaskSpec("joint", load_kinds=tuple(self.load_kinds), segment_duration=tuple(self.segment_duration),
+                 pressure_margin=self.pressure_margin)
+
+    def muscle_spec(self, geom: JointGeometry, p) -> TaskSpec:
+        """The same task seen by the muscle (lengths, stiffness K = K_joint / r^2), for the
+        plant-side helpers (:func:`~cepam_gym.tasks.schedules.stiffness_interval`,
+        :func:`~cepam_gym.tasks.schedules.load_profile`). Its ``load_range`` holds the *torque*
+        range [N m]: it only shapes the external-torque profile."""
+        r2 = geom.lever_arm ** 2
+        l_hi, l_lo = (float(geom.length(a, p)) for a in self.angle_range)
+        return TaskSpec("joint", length_range=(l_lo, l_hi),
+                        stiffness_range=(self.stiffness_range[0] / r2, self.stiffness_range[1] / r2),
+                        load_range=tuple(self.torque_range), load_kinds=tuple(self.load_kinds),
+                        segment_duration=tuple(self.segment_duration),
+                        pressure_margin=self.pressure_margin)
+
+
+@dataclass(frozen=True)
+class JointRewardWeights:
+    angle: float = 1.0  # per 0.1 rad of |theta - theta*| (clipped at 5)
+    stiffness: float = 0.5  # per unit relative error |K_joint - K*| / K* (clipped at 2)
+    effort: float = 0.05  # per unit mean squared action
+    air: float = 0.05  # per 10 mg of supply air in one control step
+    burst: float = 100.0  # once, when a chamber exceeds the burst pressure
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
+
+
+def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeometry, p,
+                    n_steps: int, dt: float):
+    """One episode: ``(target_angle, target_stiffness, external_torque)`` arrays of ``n_steps``
+    and the initial ``(angle, stiffness)``. Every (angle, stiffness) target holds for a segment and
+    is reachable (inverse static model, pressures within the margin) at both torque extremes of
+    its segment, and therefore in between (the static model is affine in the load)."""
+    spec = task.muscle_spec(geom, p)
+    r2 = geom.lever_arm ** 2
+    torque = load_profile(rng, spec, n_steps, dt)
+    segs = _segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last one is the initial state
+    ta = np.full(n_steps, np.nan)
+    tk = np.full(n_steps, np.nan)
+    initial = None
+    for s, (a, b) in enumerate(segs):
+        t_lo, t_hi = torque[a:b].min(), torque[a:b].max()
+        for _ in range(_TRIES):
+            th = rng.uniform(*task.angle_range, size=_CANDIDATES)
+            u = rng.uniform(0.05, 0.95, size=_CANDIDATES)
+            L = geom.length(th, p)
+            k_lo, k_hi = stiffness_interval(L, geom.equivalent_weight(th, t_lo, p),
+                                            geom.equivalent_weight(th, t_hi, p), p, spec)
+            ok = np.flatnonzero(k_hi > k_lo)
+            if ok.size:
+                c = ok[0]
+                target = th[c], (k_lo[c] + u[c] * (k_hi[c] - k_lo[c])) * r2
+                break
+        else:
+            raise RuntimeError(
+                f"joint task: found no reachable (angle, stiffness) target for external torques "
+                f"{t_lo:.3g}-{t_hi:.3g} N m; lower torque_range or the link mass, or raise the supply")
+        if s == len(segs) - 1:
+            initial = target
+        else:
+            ta[a:b], tk[a:b] = target
+    return ta, tk, torque, initial
+
+
+JOINT_XML = """
+<mujoco model="cepam_joint">
+  <compiler angle="radian"/>
+  <option timestep="{dt}" integrator="Euler" gravity="0 0 -{g}">
+    <flag energy="enable"/>
+  </option>
+{scene}    <material name="shell" rgba="0.93 0.78 0.62 1" specular="0.2"/>
+  </asset>
+  <default>
+    <geom contype="0" conaffinity="0"/>
+  </default>
+  <worldbody>
+    <light pos="0.3 -0.6 0.9" dir="-0.3 0.6 -0.9" diffuse="0.6 0.6 0.6" castshadow="true"/>
+    <geom name="floor" type="plane" pos="0 0 {floor}" size="0.6 0.6 0.01" material="grid"/>
+    <geom name="upper_arm" type="capsule" fromto="-0.03 0.03 0 -0.03 0.03 {top}" size="0.022" material="shell"/>
+    <geom name="bracket" type="box" pos="-0.002 0.02 {top}" size="0.03 0.02 0.005" material="dark"/>
+    <geom name="plate" type="box" pos="{r} 0 {plate_z}" size="0.022 0.022 0.005" material="dark"/>
+    <geom name="cpam" type="cylinder" pos="{r} 0 0.1" size="0.003 0.08" rgba="1 0.8 0.8 1"/>
+    <geom name="epam" type="cylinder" pos="{r} 0 0.1" size="0.013 0.08" rgba="0.75 0.85 1 0.3"/>
+    <geom name="cap" type="cylinder" pos="{r} 0 0.05" size="0.015 {cap}" material="dark"/>
+    <geom name="rack" type="box" pos="{r} 0 0.03" size="0.002 0.004 0.01" material="metal"/>
+    <geom name="axle" type="cylinder" fromto="0 -0.02 0 0 0.035 0" size="0.004" material="metal"/>
+    <body name="forearm" pos="0 0 0">
+      <joint name="elbow" type="hinge" axis="0 -1 0" range="0 {qmax}" limited="true"
+             damping="{damping}" armature="{armature}" frictionloss="{friction}" solreflimit="{solref} 1"/>
+      <inertial pos="0 0 -{lc}" mass="{m}" diaginertia="{inertia} {inertia} 1e-6"/>
+      <geom name="pinion" type="cylinder" fromto="0 -0.006 0 0 0.006 0" size="{r}" material="metal"/>
+      <geom name="link" type="capsule" fromto="0 -0.014 0 0 -0.014 -{l}" size="0.014" material="shell"/>
+      <geom name="hand" type="sphere" pos="0 -0.014 -{l}" size="0.024" material="shell"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def joint_xml(geom: JointGeometry, p, sub_dt: float = 5e-4, width: int = 480, height: int = 480) -> str:
+    """MJCF of the joint for plant parameter row ``p`` (end stops, end mass, damping, gravity)."""
+    r = geom.lever_arm
+    top = float(p[ix.L_MAX]) + 0.045  # the plate: room for the end cap and the rack at theta = 0
+    return JOINT_XML.format(
+        scene=scene_header(width, height),
+        dt=sub_dt, g=p[ix.GRAV], floor=-(geom.link_length + 0.08), top=top,
+        plate_z=top + 0.005, r=r, cap=0.004, qmax=geom.max_angle(p),
+        damping=geom.joint_damping + p[ix.DAMP] * r * r, armature=p[ix.M_END] * r * r,
+        friction=p[ix.F_COUL] * r, solref=max(0.002, 2.0 * sub_dt), lc=geom.link_com,
+        m=geom.link_mass, inertia=geom.link_mass * geom.link_length ** 2 / 12.0, l=geom.link_length)
