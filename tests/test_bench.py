@@ -119,3 +119,23 @@ def test_joint_suite_needs_mujoco_only_when_used():
                         "assert 'cepam_gym.mujoco.joint' not in sys.modules\n"],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
+
+
+def test_env_reward_weighs_length_and_stiffness_like_the_score():
+    """The env's default reward trades 5 mm of length error against 20 % of stiffness error, as
+    the benchmark score does: an agent maximising the default reward is ranked by the same trade."""
+    from cepam_gym.tasks import RewardWeights
+
+    T, N = 10, 1
+    base = {"length": np.full((T, N), 0.17), "target_length": np.full((T, N), 0.17),
+            "stiffness": np.full((T, N), 800.0), "target_stiffness": np.full((T, N), 800.0),
+            "air_used": np.zeros((T, N)), "reward": np.zeros((T, N)), "alive": np.ones((T, N), dtype=bool),
+            "failed": np.zeros(N, dtype=bool), "dt": 0.02}
+    off_5mm = dict(base, length=base["length"] + 5e-3)
+    off_20pct = dict(base, stiffness=base["stiffness"] * 1.2)
+    s_len, s_k = score_traces(off_5mm)["score"], score_traces(off_20pct)["score"]
+    assert s_len == pytest.approx(1.0) and s_k == pytest.approx(1.0)
+    w = RewardWeights()
+    reward_len = w.length * 0.5  # per cm of length error
+    reward_k = w.stiffness * 0.2  # per unit relative stiffness error
+    assert reward_len == pytest.approx(reward_k * s_len / s_k)
