@@ -9,8 +9,11 @@ control steps per second (N * calls / time) and the batching speed-up, i.e. the 
 throughput relative to N = 1. There is no separate "pure numpy" reference: the honest
 comparison available in the same run is the batch against the single plant.
 
-Batches of 32 or more use the ``prange`` kernel; if another process keeps a CPU busy its threads
-wait for the scheduler and a call can take milliseconds, so the load average is printed too.
+Batches of ``plant._PARALLEL_MIN_BATCH`` or more use the ``prange`` kernel; if another process
+keeps a CPU busy its threads wait for the scheduler and a call can take milliseconds, so the load
+average is printed too. Every batch size runs the structure-of-arrays block kernel
+(``plant.advance_block``, ``plant.BLOCK`` plants per SIMD block); ``--threads 1`` gives the
+per-core figures.
 On small VMs the OpenMP layer's thread wake-up alone can cost several ms per call; compare with
 ``NUMBA_THREADING_LAYER=workqueue``.
 
@@ -100,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['control_steps_per_s']:>16.3e} {speed}")
     try:
         layer = numba.threading_layer()
-    except ValueError:  # no parallel region ran (only N < 32)
+    except ValueError:  # no parallel region ran (only small N)
         layer = "not initialised"
     print(f"# numba threading layer: {layer} (choose with NUMBA_THREADING_LAYER=omp|tbb|workqueue)")
     print(f"# 1-min load average before / after: {load_before:.2f} / {os.getloadavg()[0]:.2f} "

@@ -94,6 +94,22 @@ def test_info_keys_and_reward_terms_sum_to_reward():
     assert info["reward_length"] == pytest.approx(-abs(info["length"] - info["target_length"]) / 0.01)
 
 
+def test_single_env_fast_path_equals_general_path():
+    """A (2,) array action takes the single env's one-call fast path; a list takes the general
+    path (action checks, CEPAMBatch.step, info from the arrays). Both give the same bits."""
+    envs = [gym.make("cepam_gym/CEPAM-v0", sensor_noise={"pressure_kpa": 1.0}) for _ in range(2)]
+    assert envs[0].unwrapped.core.fast_single
+    outs = [e.reset(seed=4) for e in envs]
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        a = rng.uniform(-1.3, 1.3, 2)
+        fast = envs[0].step(a)
+        general = envs[1].step([float(a[0]), float(a[1])])
+        assert np.array_equal(fast[0], general[0]) and fast[1:4] == general[1:4]
+        assert list(fast[4].items()) == list(general[4].items())  # same keys, order and values
+    assert not gym.make("cepam_gym/CEPAM-v0", action_latency_steps=1).unwrapped.core.fast_single
+
+
 def test_true_stiffness_in_info_matches_physics():
     from cepam_gym.physics import api
 

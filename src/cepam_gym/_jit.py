@@ -5,9 +5,73 @@ loop (the plant checks finiteness once per control step). ``cache=True`` keeps t
 machine code on disk beside the sources, so a second process starts in well under a second.
 """
 
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 jit = njit(cache=True, error_model="numpy")
-# for the small functions of the sub-step loop: inlined at numba IR level, so the loop keeps its
-# values in registers instead of passing tuples across calls
-jit_inline = njit(cache=True, error_model="numpy", inline="always")
+# for the functions of the sub-step loop: marked ``alwaysinline`` for LLVM, so the loop is one body
+# that keeps its values in registers and that LLVM can vectorise across plants. (Numba's own
+# ``inline="always"``, which copies numba IR, does the same but multiplies compile times.)
+jit_inline = njit(cache=True, error_model="numpy", forceinline=True)
+
+
+@intrinsic
+def _llvm_sqrt(typingctx, x):
+    """``llvm.sqrt.f64``: the correctly rounded square root (the same bits as ``math.sqrt``) without
+    the libm call ``math.sqrt`` compiles to, which may set ``errno`` and so keeps LLVM from
+    vectorising a loop across plants. NaN for a negative argument, like ``math.sqrt`` with
+    ``error_model="numpy"``."""
+    if x != types.float64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        fn = builder.module.declare_intrinsic("llvm.sqrt", [ir.DoubleType()])
+        return builder.call(fn, args)
+
+    return types.float64(types.float64), codegen
+
+
+@jit_inline
+def sqrt(x):
+    """Square root of a float in the compiled kernels (see :func:`_llvm_sqrt`)."""
+    return _llvm_sqrt(float(x))
+
+
+@jit_inline
+def fmax(a, b):
+    """``max(a, b)`` of floats, exactly as Python's and numba's (``b if b > a else a``), but inlined
+    into the caller: numba compiles the builtin to a call that LLVM inlines too late for the loop
+    vectoriser to see through."""
+    return b if b > a else a
+
+
+@jit_inline
+def fmin(a, b):
+    """``min(a, b)`` of floats, exactly as Python's and numba's (``b if b < a else a``); see
+    :func:`fmax`."""
+    return b if b < a else a
+
+
+@intrinsic
+def strided_tuple(typingctx, arr, start, n, stride):
+    """``(arr[start], arr[start + stride], ..., arr[start + (n-1) stride])`` as a tuple, for a 1-D
+    float64 array and literal ints ``n`` and ``stride``: one plain load per element, no array view
+    (a view inside a loop is reference-counted, which keeps LLVM from vectorising the loop). The
+    plant uses it to hand one plant's column of a structure-of-arrays block to the physics
+    functions, which index it like a parameter row (``p[ix.BC]``)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.dtype == types.float64
+            and isinstance(start, types.Integer) and isinstance(n, types.IntegerLiteral)
+            and isinstance(stride, types.IntegerLiteral)):
+        return None
+    count, step = n.literal_value, stride.literal_value
+    ret = types.UniTuple(types.float64, count)
+
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        base = builder.gep(ary.data, [args[1]])
+        vals = [builder.load(builder.gep(base, [ir.Constant(ir.IntType(64), k * step)]))
+                for k in range(count)]
+        return context.make_tuple(builder, ret, vals)
+
+    return ret(arr, start, n, stride), codegen

@@ -1,10 +1,10 @@
 """The CE-PAM plant: state layout and integration of one control period with sub-steps.
 
 gymnax style: pure functions over an explicit state array and a frozen parameter array. The one
-compiled kernel :func:`_advance` advances a single plant; :func:`step` maps it over a batch of N
-plants (serially for small N, over all cores with ``numba.prange`` for large N). There is no other
-copy of the equations: single envs, vector envs, the baseline's simulations and the tests all
-call :func:`step`.
+compiled kernel :func:`advance_block` advances a block of up to :data:`BLOCK` plants, vectorised
+across them; :func:`step` maps it over a batch of N plants (serially for small N, over all cores
+with ``numba.prange`` for large N). There is no other copy of the equations: single envs, vector
+envs, the baseline's simulations and the tests all run :func:`advance_block`.
 
 Arrays (all float64, batch-first):
 
@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._jit import jit, jit_inline
+from ._jit import fmax, fmin, jit, jit_inline, sqrt, strided_tuple
 from .physics import layout as ix
 from .physics.air import chamber_rates, state_from_pressure
 from .physics.load import load_constants, load_step_k
@@ -69,7 +69,7 @@ def _command(mode, u, pressure_gauge, t, p):
         return 0.0
     if mode == PRESSURE:
         c = p[ix.REG_GAIN] * (u - pressure_gauge)
-        return max(-1.0, min(1.0, c))
+        return fmax(-1.0, fmin(1.0, c))
     return u
 
 
@@ -122,93 +122,156 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
     vk = (p[ix.B_CRIT], p[ix.INV_1MB], p[ix.R_LAM], p[ix.LAM_K])
     cleak = p[ix.C_LEAK]
-    dmc, duc, supc = chamber_rates(pca, tc, math.sqrt(ix.T0 / tc), 0.0, cvalve * max(sc, 0.0),
-                                   cvalve * max(-sc, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
+    dmc, duc, supc = chamber_rates(pca, tc, sqrt(ix.T0 / tc), 0.0, cvalve * fmax(sc, 0.0),
+                                   cvalve * fmax(-sc, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
                                    p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA])
-    dme, due, supe = chamber_rates(pea, te, math.sqrt(ix.T0 / te), 0.0, cvalve * max(se, 0.0),
-                                   cvalve * max(-se, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
+    dme, due, supe = chamber_rates(pea, te, sqrt(ix.T0 / te), 0.0, cvalve * fmax(se, 0.0),
+                                   cvalve * fmax(-se, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
                                    p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA])
-    return pc, pe, sc, se, src, sre, dmc, duc, dme, due, max(supc, 0.0) + max(supe, 0.0)
+    return pc, pe, sc, se, src, sre, dmc, duc, dme, due, fmax(supc, 0.0) + fmax(supe, 0.0)
 
 
 @jit_inline
 def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
     """Second half of a sub-step: flows and heat (explicit), then the compression work over the
     volume change of the step, ``ratio = V_old / V_new`` (:func:`_isentropic_factor`)."""
-    mc = max(mc + dt * dmc, _MIN_MASS)
-    me = max(me + dt * dme, _MIN_MASS)
-    uc = max((uc + dt * duc) * _isentropic_factor(ratio_c), _MIN_MASS)
-    ue = max((ue + dt * due) * _isentropic_factor(ratio_e), _MIN_MASS)
+    mc = fmax(mc + dt * dmc, _MIN_MASS)
+    me = fmax(me + dt * dme, _MIN_MASS)
+    uc = fmax((uc + dt * duc) * _isentropic_factor(ratio_c), _MIN_MASS)
+    ue = fmax((ue + dt * due) * _isentropic_factor(ratio_e), _MIN_MASS)
     return mc, uc, me, ue
 
 
-@jit
-def _advance(x, inp, p, mode, dt, n_sub, out, aux):
-    """Advance one plant by ``n_sub`` sub-steps of ``dt`` seconds; write ``out`` and ``aux``.
+# ------------------------------------------------------- structure-of-arrays block kernel
+# The plants of a batch are advanced BLOCK at a time. A block's scratch array ``W`` holds, row by
+# row, one value per plant (structure of arrays): the state columns (S_*), the inputs (I_*), the
+# constants of the control step, the volumes carried from one sub-step to the next, the step's
+# accumulators and the parameter row. The innermost loop runs across the plants of the block on
+# these contiguous rows, so LLVM vectorises it (4 plants per AVX2 instruction); the outer loop
+# runs over the sub-steps. One plant (a single env) is the same code with a block of one.
+BLOCK = 16
+_W_IN = N_STATE  # inputs, in I_* order
+_W_FEXT = _W_IN + N_INPUT  # gravity + external force [N]
+_W_DTM, _W_DVF, _W_DAMP = _W_FEXT + 1, _W_FEXT + 2, _W_FEXT + 3  # load_constants
+_W_VALVES = _W_FEXT + 4  # tau, conductance, order, zeta, decay of valve_setup
+_W_VC, _W_VE, _W_DVC, _W_DVAC, _W_DVAE, _W_INVC, _W_INVE = range(_W_VALVES + 5, _W_VALVES + 12)
+_W_AIR, _W_PMAX, _W_STOP, _W_DMC, _W_DME = range(_W_VALVES + 12, _W_VALVES + 17)
+_W_P = _W_VALVES + 17  # the parameter row, N_PARAMS rows
+W_SIZE = (_W_P + ix.N_PARAMS) * BLOCK
+_NP = ix.N_PARAMS  # literal for strided_tuple
+
+
+@jit_inline
+def _w(row, i):
+    """Index of plant ``i``'s value in scratch row ``row``."""
+    return row * BLOCK + i
+
+
+@jit_inline
+def _lane_substep(W, i, mode, dt):
+    """One sub-step of plant ``i`` of a block, read from and written back to ``W``.
 
     Per sub-step: pressures at ``L`` -> spools -> flows -> force at ``L`` -> load step (kick with
     that force, drift with the new velocity) -> air: flows, then the work of the volume change
-    ``V(L_old) -> V(L_new)``. ``out`` may be ``x`` itself.
+    ``V(L_old) -> V(L_new)``. The parameter row and the inputs reach the physics as tuples
+    (:func:`strided_tuple`), indexed like arrays.
     """
-    L = x[S_L]
-    v = x[S_V]
-    mc = x[S_MC]
-    uc = x[S_UC]
-    me = x[S_ME]
-    ue = x[S_UE]
-    sc = x[S_SC]
-    se = x[S_SE]
-    src = x[S_SRC]
-    sre = x[S_SRE]
-    t = x[S_T]
-    valves = valve_setup(mode, p, dt)
-    mass = p[ix.M_END] + inp[I_LOAD]
-    f_ext = mass * p[ix.GRAV] + inp[I_FEXT]  # gravity and external force, down (extension) positive
-    dt_over_m, dv_fric, damp_factor = load_constants(mass, p[ix.DAMP], p[ix.F_COUL], dt)
-    l_min = p[ix.L_MIN]
-    l_max = p[ix.L_MAX]
-    air_used = 0.0
-    pmax = -np.inf
-    stop = 0.0
-    dmc = 0.0
-    dme = 0.0
-    vol_c, vol_e, dvc, dvac, dvae = volumes_at(L, p)
-    inv_c = 1.0 / vol_c
-    inv_e = 1.0 / vol_e
+    p = strided_tuple(W, _w(_W_P, i), _NP, BLOCK)
+    inp = strided_tuple(W, _w(_W_IN, i), N_INPUT, BLOCK)
+    valves = (W[_w(_W_VALVES, i)], W[_w(_W_VALVES + 1, i)], W[_w(_W_VALVES + 2, i)],
+              W[_w(_W_VALVES + 3, i)], W[_w(_W_VALVES + 4, i)])
+    L = W[_w(S_L, i)]
+    vol_c = W[_w(_W_VC, i)]
+    vol_e = W[_w(_W_VE, i)]
+    mc, uc, me, ue = W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)]
+    pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
+        mode, inp, p, W[_w(S_T, i)], dt, mc, uc, me, ue, W[_w(_W_INVC, i)], W[_w(_W_INVE, i)],
+        W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves)
+    W[_w(_W_PMAX, i)] = fmax(fmax(W[_w(_W_PMAX, i)], pc), pe)
+    force, _k, _g, _h = force_from_slopes(L, pc, pe, p, W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)],
+                                          W[_w(_W_DVAE, i)], 0.0, 0.0, 0.0)
+    L, v, stop = load_step_k(L, W[_w(S_V, i)], force + W[_w(_W_FEXT, i)], W[_w(_W_DTM, i)],
+                             W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)], p[ix.L_MIN], p[ix.L_MAX], dt)
+    vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)
+    inv_c = 1.0 / vol_c_new  # one division serves the work ratio and the next pressures
+    inv_e = 1.0 / vol_e_new
+    mc, uc, me, ue = substep_air(mc, uc, me, ue, dmc, duc, dme, due, vol_c * inv_c, vol_e * inv_e, dt)
+    W[_w(S_L, i)], W[_w(S_V, i)], W[_w(_W_STOP, i)] = L, v, stop
+    W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)] = mc, uc, me, ue
+    W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)] = sc, se, src, sre
+    W[_w(S_T, i)] += dt
+    W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = vol_c_new, vol_e_new, inv_c, inv_e
+    W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
+    W[_w(_W_AIR, i)] += dt * sup
+    W[_w(_W_DMC, i)], W[_w(_W_DME, i)] = dmc, dme
+
+
+@jit_inline
+def _substeps_mode(W, n, mode, dt, n_sub):
     for _ in range(n_sub):
-        pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
-            mode, inp, p, t, dt, mc, uc, me, ue, inv_c, inv_e, sc, se, src, sre, valves)
-        pmax = max(pmax, pc, pe)
-        force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
-        L, v, stop = load_step_k(L, v, force + f_ext, dt_over_m, dv_fric, damp_factor, l_min, l_max, dt)
-        vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)
-        inv_c = 1.0 / vol_c_new  # one division serves the work ratio and the next pressures
-        inv_e = 1.0 / vol_e_new
-        mc, uc, me, ue = substep_air(mc, uc, me, ue, dmc, duc, dme, due, vol_c * inv_c,
-                                     vol_e * inv_e, dt)
-        vol_c = vol_c_new
-        vol_e = vol_e_new
-        air_used += dt * sup
-        t += dt
-    out[S_L] = L
-    out[S_V] = v
-    out[S_MC] = mc
-    out[S_UC] = uc
-    out[S_ME] = me
-    out[S_UE] = ue
-    out[S_SC] = sc
-    out[S_SE] = se
-    out[S_SRC] = src
-    out[S_SRE] = sre
-    out[S_T] = t
-    _measure(out, p, aux)
-    pmax = max(pmax, aux[A_PC], aux[A_PE])
-    aux[A_MDOT_C] = dmc
-    aux[A_MDOT_E] = dme
-    aux[A_AIR] = air_used
-    aux[A_PMAX] = pmax
-    aux[A_BURST] = 1.0 if pmax > p[ix.P_BURST] else 0.0
-    aux[A_STOP] = stop
+        for i in range(n):
+            _lane_substep(W, i, mode, dt)
+
+
+@jit
+def _substeps(W, n, mode, dt, n_sub):
+    """``n_sub`` sub-steps of the first ``n`` plants of a block (the mode is made a compile-time
+    constant of each loop, so its branches vanish)."""
+    if mode == ONOFF:
+        _substeps_mode(W, n, ONOFF, dt, n_sub)
+    elif mode == PRESSURE:
+        _substeps_mode(W, n, PRESSURE, dt, n_sub)
+    else:
+        _substeps_mode(W, n, PROPORTIONAL, dt, n_sub)
+
+
+@jit
+def advance_block(state, inputs, params, lo, n, mode, dt, n_sub, out, aux, W):
+    """Advance plants ``lo .. lo + n - 1`` (``n <= BLOCK``) of a batch by ``n_sub`` sub-steps of
+    ``dt``; write their rows of ``out`` (may be ``state``) and ``aux``. ``W`` is a scratch array of
+    ``W_SIZE`` floats. Every plant takes exactly the same floating-point operations whatever the
+    block it is in, so a batch and single plants agree bit for bit."""
+    shared = params.shape[0] == 1
+    for i in range(n):
+        r = lo + i
+        p = params[0] if shared else params[r]
+        for f in range(N_STATE):
+            W[_w(f, i)] = state[r, f]
+        for f in range(N_INPUT):
+            W[_w(_W_IN + f, i)] = inputs[r, f]
+        for f in range(ix.N_PARAMS):
+            W[_w(_W_P + f, i)] = p[f]
+        tau, cvalve, order, zeta, decay = valve_setup(mode, p, dt)
+        W[_w(_W_VALVES, i)], W[_w(_W_VALVES + 1, i)], W[_w(_W_VALVES + 2, i)] = tau, cvalve, order
+        W[_w(_W_VALVES + 3, i)], W[_w(_W_VALVES + 4, i)] = zeta, decay
+        mass = p[ix.M_END] + inputs[r, I_LOAD]
+        # gravity and external force, down (extension) positive
+        W[_w(_W_FEXT, i)] = mass * p[ix.GRAV] + inputs[r, I_FEXT]
+        W[_w(_W_DTM, i)], W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)] = load_constants(mass, p[ix.DAMP], p[ix.F_COUL], dt)
+        vol_c, vol_e, dvc, dvac, dvae = volumes_at(state[r, S_L], p)
+        W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = vol_c, vol_e, 1.0 / vol_c, 1.0 / vol_e
+        W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
+        W[_w(_W_AIR, i)] = 0.0
+        W[_w(_W_PMAX, i)] = -np.inf
+        W[_w(_W_STOP, i)] = 0.0
+        W[_w(_W_DMC, i)] = 0.0
+        W[_w(_W_DME, i)] = 0.0
+    _substeps(W, n, mode, dt, n_sub)
+    for i in range(n):
+        r = lo + i
+        p = params[0] if shared else params[r]
+        x = out[r]
+        a = aux[r]
+        for f in range(N_STATE):
+            x[f] = W[_w(f, i)]
+        _measure(x, p, a)
+        pmax = fmax(fmax(W[_w(_W_PMAX, i)], a[A_PC]), a[A_PE])
+        a[A_MDOT_C] = W[_w(_W_DMC, i)]
+        a[A_MDOT_E] = W[_w(_W_DME, i)]
+        a[A_AIR] = W[_w(_W_AIR, i)]
+        a[A_PMAX] = pmax
+        a[A_BURST] = 1.0 if pmax > p[ix.P_BURST] else 0.0
+        a[A_STOP] = W[_w(_W_STOP, i)]
 
 
 @jit
@@ -240,16 +303,19 @@ def _measure(x, p, aux):
 
 @jit
 def _step_serial(state, inputs, params, mode, dt, n_sub, out, aux):
-    shared = params.shape[0] == 1
-    for i in range(state.shape[0]):
-        _advance(state[i], inputs[i], params[0] if shared else params[i], mode, dt, n_sub, out[i], aux[i])
+    W = np.empty(W_SIZE)
+    n = state.shape[0]
+    for lo in range(0, n, BLOCK):
+        advance_block(state, inputs, params, lo, min(BLOCK, n - lo), mode, dt, n_sub, out, aux, W)
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
 def _step_parallel(state, inputs, params, mode, dt, n_sub, out, aux):
-    shared = params.shape[0] == 1
-    for i in prange(state.shape[0]):
-        _advance(state[i], inputs[i], params[0] if shared else params[i], mode, dt, n_sub, out[i], aux[i])
+    n = state.shape[0]
+    for b in prange((n + BLOCK - 1) // BLOCK):
+        lo = b * BLOCK
+        advance_block(state, inputs, params, lo, min(BLOCK, n - lo), mode, dt, n_sub, out, aux,
+                      np.empty(W_SIZE))
 
 
 def step(state, inputs, params, mode: int = PROPORTIONAL, dt: float = 5e-4, n_sub: int = 40,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -17,13 +18,15 @@ from .core import CEPAMBatch
 INFO_KEYS = ("length", "velocity", "stiffness", "stiffness_closed", "force", "pressure_c",
              "pressure_e", "temperature_c", "temperature_e", "air_used", "load_mass",
              "target_length", "target_stiffness")
-_AUX_INFO = {"stiffness": pl.A_STIFF, "stiffness_closed": pl.A_STIFF_CLOSED, "force": pl.A_FORCE,
-             "pressure_c": pl.A_PC, "pressure_e": pl.A_PE, "temperature_c": pl.A_TC,
-             "temperature_e": pl.A_TE, "air_used": pl.A_AIR}
-
-
+# info keys read from aux, in the order tasks.kernel.env_step_single writes them
+_AUX_INFO = dict(zip(("stiffness", "stiffness_closed", "force", "pressure_c", "pressure_e",
+                      "temperature_c", "temperature_e", "air_used"), tk.AUX_INFO))
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
+# keys of a step's info in the order of CEPAMBatch.info_row (single env)
+_STEP_KEYS = ("length", "velocity", *_AUX_INFO, "load_mass", "target_length", "target_stiffness",
+              *_TERM_KEYS)
+assert len(_STEP_KEYS) == tk.N_INFO and set(INFO_KEYS) <= set(_STEP_KEYS)
 
 
 def _info_single(core: CEPAMBatch, scored: bool) -> dict[str, Any]:
@@ -193,6 +196,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         _check_renderer(renderer)
         self.renderer = renderer
         self.core = CEPAMBatch(1, task=task, **kwargs)
+        self._obs_row = self.core.obs[0]
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
@@ -216,13 +220,22 @@ class CEPAMEnv(gym.Env, EzPickle):
         return self.core.obs[0].copy(), info
 
     def step(self, action):
-        self.core.step(self.core.check_actions(action))
-        reason = int(self.core.reasons[0])
-        info = _info_single(self.core, scored=True)
+        core = self.core
+        if core.fast_single and getattr(action, "shape", None) == (2,):
+            # the hot path (kept lean: a single env's step is mostly Python overhead)
+            x0, x1 = float(action[0]), float(action[1])
+            if not (math.isfinite(x0) and math.isfinite(x1)):
+                raise ValueError(f"action contains NaN or inf: {action!r}")
+            reward, reason = core.step_single(x0, x1)
+            info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
+        else:
+            core.step(core.check_actions(action))
+            reward, reason = float(core.rewards[0]), int(core.reasons[0])
+            info = _info_single(core, scored=True)
         info["termination_reason"] = tk.TERMINATION_REASONS[reason]
         if self.render_mode == "human":
             self.render()
-        return (self.core.obs[0].copy(), float(self.core.rewards[0]), reason != 0, False, info)
+        return self._obs_row.copy(), reward, reason != 0, False, info
 
     def render(self):
         if self.render_mode is None:

@@ -138,22 +138,35 @@ class CEPAMBatch:
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
         self._stable_checked = False
-        self.params = np.repeat(nominal_row[None], n, axis=0)
-        self.state = np.zeros((n, pl.N_STATE))
-        self.aux = np.zeros((n, pl.N_AUX))
-        self.inputs = np.zeros((n, pl.N_INPUT))
-        self.target_l = np.zeros((n, self.n_steps))
-        self.target_k = np.zeros((n, self.n_steps))
-        self.load = np.zeros((n, self.n_steps))
-        self.t_idx = np.zeros(n, dtype=np.int64)
-        self.prev_action = np.zeros((n, 2))
+        self.has_noise = bool(self.noise_sd.any())
+        # a single env without latency or supply drift steps through one jitted call
+        # (tasks.kernel.env_step_single) on two slabs its arrays are views of
+        self.fast_single = n == 1 and not self.latency and not self.supply_drift
+        if n == 1:
+            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt)
+            self.state, self.aux, self.inputs, self.params = v["state"], v["aux"], v["inputs"], v["params"]
+            self.target_l, self.target_k, self.load = v["target_l"], v["target_k"], v["load"]
+            self.t_idx, self.prev_action, self.rewards = v["t_idx"], v["actions"], v["rewards"]
+            self.terms, self.reasons, self.noise, self.info_row = v["terms"], v["reasons"], v["noise"], v["info"]
+            self.params[:] = nominal_row
+            v["task"][:] = self.task_vec
+            self.task_vec = v["task"]
+        else:
+            self.params = np.repeat(nominal_row[None], n, axis=0)
+            self.state = np.zeros((n, pl.N_STATE))
+            self.aux = np.zeros((n, pl.N_AUX))
+            self.inputs = np.zeros((n, pl.N_INPUT))
+            self.target_l = np.zeros((n, self.n_steps))
+            self.target_k = np.zeros((n, self.n_steps))
+            self.load = np.zeros((n, self.n_steps))
+            self.t_idx = np.zeros(n, dtype=np.int64)
+            self.prev_action = np.zeros((n, 2))
+            self.rewards = np.zeros(n)
+            self.terms = np.zeros((n, tk.N_TERMS))
+            self.reasons = np.zeros(n, dtype=np.int64)
+            self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
         self.queue = np.zeros((self.latency + 1, n, 2))
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
-        self.rewards = np.zeros(n)
-        self.terms = np.zeros((n, tk.N_TERMS))
-        self.reasons = np.zeros(n, dtype=np.int64)
-        self.has_noise = bool(self.noise_sd.any())
-        self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
         self.noise_rng = np.random.default_rng()
         # prev_action doubles as the buffer of the action being applied (clipped in place by the
@@ -163,6 +176,13 @@ class CEPAMBatch:
                              self.n_sub, self.target_l, self.target_k, self.load, self.t_idx,
                              self.task_vec, self.noise, self.inputs, self.obs, self.rewards,
                              self.terms, self.aux, self.reasons)
+
+    def step_single(self, x0: float, x1: float) -> tuple[float, int]:
+        """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
+        ``(reward, termination reason)``; ``info_row`` then holds the step's info values."""
+        if self.has_noise:
+            self._draw_noise()
+        return tk.env_step_single(self._F, self._I, self.obs, x0, x1)
 
     def _task_vector(self) -> np.ndarray:
         t, w = self.task, self.task.weights

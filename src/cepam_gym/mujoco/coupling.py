@@ -1,6 +1,6 @@
 """The CE-PAM plant with its mechanics handed to MuJoCo.
 
-The plant kernel :func:`cepam_gym.plant._advance` integrates the air, the valves *and* the free end
+The plant kernel :func:`cepam_gym.plant.advance_block` integrates the air, the valves *and* the free end
 of the rig. When MuJoCo owns the mechanics (a slider in :class:`~cepam_gym.mujoco.rig.RigSimulator`,
 a hinge in :class:`~cepam_gym.mujoco.joint.CEPAMJointEnv`), every plant sub-step is run like this:
 

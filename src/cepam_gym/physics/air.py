@@ -13,7 +13,7 @@ of the plant is the adiabatic one on short time scales and the isothermal one on
 
 from __future__ import annotations
 
-from .._jit import jit
+from .._jit import jit, jit_inline
 from .layout import CP, CV, GAMMA, R_AIR
 from .valve import signed_flow_k
 
@@ -37,7 +37,7 @@ def state_from_pressure(p_abs, t, volume):
     return m, m * CV * t
 
 
-@jit
+@jit_inline
 def chamber_rates(p, t, kt, dvol_dt, c_in, c_out, p_sup, t_sup, k_sup, p_atm, t_amb, k_amb, vk, ha):
     """Rates ``(dm/dt, dU/dt)`` of one chamber and the mass flow drawn from the supply.
 

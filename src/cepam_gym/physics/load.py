@@ -13,7 +13,7 @@ which stops further extension, paper section V) are perfectly plastic.
 
 from __future__ import annotations
 
-from .._jit import jit
+from .._jit import jit, jit_inline
 
 
 @jit
@@ -27,14 +27,14 @@ def load_step(L, v, force, mass, f_ext, gravity, damping, coulomb, l_min, l_max,
     return load_step_k(L, v, force + mass * gravity + f_ext, k[0], k[1], k[2], l_min, l_max, dt)
 
 
-@jit
+@jit_inline
 def load_constants(mass, damping, coulomb, dt):
     """``(dt/M, Coulomb velocity impulse dt F_c/M, implicit damping factor 1/(1 + dt c/M))``:
     constant over a control step, so the plant computes them once per step."""
     return dt / mass, dt * coulomb / mass, 1.0 / (1.0 + dt * damping / mass)
 
 
-@jit
+@jit_inline
 def load_step_k(L, v, f_total, dt_over_m, dv_fric, damp_factor, l_min, l_max, dt):
     """:func:`load_step` with the net force (pneumatic + gravity + external) and the
     :func:`load_constants` precomputed."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_inline, sqrt
 from . import layout as ix
 
 
@@ -57,14 +57,14 @@ def braid_terms(L, b, n, ta):
                          b / (math.pi * n), math.pi * ta * ta, ta)
 
 
-@jit
+@jit_inline
 def braid_terms_k(L, b, inv_b, q, tbn, tan, dk, pta2, ta):
     """:func:`braid_terms` with the per-muscle constants precomputed: ``inv_b = 1/b``,
     ``q = 1/(4 pi n^2)``, ``tbn = t_a b/n``, ``tan = t_a/n``, ``dk = b/(pi n)``, ``pta2 = pi t_a^2``
     (the plant keeps them in its parameter row, so the sub-step loop has one division)."""
     u = L * inv_b
     s2 = 1.0 - u * u
-    s = math.sqrt(s2)
+    s = sqrt(s2)
     inv_s = 1.0 / s
     d_out = dk * s  # Eq. 2
     d_air = d_out - 2.0 * ta  # Eq. 34
@@ -77,14 +77,14 @@ def braid_terms_k(L, b, inv_b, q, tbn, tan, dk, pta2, ta):
     return v_out, v_air, dv_out, dv_air, d2v_out, d2v_air
 
 
-@jit
+@jit_inline
 def cpam_terms(L, p):
     """:func:`braid_terms` of the CPAM of parameter row ``p``."""
     return braid_terms_k(L, p[ix.BC], p[ix.INV_BC], p[ix.QC], p[ix.TBN_C], p[ix.TAN_C], p[ix.DK_C],
                          p[ix.PTA2], p[ix.TA])
 
 
-@jit
+@jit_inline
 def epam_terms(L, p):
     """:func:`braid_terms` of the EPAM of parameter row ``p``."""
     return braid_terms_k(L, p[ix.BE], p[ix.INV_BE], p[ix.QE], p[ix.TBN_E], p[ix.TAN_E], p[ix.DK_E],
@@ -103,7 +103,7 @@ def radial_pressure(L, b, n, d_bladder, radial, kr_lo, kr_hi):
     return radial_pressure_k(L, b, 1.0 / (math.pi * n * b), d_bladder, radial, kr_lo, kr_hi)
 
 
-@jit
+@jit_inline
 def radial_pressure_k(L, b, inv_pnb, d_bladder, radial, kr_lo, kr_hi):
     """:func:`radial_pressure` with ``inv_pnb = 1 / (pi n b)`` precomputed."""
     if radial == 0.0:
@@ -117,7 +117,7 @@ def radial_pressure_k(L, b, inv_pnb, d_bladder, radial, kr_lo, kr_hi):
     return kr * gap, kr * 2.0 * L * inv_pnb
 
 
-@jit
+@jit_inline
 def active_pressure(P, p_r, dpr_dl):
     """Pressure that does work on the braid, ``P_a = P - P_r`` (Eq. 26, 29, 31), and ``dP_a/dL``.
 
@@ -130,7 +130,7 @@ def active_pressure(P, p_r, dpr_dl):
     return pa, -dpr_dl
 
 
-@jit
+@jit_inline
 def contact_pressures(L, p):
     """``(P_rc, dP_rc/dL, P_re, dP_re/dL)`` of the two bladders of parameter row ``p``."""
     prc, dprc = radial_pressure_k(L, p[ix.BC], p[ix.INV_PNB_C], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
@@ -158,7 +158,7 @@ def cepam_force(L, pc, pe, p):
     return force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae)
 
 
-@jit
+@jit_inline
 def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     """:func:`cepam_force` from precomputed volume slopes (the plant computes them once per step)."""
     kappa = p[ix.KAPPA]

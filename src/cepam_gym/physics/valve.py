@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit
+from .._jit import jit, jit_inline, sqrt
 from .layout import RHO0, T0
 
 
@@ -26,43 +26,45 @@ def iso6358_flow(p_up, p_down, t_up, c, b, r_lam):
                           math.sqrt(1.0 - x * x) / (1.0 - r_lam))
 
 
-@jit
+@jit_inline
 def iso6358_flow_k(p_up, p_down, k_up, c, b, inv_1mb, r_lam, lam_k):
     """:func:`iso6358_flow` with ``k_up = sqrt(T0/T_up)``, ``inv_1mb = 1/(1-b)`` and the laminar
-    factor ``lam_k = sqrt(1 - x_lam^2)/(1 - r_lam)`` precomputed."""
-    if c <= 0.0 or p_up <= 0.0:
-        return 0.0
+    factor ``lam_k = sqrt(1 - x_lam^2)/(1 - r_lam)`` precomputed.
+
+    Written without branches (every regime is evaluated, then the right one selected) so that the
+    plant's loop across plants vectorises; the selected value is the same as with branches. The
+    square root of the unused subsonic branch may be NaN; it is discarded."""
     r = p_down / p_up
     choked = c * RHO0 * p_up * k_up
-    if r <= b:
-        return choked
-    if r < r_lam:
-        x = (r - b) * inv_1mb
-        return choked * math.sqrt(1.0 - x * x)
-    return choked * lam_k * (1.0 - r)
+    x = (r - b) * inv_1mb
+    subsonic = choked * sqrt(1.0 - x * x)
+    laminar = choked * lam_k * (1.0 - r)
+    m = choked if r <= b else (subsonic if r < r_lam else laminar)
+    return 0.0 if (c <= 0.0 or p_up <= 0.0) else m
 
 
 @jit
 def signed_flow(pa, ta, pb, tb, c, b, r_lam):
     """Mass flow [kg/s] from side a to side b; negative when air flows from b to a.
 
-    The upstream side's temperature is used, whichever it is; no square root of a negative number
-    is ever taken because the direction is chosen first.
+    The upstream side's temperature is used, whichever it is; the direction is chosen first, so
+    the ISO 6358 formula always sees ``p_up >= p_down``.
     """
     x = (r_lam - b) / (1.0 - b)
     return signed_flow_k(pa, math.sqrt(T0 / ta), pb, math.sqrt(T0 / tb), c, b, 1.0 / (1.0 - b),
                          r_lam, math.sqrt(1.0 - x * x) / (1.0 - r_lam))
 
 
-@jit
+@jit_inline
 def signed_flow_k(pa, ka, pb, kb, c, b, inv_1mb, r_lam, lam_k):
     """:func:`signed_flow` with the temperature factors ``k = sqrt(T0/T)`` precomputed."""
-    if pa >= pb:
-        return iso6358_flow_k(pa, pb, ka, c, b, inv_1mb, r_lam, lam_k)
-    return -iso6358_flow_k(pb, pa, kb, c, b, inv_1mb, r_lam, lam_k)
+    forward = pa >= pb  # the direction is chosen first (selects, not branches: see iso6358_flow_k)
+    m = iso6358_flow_k(pa if forward else pb, pb if forward else pa, ka if forward else kb, c, b,
+                       inv_1mb, r_lam, lam_k)
+    return m if forward else -m
 
 
-@jit
+@jit_inline
 def spool_step(s, s_rate, cmd, dt, tau, order, zeta, decay):
     """Advance a valve spool (opening in [-1, 1]) by ``dt`` towards command ``cmd``.
 

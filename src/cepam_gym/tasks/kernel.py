@@ -1,7 +1,7 @@
 """The fused control step of every CE-PAM env: actions -> plant -> observation, reward, flags.
 
-One compiled function per env row (:func:`_env_row`) calls the plant kernel
-(:func:`cepam_gym.plant._advance`, the only copy of the equations) and then the task's
+One compiled function per block of envs (:func:`_env_block`) calls the plant kernel
+(:func:`cepam_gym.plant.advance_block`, the only copy of the equations) and then the task's
 observation and reward terms. The single env and the vector env both call :func:`env_step`;
 keeping the per-step task arithmetic compiled is what makes a single env faster than
 Gymnasium's Pendulum and a batch of 4096 envs run at millions of steps per second.
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from .._jit import jit
@@ -78,62 +79,68 @@ def reward_terms(L, K, air, burst, a, target_l, target_k, task, terms):
 
 
 @jit
-def _env_row(x, a, p, mode, dt, n_sub, target_l, target_k, next_l, next_k, load, task, noise,
-             inp, obs, terms, aux):
-    """One control step of one env. ``a`` is the action the plant receives now; it is clipped to
-    [-1, 1] here, in place, so the caller's buffer then holds what was applied."""
-    a[0] = max(-1.0, min(1.0, a[0]))
-    a[1] = max(-1.0, min(1.0, a[1]))
-    if mode == pl.PRESSURE:
-        half = 0.5 * task[T_SETPOINT_MAX]
-        inp[pl.I_CMD_C] = half * (a[0] + 1.0)
-        inp[pl.I_CMD_E] = half * (a[1] + 1.0)
-    else:
-        inp[pl.I_CMD_C] = a[0]
-        inp[pl.I_CMD_E] = a[1]
-    inp[pl.I_LOAD] = load
-    inp[pl.I_FEXT] = 0.0
-    pl._advance(x, inp, p, mode, dt, n_sub, x, aux)
-    burst = aux[pl.A_BURST] != 0.0
-    reward = reward_terms(x[pl.S_L], aux[pl.A_STIFF], aux[pl.A_AIR], burst, a, target_l, target_k,
-                          task, terms)
-    write_obs(x, aux, next_l, next_k, a, p, task, noise, obs)
-    if aux[pl.A_FINITE] == 0.0 or not math.isfinite(reward):
-        return 0.0, TERMINATION_NONFINITE
-    if burst:
-        return reward, TERMINATION_BURST
-    return reward, TERMINATION_NONE
+def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise,
+               inputs, obs, rewards, terms, aux, reasons, W):
+    """One control step of envs ``lo .. lo + n - 1`` (one plant block, ``n <= plant.BLOCK``).
 
-
-@jit
-def _row(i, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise, inputs,
-         obs, rewards, terms, aux, reasons):
+    Each env's action (the plant receives it now) is clipped to [-1, 1] in place, so the caller's
+    buffer then holds what was applied; the plant block advances; then each env's reward terms,
+    observation and termination reason are written."""
     n_t = tl.shape[1]
-    k = min(t_idx[i], n_t - 1)
-    k1 = min(t_idx[i] + 1, n_t - 1)
-    p = params[0] if params.shape[0] == 1 else params[i]
-    rz = noise[0] if noise.shape[0] == 1 else noise[i]
-    r, why = _env_row(state[i], actions[i], p, mode, dt, n_sub, tl[i, k], tk[i, k], tl[i, k1],
-                      tk[i, k1], loads[i, k], task, rz, inputs[i], obs[i], terms[i], aux[i])
-    rewards[i] = r
-    reasons[i] = why
-    t_idx[i] += 1
+    for i in range(lo, lo + n):
+        a = actions[i]
+        a[0] = max(-1.0, min(1.0, a[0]))
+        a[1] = max(-1.0, min(1.0, a[1]))
+        inp = inputs[i]
+        if mode == pl.PRESSURE:
+            half = 0.5 * task[T_SETPOINT_MAX]
+            inp[pl.I_CMD_C] = half * (a[0] + 1.0)
+            inp[pl.I_CMD_E] = half * (a[1] + 1.0)
+        else:
+            inp[pl.I_CMD_C] = a[0]
+            inp[pl.I_CMD_E] = a[1]
+        inp[pl.I_LOAD] = loads[i, min(t_idx[i], n_t - 1)]
+        inp[pl.I_FEXT] = 0.0
+    pl.advance_block(state, inputs, params, lo, n, mode, dt, n_sub, state, aux, W)
+    for i in range(lo, lo + n):
+        k = min(t_idx[i], n_t - 1)
+        k1 = min(t_idx[i] + 1, n_t - 1)
+        x = state[i]
+        ax = aux[i]
+        burst = ax[pl.A_BURST] != 0.0
+        reward = reward_terms(x[pl.S_L], ax[pl.A_STIFF], ax[pl.A_AIR], burst, actions[i], tl[i, k],
+                              tk[i, k], task, terms[i])
+        p = params[0] if params.shape[0] == 1 else params[i]
+        write_obs(x, ax, tl[i, k1], tk[i, k1], actions[i], p, task,
+                  noise[0] if noise.shape[0] == 1 else noise[i], obs[i])
+        if ax[pl.A_FINITE] == 0.0 or not math.isfinite(reward):
+            rewards[i] = 0.0
+            reasons[i] = TERMINATION_NONFINITE
+        else:
+            rewards[i] = reward
+            reasons[i] = TERMINATION_BURST if burst else TERMINATION_NONE
+        t_idx[i] += 1
 
 
 @jit
 def _env_step_serial(state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise,
                      inputs, obs, rewards, terms, aux, reasons):
-    for i in range(state.shape[0]):
-        _row(i, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise, inputs,
-             obs, rewards, terms, aux, reasons)
+    n = state.shape[0]
+    W = np.empty(pl.W_SIZE)
+    for lo in range(0, n, pl.BLOCK):
+        _env_block(lo, min(pl.BLOCK, n - lo), state, actions, params, mode, dt, n_sub, tl, tk,
+                   loads, t_idx, task, noise, inputs, obs, rewards, terms, aux, reasons, W)
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
 def _env_step_parallel(state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise,
                        inputs, obs, rewards, terms, aux, reasons):
-    for i in prange(state.shape[0]):
-        _row(i, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise, inputs,
-             obs, rewards, terms, aux, reasons)
+    n = state.shape[0]
+    for b in prange((n + pl.BLOCK - 1) // pl.BLOCK):
+        lo = b * pl.BLOCK
+        _env_block(lo, min(pl.BLOCK, n - lo), state, actions, params, mode, dt, n_sub, tl, tk,
+                   loads, t_idx, task, noise, inputs, obs, rewards, terms, aux, reasons,
+                   np.empty(pl.W_SIZE))
 
 
 def env_step(*args):
@@ -151,3 +158,81 @@ def observe(state, aux, params, tl, tk, t_idx, prev_actions, task, noise, obs):
         p = params[0] if params.shape[0] == 1 else params[i]
         rz = noise[0] if noise.shape[0] == 1 else noise[i]
         write_obs(state[i], aux[i], tl[i, k], tk[i, k], prev_actions[i], p, task, rz, obs[i])
+
+
+# ------------------------------------------------------------------ single env
+# A single env's step is dominated by Python overhead, a good part of it the dispatch of a jitted
+# call (about 55 ns per array argument). Its arrays are therefore views into two slabs, one float64
+# and one int64, and its step is one jitted call with three arrays and two floats; the call also
+# writes the values of the step's ``info`` in order (length, velocity, the AUX_INFO columns,
+# load, targets, reward terms).
+AUX_INFO = (pl.A_STIFF, pl.A_STIFF_CLOSED, pl.A_FORCE, pl.A_PC, pl.A_PE, pl.A_TC, pl.A_TE, pl.A_AIR)
+N_INFO = 2 + len(AUX_INFO) + 3 + N_TERMS
+_SINGLE_FIELDS = (("state", pl.N_STATE), ("actions", 2), ("params", ix.N_PARAMS),
+                  ("inputs", pl.N_INPUT), ("aux", pl.N_AUX), ("terms", N_TERMS), ("rewards", 1),
+                  ("noise", N_NOISE), ("task", N_TASK), ("dt", 1), ("info", N_INFO), ("W", pl.W_SIZE))
+_OFF = {}
+_o = 0
+for _name, _size in _SINGLE_FIELDS:
+    _OFF[_name] = _o
+    _o += _size
+_F_STATE, _F_ACT, _F_PARAMS, _F_INPUTS, _F_AUX = (_OFF[k] for k in ("state", "actions", "params", "inputs", "aux"))
+_F_TERMS, _F_REW, _F_NOISE, _F_TASK, _F_DT, _F_INFO, _F_W = (
+    _OFF[k] for k in ("terms", "rewards", "noise", "task", "dt", "info", "W"))
+_F_SCHED = _o  # then target length, target stiffness and load, n_steps each
+_I_T, _I_REASON, _I_MODE, _I_NSUB = range(4)
+
+
+def single_slabs(n_steps: int, mode: int, n_sub: int, dt: float):
+    """``(F, I, views)`` of a single env: the two slabs and named (1, k) views into them (state,
+    actions, params, inputs, aux, terms, rewards (1,), noise, task (N_TASK,), target_l, target_k,
+    load, t_idx (1,), reasons (1,), info (N_INFO,))."""
+    F = np.zeros(_F_SCHED + 3 * n_steps)
+    I = np.zeros(4, dtype=np.int64)
+    I[_I_MODE], I[_I_NSUB] = mode, n_sub
+    F[_F_DT] = dt
+    v = {name: F[_OFF[name]:_OFF[name] + size].reshape(1, size) for name, size in _SINGLE_FIELDS}
+    v["rewards"] = v["rewards"].reshape(1)
+    v["task"] = v["task"].reshape(N_TASK)
+    v["info"] = v["info"].reshape(N_INFO)
+    for j, name in enumerate(("target_l", "target_k", "load")):
+        v[name] = F[_F_SCHED + j * n_steps:_F_SCHED + (j + 1) * n_steps].reshape(1, n_steps)
+    v["t_idx"] = I[_I_T:_I_T + 1]
+    v["reasons"] = I[_I_REASON:_I_REASON + 1]
+    return F, I, v
+
+
+@jit
+def env_step_single(F, I, obs, a0, a1):
+    """One control step of a single env whose arrays live in the slabs ``F``, ``I`` (see
+    :func:`single_slabs`), with the (finite) action ``(a0, a1)``; returns ``(reward, reason)``."""
+    n_steps = (F.shape[0] - _F_SCHED) // 3
+    state = F[_F_STATE:_F_STATE + pl.N_STATE].reshape((1, pl.N_STATE))
+    actions = F[_F_ACT:_F_ACT + 2].reshape((1, 2))
+    actions[0, 0] = a0
+    actions[0, 1] = a1
+    tl = F[_F_SCHED:_F_SCHED + n_steps].reshape((1, n_steps))
+    tk = F[_F_SCHED + n_steps:_F_SCHED + 2 * n_steps].reshape((1, n_steps))
+    loads = F[_F_SCHED + 2 * n_steps:_F_SCHED + 3 * n_steps].reshape((1, n_steps))
+    t_idx = I[_I_T:_I_T + 1]
+    aux = F[_F_AUX:_F_AUX + pl.N_AUX].reshape((1, pl.N_AUX))
+    terms = F[_F_TERMS:_F_TERMS + N_TERMS].reshape((1, N_TERMS))
+    _env_block(0, 1, state, actions, F[_F_PARAMS:_F_PARAMS + ix.N_PARAMS].reshape((1, ix.N_PARAMS)),
+               I[_I_MODE], F[_F_DT], I[_I_NSUB], tl, tk, loads, t_idx, F[_F_TASK:_F_TASK + N_TASK],
+               F[_F_NOISE:_F_NOISE + N_NOISE].reshape((1, N_NOISE)),
+               F[_F_INPUTS:_F_INPUTS + pl.N_INPUT].reshape((1, pl.N_INPUT)), obs,
+               F[_F_REW:_F_REW + 1], terms, aux, I[_I_REASON:_I_REASON + 1], F[_F_W:_F_W + pl.W_SIZE])
+    # info of the scored step (the targets and load of the step just taken)
+    k = min(max(t_idx[0] - 1, 0), n_steps - 1)
+    info = F[_F_INFO:_F_INFO + N_INFO]
+    info[0] = state[0, pl.S_L]
+    info[1] = state[0, pl.S_V]
+    for j in range(len(AUX_INFO)):
+        info[2 + j] = aux[0, AUX_INFO[j]]
+    j = 2 + len(AUX_INFO)
+    info[j] = loads[0, k]
+    info[j + 1] = tl[0, k]
+    info[j + 2] = tk[0, k]
+    for m in range(N_TERMS):
+        info[j + 3 + m] = terms[0, m]
+    return F[_F_REW], I[_I_REASON]
