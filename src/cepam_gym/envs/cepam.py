@@ -46,19 +46,23 @@ def _info_single(core: CEPAMBatch, scored: bool) -> dict[str, Any]:
     return info
 
 
+_AUX_COLS = np.array(list(_AUX_INFO.values()))
+_STATE_COLS = np.array([pl.S_L, pl.S_V])
+_REASON_NAMES = np.array(tk.TERMINATION_REASONS, dtype=object)
+
+
 def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
-    """Per-env info arrays: true plant quantities (SI), the targets scored, reward terms."""
-    k = np.clip(core.t_idx - (1 if scored else 0), 0, core.n_steps - 1)
+    """Per-env info arrays: true plant quantities (SI), the targets scored, reward terms. Each
+    group is gathered in one copy and handed out as its rows (fresh arrays every step)."""
+    k = np.minimum(np.maximum(core.t_idx - (1 if scored else 0), 0), core.n_steps - 1)
     r = np.arange(core.num_envs)
-    out = {"length": core.state[:, pl.S_L].copy(), "velocity": core.state[:, pl.S_V].copy()}
-    for name, col in _AUX_INFO.items():
-        out[name] = core.aux[:, col].copy()
+    out = dict(zip(("length", "velocity"), np.ascontiguousarray(core.state[:, _STATE_COLS].T)))
+    out.update(zip(_AUX_INFO, np.ascontiguousarray(core.aux[:, _AUX_COLS].T)))
     out["load_mass"] = core.load[r, k]
     out["target_length"] = core.target_l[r, k]
     out["target_stiffness"] = core.target_k[r, k]
     if scored:
-        for j, name in enumerate(tk.REWARD_TERMS):
-            out[f"reward_{name}"] = core.terms[:, j].copy()
+        out.update(zip(_TERM_KEYS, np.ascontiguousarray(core.terms.T)))
     return out
 
 
@@ -319,7 +323,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         truncated = (self._elapsed >= self.max_episode_steps) & ~terminated if self.max_episode_steps else \
             np.zeros(self.num_envs, dtype=bool)
         infos = _info_arrays(self.core, scored=True)
-        infos["termination_reason"] = np.array(tk.TERMINATION_REASONS, dtype=object)[self.core.reasons]
+        infos["termination_reason"] = _REASON_NAMES[self.core.reasons]
         obs = self.core.obs.copy()
         done = terminated | truncated
         if done.any():
