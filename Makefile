@@ -14,19 +14,23 @@ install: $(VENV)/.installed
 
 install-distributed: $(RAY_VENV)/.installed
 
+# $(call venv,DIR,EXTRAS): a venv with the CPU torch wheel first, then the package and its extras
+define venv
+	python3 -m venv $(1)
+	$(1)/bin/python -m pip install -q --upgrade pip
+	$(1)/bin/python -m pip install -q $(TORCH)
+	$(1)/bin/python -m pip install -q -e ".[$(2)]"
+	touch $(1)/.installed
+endef
+
+MAIN_EXTRAS := train,test,mujoco,zoo
+RAY_EXTRAS := train,test,distributed
+
 $(VENV)/.installed: pyproject.toml
-	python3 -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q $(TORCH)
-	$(PY) -m pip install -q -e ".[train,test,mujoco,zoo]"
-	touch $@
+	$(call venv,$(VENV),$(MAIN_EXTRAS))
 
 $(RAY_VENV)/.installed: pyproject.toml
-	python3 -m venv $(RAY_VENV)
-	$(RAY_PY) -m pip install -q --upgrade pip
-	$(RAY_PY) -m pip install -q $(TORCH)
-	$(RAY_PY) -m pip install -q -e ".[train,test,distributed]"
-	touch $@
+	$(call venv,$(RAY_VENV),$(RAY_EXTRAS))
 
 run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run
