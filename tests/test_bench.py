@@ -135,6 +135,9 @@ def test_env_reward_weighs_length_and_stiffness_like_the_score():
     off_20pct = dict(base, stiffness=base["stiffness"] * 1.2)
     s_len, s_k = score_traces(off_5mm)["score"], score_traces(off_20pct)["score"]
     assert s_len == pytest.approx(1.0) and s_k == pytest.approx(1.0)
+    from cepam_gym.tasks import TASKS
+
+    assert all(t.weights == RewardWeights() for t in TASKS.values())  # every rig task uses them
     w = RewardWeights()
     reward_len = w.length * 0.5  # per cm of length error
     reward_k = w.stiffness * 0.2  # per unit relative stiffness error
