@@ -142,3 +142,19 @@ def test_env_reward_weighs_length_and_stiffness_like_the_score():
     reward_len = w.length * 0.5  # per cm of length error
     reward_k = w.stiffness * 0.2  # per unit relative stiffness error
     assert reward_len == pytest.approx(reward_k * s_len / s_k)
+
+
+def test_joint_reward_weighs_angle_and_stiffness_like_its_score():
+    """The joint env's default reward trades 10 deg against 20 % of joint stiffness, as the
+    joint suite's score (TraceSpec JOINT) does."""
+    pytest.importorskip("mujoco")
+    import math
+
+    from cepam_gym.bench.metrics import JOINT
+    from cepam_gym.mujoco import joint
+    from cepam_gym.mujoco.joint_task import JointRewardWeights
+
+    w = JointRewardWeights()
+    per_score_unit_angle = w.angle * math.radians(JOINT.score_norm) / joint._ANGLE_UNIT
+    per_score_unit_stiffness = w.stiffness * 0.20  # the score's 20 %
+    assert per_score_unit_angle == pytest.approx(per_score_unit_stiffness)

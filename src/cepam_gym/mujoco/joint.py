@@ -70,7 +70,9 @@ REWARD_TERMS = ("angle", "stiffness", "effort", "air", "burst")
 _OBS_CLIP = 10.0
 _OMEGA_SCALE = 5.0  # rad/s
 _K_SCALE = 1.0  # N m/rad
-_ANGLE_UNIT = 0.1  # rad: one unit of the angle reward term
+# one unit of the angle reward term: 10 deg, the error the joint benchmark scores as 1 (as 20 % of
+# stiffness is, which JointRewardWeights.stiffness = 5 prices alike)
+_ANGLE_UNIT = math.radians(10.0)
 
 
 _DOC = """
@@ -126,8 +128,8 @@ _DOC = """
 
     | term | value | weight kwarg (default) |
     |---|---|---|
-    | angle | ``-w |theta - theta*| / 0.1 rad`` (clipped at 5) | ``angle`` (1.0) |
-    | stiffness | ``-w |K_joint - K*| / K*`` (clipped at 2) | ``stiffness`` (0.5) |
+    | angle | ``-w |theta - theta*| / 10 deg`` (clipped at 5) | ``angle`` (1.0) |
+    | stiffness | ``-w |K_joint - K*| / K*`` (clipped at 2) | ``stiffness`` (5.0: 20 % weighs like 10 deg, as in the benchmark score) |
     | effort | ``-w mean(a^2)`` | ``effort`` (0.05) |
     | air | ``-w (supply air this step) / 10 mg`` | ``air`` (0.05) |
     | burst | ``-w`` once when a chamber exceeds the burst pressure | ``burst`` (100) |

@@ -119,8 +119,8 @@ class JointTask:
 
 @dataclass(frozen=True)
 class JointRewardWeights:
-    angle: float = 1.0  # per 0.1 rad of |theta - theta*| (clipped at 5)
-    stiffness: float = 0.5  # per unit relative error |K_joint - K*| / K* (clipped at 2)
+    angle: float = 1.0  # per 10 deg of |theta - theta*| (clipped at 5)
+    stiffness: float = 5.0  # per unit relative error |K_joint - K*| / K* (clipped at 2): 20 % ~ 10 deg
     effort: float = 0.05  # per unit mean squared action
     air: float = 0.05  # per 10 mg of supply air in one control step
     burst: float = 100.0  # once, when a chamber exceeds the burst pressure
