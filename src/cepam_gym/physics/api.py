@@ -29,22 +29,34 @@ def _param_rows(params, n: int) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-@njit(cache=False)
-def _loop3(fn, a, b, c, P, n_out, out):
-    shared = P.shape[0] == 1
-    for i in range(a.shape[0]):
-        r = fn(a[i], b[i], c[i], P[0] if shared else P[i])
-        for j in range(n_out):
-            out[j, i] = r[j]
+_LOOPS: dict = {}
 
 
-@njit(cache=False)
-def _loop1(fn, a, P, n_out, out):
-    shared = P.shape[0] == 1
-    for i in range(a.shape[0]):
-        r = fn(a[i], P[0] if shared else P[i])
-        for j in range(n_out):
-            out[j, i] = r[j]
+def _loop(fn, n_in: int):
+    """The compiled loop of kernel ``fn`` over n_in-argument rows: ``loop(*inputs, P, n_out, out)``.
+    One loop per kernel with ``fn`` bound at compile time: passing a jitted function as an argument
+    costs numba a typing of it on every call (about 20 us, more than a small batch's work)."""
+    key = (fn, n_in)
+    loop = _LOOPS.get(key)
+    if loop is None:
+        if n_in == 3:
+            @njit(cache=False)
+            def loop(a, b, c, P, n_out, out):
+                shared = P.shape[0] == 1
+                for i in range(a.shape[0]):
+                    r = fn(a[i], b[i], c[i], P[0] if shared else P[i])
+                    for j in range(n_out):
+                        out[j, i] = r[j]
+        else:
+            @njit(cache=False)
+            def loop(a, P, n_out, out):
+                shared = P.shape[0] == 1
+                for i in range(a.shape[0]):
+                    r = fn(a[i], P[0] if shared else P[i])
+                    for j in range(n_out):
+                        out[j, i] = r[j]
+        loop = _LOOPS[key] = loop
+    return loop
 
 
 def _call(fn, n_out, params, *args):
@@ -56,10 +68,7 @@ def _call(fn, n_out, params, *args):
     if P.shape[0] == n and n > 1 and shape != (n,):
         raise ValueError("per-plant parameters need 1-D inputs of the same length")
     out = np.empty((n_out, n))
-    if len(flat) == 3:
-        _loop3(fn, flat[0], flat[1], flat[2], P, n_out, out)
-    else:
-        _loop1(fn, flat[0], P, n_out, out)
+    _loop(fn, len(flat))(*flat, P, n_out, out)
     return tuple(o.reshape(shape) for o in out)
 
 
@@ -112,7 +121,7 @@ def iso6358_flow(p_up, p_down, t_up, conductance, critical_ratio, laminar_ratio=
     arrays = np.broadcast_arrays(*[np.asarray(a, dtype=float) for a in (p_up, p_down, t_up)])
     flat = [np.array(a, dtype=float).reshape(-1) for a in arrays]  # copies: broadcast views are read-only
     out = np.empty((1, flat[0].shape[0]))
-    _loop3(_flow, flat[0], flat[1], flat[2], cbr, 1, out)
+    _loop(_flow, 3)(flat[0], flat[1], flat[2], cbr, 1, out)
     return out[0].reshape(arrays[0].shape)
 
 
