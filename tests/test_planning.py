@@ -1,0 +1,95 @@
+"""The receding-horizon controllers: the privileged oracle (the benchmark's headroom yardstick)
+and the practical MPC on the nominal model (observations only)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import cepam_gym  # noqa: F401
+from cepam_gym import plant as pl
+from cepam_gym.bench.harness import make_controller, record
+from cepam_gym.bench.metrics import score_traces
+from cepam_gym.bench.suites import SUITES
+from cepam_gym.control.mpc import ModelPredictiveController
+from cepam_gym.control.oracle import OracleController
+from cepam_gym.control.planner import CEMConfig, CEMPlanner
+
+
+def _score(make, episodes=2, steps=150):
+    s = SUITES["nominal"]
+    tr, track_k = record(make, s.env_id, s.env_kwargs, episodes, s.seed, steps)
+    return score_traces(tr, track_k)["score"]
+
+
+@pytest.mark.slow
+def test_oracle_beats_the_baseline_on_a_short_fixed_episode():
+    baseline = _score(lambda v: make_controller("baseline", v))
+    oracle = _score(lambda v: OracleController(v))
+    assert oracle < 0.85 * baseline, (oracle, baseline)
+
+
+def test_planner_cost_is_the_benchmark_error_along_the_simulated_trajectory():
+    env = gym.make("cepam_gym/CEPAM-v0")
+    env.reset(seed=3)
+    core = env.unwrapped.core
+    planner = CEMPlanner(CEMConfig(effort_weight=0.0), core.mode, core.sub_dt, core.n_sub, 250e3)
+    h = 4
+    actions = np.tile(np.array([[0.3, -0.2]]), (1, h, 1))
+    tl = np.full((1, h), 0.17)
+    tk = np.full((1, h), 800.0)
+    load = np.full((1, h), 0.1)
+    got = planner.rollout_cost(core.state.copy(), core.params, actions, tl, tk, load)
+    # the same trajectory stepped by hand, errors written out
+    x = core.state.copy()
+    want = 0.0
+    for t in range(h):
+        inp = np.array([[0.3, -0.2, 0.1, 0.0]])
+        x, aux = pl.step(x, inp, core.params, core.mode, core.sub_dt, core.n_sub)
+        want += ((x[0, pl.S_L] - 0.17) / 5e-3) ** 2 + ((aux[0, pl.A_STIFF] - 800.0) / 160.0) ** 2
+    assert got.shape == (1,)
+    assert got[0] == pytest.approx(want, rel=1e-12)
+
+
+def test_planner_holds_still_when_the_target_is_where_the_plant_rests():
+    """At rest on its target, closed valves cost nothing but the error they keep: the plan
+    chosen is (near) zero commands."""
+    env = gym.make("cepam_gym/CEPAM-v0")
+    env.reset(seed=5)
+    core = env.unwrapped.core
+    aux = pl.measure(core.state, core.params)
+    cfg = CEMConfig(horizon_steps=6, population=16, iterations=2)
+    planner = CEMPlanner(cfg, core.mode, core.sub_dt, core.n_sub, 250e3)
+    x, aux2 = pl.step(core.state.copy(), np.array([[0.0, 0.0, core.load[0, 0], 0.0]]), core.params,
+                      core.mode, core.sub_dt, core.n_sub)
+    h = cfg.horizon_steps
+    a = planner.plan(x, core.params, np.full((1, h), x[0, pl.S_L]), np.full((1, h), aux2[0, pl.A_STIFF]),
+                     np.full((1, h), core.load[0, 0]))
+    assert aux.shape[0] == 1
+    assert np.abs(a).max() < 0.2, a
+
+
+def test_mpc_acts_on_observations_only():
+    """The MPC never reads the env's true state: with the state poisoned, its actions are the
+    same; on single and batched observations."""
+    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=3)
+    obs, _ = venv.reset(seed=1)
+    mpc = ModelPredictiveController(venv, horizon_steps=5, population=12, iterations=2)
+    a1 = mpc.act(obs)
+    core = venv.unwrapped.core
+    saved = core.state.copy()
+    core.state[:] = np.nan
+    mpc.reset()
+    mpc.planner.rng = np.random.default_rng(mpc.cfg.seed)
+    a2 = mpc.act(obs)
+    core.state[:] = saved
+    assert a1.shape == (3, 2) and a1.dtype == np.float32
+    np.testing.assert_array_equal(a1, a2)
+    assert mpc.act(obs[0]).shape == (2,)
+
+
+@pytest.mark.parametrize("bad", [{"horizon_steps": 0}, {"elites": 99}, {"min_std": 0.0}, {"hold_steps": 1.5}])
+def test_cem_config_rejects_bad_settings_by_name(bad):
+    with pytest.raises(ValueError, match=next(iter(bad))):
+        CEMConfig(**bad)
