@@ -158,3 +158,51 @@ def test_joint_reward_weighs_angle_and_stiffness_like_its_score():
     per_score_unit_angle = w.angle * math.radians(JOINT.score_norm) / joint._ANGLE_UNIT
     per_score_unit_stiffness = w.stiffness * 0.20  # the score's 20 %
     assert per_score_unit_angle == pytest.approx(per_score_unit_stiffness)
+
+
+def test_settling_allowance_leaves_out_the_transient_after_a_jump_only():
+    """With a 1 s allowance, an error in the second after the jump does not count in the
+    headline error, an error later does; the raw error counts both."""
+    import dataclasses
+
+    from cepam_gym.bench.metrics import RIG, tracking_mask
+
+    spec = dataclasses.replace(RIG, allowance_s=1.0)
+    tr = _traces(N=1)  # dt 0.1 s, jump at index 50
+    tr["length"][50:60] += 0.004  # 4 mm off during the allowance
+    m = score_traces(tr, spec=spec)
+    assert m["length_rmse_mm"] == 0.0
+    assert m["length_rmse_mm_raw"] == pytest.approx(4.0 * np.sqrt(10 / 100))
+    assert m["tracked_fraction"] == pytest.approx(0.9)
+    tr["length"][60] += 0.004  # one step after the allowance: counted
+    m = score_traces(tr, spec=spec)
+    assert m["length_rmse_mm"] == pytest.approx(4.0 * np.sqrt(1 / 90))
+    # a smooth ramp of the target is no jump: nothing left out
+    ramp = _traces(N=1)
+    ramp["target_length"][:, 0] = np.linspace(0.16, 0.18, 100)  # 0.2 mm per step
+    assert tracking_mask(ramp, True, spec).all()
+    # without an allowance (v0 suites) headline = raw, no raw keys
+    assert "length_rmse_mm_raw" not in score_traces(tr)
+
+
+def test_rise_time_of_a_hand_made_response():
+    import dataclasses
+
+    from cepam_gym.bench.metrics import RIG
+
+    spec = dataclasses.replace(RIG, allowance_s=0.5)
+    tr = _traces(N=1)
+    L = tr["length"]
+    L[50:] = 0.18
+    L[50:55, 0] = 0.17 + 0.01 * np.array([0.0, 0.05, 0.3, 0.7, 0.95])  # 10 % at 52, 90 % at 54
+    assert score_traces(tr, spec=spec)["rise_time_s"] == pytest.approx(0.2)
+
+
+def test_normalized_score_is_zero_for_zero_and_hundred_for_the_oracle():
+    from cepam_gym.bench.metrics import normalized_score
+
+    assert normalized_score(6.0, 6.0, 1.0) == 0.0
+    assert normalized_score(1.0, 6.0, 1.0) == 100.0
+    assert normalized_score(3.5, 6.0, 1.0) == pytest.approx(50.0)
+    with pytest.raises(ValueError, match="zero controller"):
+        normalized_score(1.0, 1.0, 2.0)

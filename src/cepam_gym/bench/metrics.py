@@ -8,6 +8,18 @@ The **combined score** (lower is better) is
 ``length_rmse_mm / 5 mm + stiffness_rmse_pct / 20 % + 2 * failure_rate`` (the stiffness term only
 where the task tracks stiffness): a controller that is off by 5 mm and 20 % everywhere scores 2.
 
+**Tracking with a settling allowance** (the v1 suites, ``TraceSpec.allowance_s > 0``): the
+headline errors ``*_rmse_*`` and the score leave out the ``allowance_s`` seconds after each
+*discontinuous* target change (a jump larger than ``jump_length`` or ``jump_stiffness`` in one
+step; smooth references move less), where no controller can follow a valve-limited transient;
+the response to those jumps is scored apart (``rise_time_s``, ``overshoot_pct``,
+``settling_time_s``), and the errors over every step stay in the output (``*_rmse_*_raw``).
+With ``allowance_s = 0`` (the v0 suites) the raw and headline errors are the same.
+
+**Normalized score** (:func:`normalized_score`, as D4RL normalises returns; Fu et al. 2020):
+``100 (score_zero - score) / (score_zero - score_oracle)``: 0 is the zero controller (valves
+closed), 100 the privileged oracle (:mod:`cepam_gym.control.oracle`) on the same suite.
+
 A suite's :class:`TraceSpec` says what the ``length`` and ``stiffness`` columns hold: the rig's
 muscle length [m] and stiffness [N/m] (:data:`RIG`, the default), or the joint's angle [rad] and
 joint stiffness [N m/rad] (:data:`JOINT`: ``angle_rmse_deg`` instead of ``length_rmse_mm``, settled
@@ -47,6 +59,10 @@ class TraceSpec:
     plot_quantity: tuple[str, str, float] = ("length", "cm", 100.0)
     plot_stiffness: tuple[str, str, float] = ("stiffness", "N/m", 1.0)
     plot_load: tuple[str, str, float] = ("load", "g", 1000.0)
+    # tracking with preview (v1): seconds left out after each jump of the target, and what a jump is
+    allowance_s: float = 0.0
+    jump_length: float = 1e-3  # SI (m, or rad for the joint): more than this in one control step
+    jump_stiffness: float = 0.05  # relative: more than 5 % in one control step
 
     @property
     def rmse_key(self) -> str:
@@ -66,6 +82,65 @@ JOINT = TraceSpec(
 
 def _rms(x, mask):
     return float(np.sqrt(np.mean(x[mask] ** 2))) if mask.any() else float("nan")
+
+
+def jumps(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> np.ndarray:
+    """(T, N) bool: the target jumps at this step (a change larger than the spec's jump sizes)."""
+    tl, tk = tr["target_length"], tr["target_stiffness"]
+    out = np.zeros(tl.shape, dtype=bool)
+    out[1:] = np.abs(np.diff(tl, axis=0)) > spec.jump_length
+    if track_stiffness:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.abs(np.diff(tk, axis=0)) / np.abs(tk[:-1])
+        out[1:] |= rel > spec.jump_stiffness
+    return out
+
+
+def tracking_mask(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> np.ndarray:
+    """(T, N) bool: the steps the headline error counts: alive, and not within
+    ``spec.allowance_s`` after a jump of the target (all alive steps when the allowance is 0)."""
+    alive = tr["alive"]
+    n_allow = int(round(spec.allowance_s / tr["dt"]))
+    if n_allow <= 0:
+        return alive
+    j = jumps(tr, track_stiffness, spec)
+    # steps since the last jump (a large number before the first one)
+    T = j.shape[0]
+    idx = np.where(j, np.arange(T)[:, None], -10 * (n_allow + T))
+    last = np.maximum.accumulate(idx, axis=0)
+    return alive & (np.arange(T)[:, None] - last >= n_allow)
+
+
+def rise_time(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> float:
+    """Mean 10-90 % rise time [s] of the length (or angle) after jumps of at least ``min_step``
+    (NaN without such jumps); a response that never reaches 90 % before the next jump counts
+    the whole segment."""
+    T, N = tr["length"].shape
+    j = jumps(tr, track_stiffness, spec)
+    out = []
+    for n in range(N):
+        starts = np.flatnonzero(j[:, n])
+        for a, b in zip(starts, list(starts[1:]) + [T]):
+            prev = tr["target_length"][a - 1, n]
+            step = tr["target_length"][a, n] - prev
+            if abs(step) < spec.min_step or not tr["alive"][a:b, n].all():
+                continue
+            frac = (tr["length"][a:b, n] - prev) / step
+            t10 = np.flatnonzero(frac >= 0.1)
+            t90 = np.flatnonzero(frac >= 0.9)
+            end = t90[0] if t90.size else b - a
+            out.append((end - (t10[0] if t10.size else 0)) * tr["dt"])
+    return float(np.mean(out)) if out else float("nan")
+
+
+def normalized_score(score: float, zero_score: float, oracle_score: float) -> float:
+    """``100 (zero - score) / (zero - oracle)``: 0 = the zero controller, 100 = the oracle (lower
+    raw scores are better; a controller better than the oracle scores above 100)."""
+    span = zero_score - oracle_score
+    if not (np.isfinite(span) and span > 0):
+        raise ValueError(f"normalization needs the zero controller ({zero_score}) to score worse "
+                         f"(higher) than the oracle ({oracle_score})")
+    return float(100.0 * (zero_score - score) / span)
 
 
 def settling_and_overshoot(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG):
@@ -100,14 +175,20 @@ def settling_and_overshoot(tr: dict, track_stiffness: bool, spec: TraceSpec = RI
 
 def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) -> dict:
     alive = tr["alive"]
+    tracked = tracking_mask(tr, track_stiffness, spec)
     e_len = tr["length"] - tr["target_length"]
     out = {"episodes": int(alive.shape[1]),
-           spec.rmse_key: spec.scale * _rms(e_len, alive)}
+           spec.rmse_key: spec.scale * _rms(e_len, tracked)}
     if track_stiffness:
         rel = (tr["stiffness"] - tr["target_stiffness"]) / tr["target_stiffness"]
-        out["stiffness_rmse_pct"] = 100.0 * _rms(rel, alive)
+        out["stiffness_rmse_pct"] = 100.0 * _rms(rel, tracked)
     else:
         out["stiffness_rmse_pct"] = None
+    if spec.allowance_s > 0:
+        out[spec.rmse_key + "_raw"] = spec.scale * _rms(e_len, alive)
+        out["stiffness_rmse_pct_raw"] = 100.0 * _rms(rel, alive) if track_stiffness else None
+        out["tracked_fraction"] = float(tracked.sum() / max(alive.sum(), 1))
+        out["rise_time_s"] = rise_time(tr, track_stiffness, spec)
     out["settling_time_s"], out["overshoot_pct"] = settling_and_overshoot(tr, track_stiffness, spec)
     returns = np.where(alive, tr["reward"], 0.0).sum(axis=0)
     k = max(1, int(np.ceil(0.1 * returns.size)))
