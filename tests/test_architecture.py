@@ -91,7 +91,7 @@ def _find_cycle(graph: dict[str, dict[str, int]]) -> list[str] | None:
         path.append(u)
         for v in sorted(graph[u]):
             if state.get(v) == 1:
-                return path[path.index(v):] + [v]
+                return path[path.index(v) :] + [v]
             if v not in state:
                 found = visit(v)
                 if found:
@@ -147,7 +147,7 @@ def test_no_module_path_of_the_training_code_in_the_library():
     lead there are declared in pyproject.toml)."""
     pattern = re.compile(r"^(agents|cepam_gym_agents)(\.[A-Za-z_]\w*)*(:[\w.]+)?$")
     bad = []
-    for name, path in MODULES.items():
+    for path in MODULES.values():
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Constant) and isinstance(node.value, str) and pattern.match(node.value):
                 bad.append(f"{path.relative_to(SRC)}:{node.lineno}: {node.value!r}")
@@ -160,14 +160,16 @@ def test_nothing_imports_the_sb3_adapter_but_its_old_path():
 
 
 def test_importing_the_library_loads_no_torch_and_no_training_code():
-    code = ("import sys\n"
-            "import cepam_gym, cepam_gym.control, cepam_gym.bench, cepam_gym.envs, cepam_gym.cli\n"
-            "import cepam_gym.integrations, cepam_gym.integrations.rllib, cepam_gym.rllib\n"
-            "from cepam_gym.control import controller_names\n"
-            "controller_names()\n"
-            "bad = [m for m in sys.modules if m.split('.')[0] in "
-            "('torch', 'stable_baselines3', 'agents', 'cepam_gym_agents', 'mujoco', 'ray')]\n"
-            "assert not bad, bad\n")
+    code = (
+        "import sys\n"
+        "import cepam_gym, cepam_gym.control, cepam_gym.bench, cepam_gym.envs, cepam_gym.cli\n"
+        "import cepam_gym.integrations, cepam_gym.integrations.rllib, cepam_gym.rllib\n"
+        "from cepam_gym.control import controller_names\n"
+        "controller_names()\n"
+        "bad = [m for m in sys.modules if m.split('.')[0] in "
+        "('torch', 'stable_baselines3', 'agents', 'cepam_gym_agents', 'mujoco', 'ray')]\n"
+        "assert not bad, bad\n"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
 
@@ -177,16 +179,29 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
 # layer. The MuJoCo modules sit where their job is: the coupling beside the plant, the joint's
 # task beside the tasks, the rig renderer and the joint env with the envs, ``cepam-gym video`` on top.
 LAYERS = {
-    "foundation": ("cepam_gym._jit", "cepam_gym.units", "cepam_gym.registration", "cepam_gym.viewer",
-                   "cepam_gym.mujoco._mj"),
+    "foundation": (
+        "cepam_gym._jit",
+        "cepam_gym.units",
+        "cepam_gym.registration",
+        "cepam_gym.viewer",
+        "cepam_gym.mujoco._mj",
+    ),
     "physics": ("cepam_gym.physics",),
     "plant": ("cepam_gym", "cepam_gym.params", "cepam_gym.plant", "cepam_gym.mujoco.coupling"),
     "tasks": ("cepam_gym.tasks", "cepam_gym.mujoco.joint_task"),
     "envs": ("cepam_gym.envs", "cepam_gym.mujoco.rig", "cepam_gym.mujoco.joint"),
     "control": ("cepam_gym.control",),
     "bench": ("cepam_gym.bench",),
-    "top": ("cepam_gym.cli", "cepam_gym.demo", "cepam_gym.validation", "cepam_gym.calibration",
-            "cepam_gym.integrations", "cepam_gym.rllib", "cepam_gym.mujoco", "cepam_gym.mujoco.video"),
+    "top": (
+        "cepam_gym.cli",
+        "cepam_gym.demo",
+        "cepam_gym.validation",
+        "cepam_gym.calibration",
+        "cepam_gym.integrations",
+        "cepam_gym.rllib",
+        "cepam_gym.mujoco",
+        "cepam_gym.mujoco.video",
+    ),
 }
 ORDER = list(LAYERS)
 # upward imports that are the point of a module, each with its reason
@@ -197,8 +212,8 @@ UPWARD_OK = {
 # (the test then runs strict) once the file is fixed
 KNOWN_VIOLATIONS = {
     "cepam_gym.mujoco.joint": "the joint env imports control.baseline (its JointInverseStaticController "
-                              "belongs in control/) and bench.harness (make_joint_controller, superseded "
-                              "by cepam_gym.control.make_controller)",
+    "belongs in control/) and bench.harness (make_joint_controller, superseded "
+    "by cepam_gym.control.make_controller)",
 }
 
 
@@ -214,9 +229,11 @@ def _layer(name: str) -> str:
 
 def _upward(name: str, graph) -> list[str]:
     rank = ORDER.index(_layer(name))
-    return [f"{name} ({_layer(name)}) imports {t} ({_layer(t)}) at line {line}"
-            for t, line in sorted(graph[name].items())
-            if ORDER.index(_layer(t)) > rank and (name, t) not in UPWARD_OK]
+    return [
+        f"{name} ({_layer(name)}) imports {t} ({_layer(t)}) at line {line}"
+        for t, line in sorted(graph[name].items())
+        if ORDER.index(_layer(t)) > rank and (name, t) not in UPWARD_OK
+    ]
 
 
 def test_every_module_has_a_layer():
@@ -229,13 +246,22 @@ def test_layers_import_only_downward(layer):
     """physics imports nothing above it; plant nothing of tasks, envs, control, bench; tasks nothing
     of envs, control, bench; envs (the joint env included) nothing of control or bench."""
     graph = _graph()
-    bad = [v for name in MODULES if _layer(name) == layer and name not in KNOWN_VIOLATIONS
-           for v in _upward(name, graph)]
+    bad = [
+        v
+        for name in MODULES
+        if _layer(name) == layer and name not in KNOWN_VIOLATIONS
+        for v in _upward(name, graph)
+    ]
     assert not bad, bad
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=why))
-                                  for n, why in KNOWN_VIOLATIONS.items()])
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=why))
+        for n, why in KNOWN_VIOLATIONS.items()
+    ],
+)
 def test_known_layer_violations(name):
     """Strict xfail: passes (and so fails the run) once the file stops looking up, as a reminder to
     delete its KNOWN_VIOLATIONS entry."""

@@ -19,8 +19,8 @@ from cepam_gym.control import (
     is_joint_env,
     make_controller,
     register_controller,
+    registry,
 )
-from cepam_gym.control import registry
 
 
 @pytest.fixture
@@ -41,8 +41,10 @@ def test_registered_names():
     assert controller_names() == sorted(controller_names())
 
 
-@pytest.mark.parametrize("name, cls", [("zero", ZeroController), ("random", RandomController),
-                                       ("baseline", InverseStaticController)])
+@pytest.mark.parametrize(
+    "name, cls",
+    [("zero", ZeroController), ("random", RandomController), ("baseline", InverseStaticController)],
+)
 def test_names_build_their_controller_on_the_rig(venv, name, cls):
     ctl = make_controller(name, venv)
     assert type(ctl) is cls and isinstance(ctl, Controller)
@@ -147,12 +149,14 @@ def test_the_installed_distribution_declares_the_agent_loader():
 
 
 def test_rig_envs_are_told_apart_without_importing_mujoco():
-    code = ("import sys; sys.modules['mujoco'] = None  # as if not installed\n"
-            "import gymnasium as gym, cepam_gym\n"
-            "from cepam_gym.control import make_controller, InverseStaticController\n"
-            "env = gym.make('cepam_gym/CEPAM-v0')\n"
-            "assert type(make_controller('baseline', env)) is InverseStaticController\n"
-            "assert 'cepam_gym.mujoco.joint' not in sys.modules\n")
+    code = (
+        "import sys; sys.modules['mujoco'] = None  # as if not installed\n"
+        "import gymnasium as gym, cepam_gym\n"
+        "from cepam_gym.control import make_controller, InverseStaticController\n"
+        "env = gym.make('cepam_gym/CEPAM-v0')\n"
+        "assert type(make_controller('baseline', env)) is InverseStaticController\n"
+        "assert 'cepam_gym.mujoco.joint' not in sys.modules\n"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
 

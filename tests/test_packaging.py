@@ -20,12 +20,18 @@ def test_every_package_of_the_tree_is_listed_in_pyproject():
     """The packages are listed by hand (the training folder is mapped to another name): a new
     subpackage of src/cepam_gym, or a new folder of data, must be added there."""
     st = PYPROJECT["tool"]["setuptools"]
-    tree = {".".join(p.relative_to(ROOT / "src").parts) for p in (ROOT / "src" / "cepam_gym").rglob("*")
-            if p.is_dir() and p.name != "__pycache__"} | {"cepam_gym"}
-    tree |= {"cepam_gym_agents" + "".join("." + s for s in p.relative_to(ROOT / "agents").parts)
-             for p in (ROOT / "agents").rglob("*") if p.is_dir() and p.name != "__pycache__"} | {"cepam_gym_agents"}
+
+    def folders(root: Path, name: str) -> set[str]:
+        subs = [p.relative_to(root).parts for p in root.rglob("*") if p.is_dir() and p.name != "__pycache__"]
+        return {name} | {".".join((name, *parts)) for parts in subs}
+
+    tree = folders(ROOT / "src" / "cepam_gym", "cepam_gym") | folders(ROOT / "agents", "cepam_gym_agents")
     assert set(st["packages"]) == tree | {"cepam_gym_agents.configs"}
-    assert st["package-dir"] == {"": "src", "cepam_gym_agents": "agents", "cepam_gym_agents.configs": "configs"}
+    assert st["package-dir"] == {
+        "": "src",
+        "cepam_gym_agents": "agents",
+        "cepam_gym_agents.configs": "configs",
+    }
 
 
 def test_entry_points_name_existing_functions():
@@ -44,8 +50,22 @@ def test_entry_points_name_existing_functions():
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("wheel")
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-                    "-w", str(out), str(ROOT)], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "-w",
+            str(out),
+            str(ROOT),
+        ],
+        check=True,
+        capture_output=True,
+    )
     (whl,) = out.glob("cepam_gym-*.whl")
     return whl
 
@@ -59,8 +79,12 @@ def test_wheel_has_no_top_level_agents_and_ships_data(wheel):
         assert f"cepam_gym_agents/{src.name}" in names
     for cfg in (ROOT / "configs").glob("*.yaml"):
         assert f"cepam_gym_agents/configs/{cfg.name}" in names
-    for shipped in ("cepam_gym/presets/balloon.yaml", "cepam_gym/data/reported.yaml",
-                    "cepam_gym/integrations/sb3.py", "cepam_gym/control/registry.py"):
+    for shipped in (
+        "cepam_gym/presets/balloon.yaml",
+        "cepam_gym/data/reported.yaml",
+        "cepam_gym/integrations/sb3.py",
+        "cepam_gym/control/registry.py",
+    ):
         assert shipped in names
     assert not [n for n in names if ".data/" in n]  # no data-files outside the packages
     eps = zipfile.ZipFile(wheel).read("cepam_gym-0.1.0.dist-info/entry_points.txt").decode()
@@ -75,12 +99,30 @@ def _venv_with_wheel(wheel: Path, where: Path) -> Path:
     venv = where / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True)
     py = venv / "bin" / "python"
-    site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                          capture_output=True, text=True, check=True).stdout.strip()
+    site = subprocess.run(
+        [str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
     deps = [p for p in sys.path if p.endswith("site-packages") and Path(p).is_dir()]
     Path(site, "_deps.pth").write_text("\n".join(deps) + "\n")
-    subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "--no-deps", "--no-index",
-                    "-q", str(wheel)], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "--python",
+            str(py),
+            "install",
+            "--no-deps",
+            "--no-index",
+            "-q",
+            str(wheel),
+        ],
+        check=True,
+        capture_output=True,
+    )
     return venv
 
 
@@ -99,15 +141,17 @@ def test_installed_wheel_runs_from_any_directory(wheel, tmp_path):
     r = run(str(venv / "bin" / "cepam-gym"), "run", "--help")
     assert r.returncode == 0, r.stderr
     assert "quick" in r.stdout
-    code = ("import importlib.util, sys, cepam_gym\n"
-            f"assert cepam_gym.__file__.startswith({str(venv)!r}), cepam_gym.__file__\n"
-            "assert importlib.util.find_spec('agents') is None\n"
-            "from cepam_gym_agents.config import load_config\n"
-            "cfg = load_config('quick')\n"
-            "assert cfg.algorithm == 'PPO' and cfg.total_timesteps > 0\n"
-            "from cepam_gym.control.registry import agent_loaders\n"
-            "assert list(agent_loaders()) == ['agent']\n"
-            "print('ok')\n")
+    code = (
+        "import importlib.util, sys, cepam_gym\n"
+        f"assert cepam_gym.__file__.startswith({str(venv)!r}), cepam_gym.__file__\n"
+        "assert importlib.util.find_spec('agents') is None\n"
+        "from cepam_gym_agents.config import load_config\n"
+        "cfg = load_config('quick')\n"
+        "assert cfg.algorithm == 'PPO' and cfg.total_timesteps > 0\n"
+        "from cepam_gym.control.registry import agent_loaders\n"
+        "assert list(agent_loaders()) == ['agent']\n"
+        "print('ok')\n"
+    )
     r = run(str(venv / "bin" / "python"), "-c", code)
     assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
     # the train command comes through its entry point and finds the packaged configs

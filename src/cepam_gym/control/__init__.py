@@ -17,5 +17,15 @@ from .registry import (
 )
 from .trivial import RandomController, ZeroController
 
-__all__ = ["CONTROLLERS", "JOINT_VARIANTS", "Controller", "InverseStaticController", "RandomController",
-           "ZeroController", "controller_names", "is_joint_env", "make_controller", "register_controller"]
+__all__ = [
+    "CONTROLLERS",
+    "JOINT_VARIANTS",
+    "Controller",
+    "InverseStaticController",
+    "RandomController",
+    "ZeroController",
+    "controller_names",
+    "is_joint_env",
+    "make_controller",
+    "register_controller",
+]

@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import importlib
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 from ..registration import MUJOCO_ENV_IDS
 
@@ -54,8 +55,9 @@ class Controller(Protocol):
     def act(self, obs, info=None): ...
 
 
-def register_controller(name: str, factory: str | Callable[..., Any], *, joint_variant: str | None = None,
-                        replace: bool = False) -> None:
+def register_controller(
+    name: str, factory: str | Callable[..., Any], *, joint_variant: str | None = None, replace: bool = False
+) -> None:
     """Add a controller: ``factory`` is ``"module:attr"`` or a callable ``factory(env, **kwargs)``.
     ``joint_variant``: the registered name to use instead on the joint env."""
     if not isinstance(name, str) or not name or ":" in name:
@@ -117,8 +119,12 @@ def _layers(env, depth: int = 16):
         seen.add(id(e))
         yield e
         subs = getattr(e, "envs", None)
-        todo += [getattr(e, "unwrapped", None), getattr(e, "env", None), getattr(e, "venv", None),
-                 subs[0] if isinstance(subs, (list, tuple)) and subs else None]
+        todo += [
+            getattr(e, "unwrapped", None),
+            getattr(e, "env", None),
+            getattr(e, "venv", None),
+            subs[0] if isinstance(subs, (list, tuple)) and subs else None,
+        ]
 
 
 def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
@@ -134,16 +140,20 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
             raise ValueError(f"controller {name!r} has joint variant {resolved!r}, which is not registered")
         if not joint and resolved in JOINT_VARIANTS.values():
             rig = sorted(k for k, v in JOINT_VARIANTS.items() if v == resolved)
-            raise ValueError(f"controller {name!r} drives the joint env (cepam_gym/CEPAMJoint-v0) only; "
-                             f"on this env use {' or '.join(map(repr, rig))}")
+            raise ValueError(
+                f"controller {name!r} drives the joint env (cepam_gym/CEPAMJoint-v0) only; "
+                f"on this env use {' or '.join(map(repr, rig))}"
+            )
         return load_factory(CONTROLLERS[resolved])(env, **kwargs)
     loaders = agent_loaders()
     loader_name, agent_spec = _split_loader(name, loaders)
     if loader_name is None:
         raise ValueError(_unknown(name, loaders))
     if is_joint_env(env):
-        raise ValueError(f"controller {name!r}: a trained agent cannot drive the joint env (agents are "
-                         f"trained on the rig's observations); use one of {controller_names()}")
+        raise ValueError(
+            f"controller {name!r}: a trained agent cannot drive the joint env (agents are "
+            f"trained on the rig's observations); use one of {controller_names()}"
+        )
     return loaders[loader_name].load()(agent_spec, env)
 
 
@@ -164,7 +174,11 @@ def _unknown(name: str, loaders: dict) -> str:
     msg = f"unknown controller {name!r}: registered controllers are {', '.join(controller_names())}"
     if loaders:
         path_note = "" if Path(name).exists() else f" ({name!r} is not an existing path)"
-        return (msg + f"; a trained agent's run directory or model file goes to an installed loader "
-                f"({', '.join(sorted(loaders))}; or LOADER:SPEC){path_note}")
-    return (msg + "; a trained agent's run directory needs the training package: pip install "
-            "'cepam-gym[train]' (no loader in the entry-point group " + AGENT_LOADERS_GROUP + ")")
+        return (
+            msg + f"; a trained agent's run directory or model file goes to an installed loader "
+            f"({', '.join(sorted(loaders))}; or LOADER:SPEC){path_note}"
+        )
+    return (
+        msg + "; a trained agent's run directory needs the training package: pip install "
+        "'cepam-gym[train]' (no loader in the entry-point group " + AGENT_LOADERS_GROUP + ")"
+    )

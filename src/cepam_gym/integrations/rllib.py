@@ -45,7 +45,8 @@ from __future__ import annotations
 
 import inspect
 from collections import defaultdict
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -120,8 +121,9 @@ def check_env_config(env_config: Mapping[str, Any]) -> tuple[str, int | None, di
     allowed = valid_keys(env_id)
     unknown = sorted(set(env_config) - set(allowed), key=str)
     if unknown:
-        raise ValueError(f"env_config: unknown key {unknown[0]!r}" + (f" (and {unknown[1:]})" if unknown[1:] else "")
-                         + f" for {env_id}; valid keys: {list(allowed)}")
+        more = f" (and {unknown[1:]})" if unknown[1:] else ""
+        raise ValueError(f"env_config: unknown key {unknown[0]!r}{more} for {env_id}; "
+                         f"valid keys: {list(allowed)}")
     seed = env_config.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise ValueError(f"env_config['seed'] must be a non-negative integer or None, got {seed!r}")

@@ -139,6 +139,7 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
     import gymnasium as gym
 
     import cepam_gym  # noqa: F401  (registers the ids)
+
     from ._mj import require_mujoco
 
     require_mujoco()
@@ -161,7 +162,8 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
     supply = (u.nominal if is_joint else u.core.nominal).supply_pressure / 1e3
     view = env.render()
     h = view.shape[0]
-    panel = TracePanel(int(round(h * 7 / 6 / 16)) * 16, h, n_steps * dt, _rows(env, is_joint, n_steps), supply)
+    panel = TracePanel(int(round(h * 7 / 6 / 16)) * 16, h, n_steps * dt, _rows(env, is_joint, n_steps),
+                       supply)
     append, close, path = _writer(out, fps_out)
     try:
         for k in range(n_steps):
@@ -188,14 +190,17 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="cepam-gym video", description=__doc__.split("\n\n")[0])
     ap.add_argument("--controller", default="baseline",
-                    help=f"one of {', '.join(controller_names())} or a trained agent's run directory (rig ids)")
+                    help=f"one of {', '.join(controller_names())}, or a trained agent's run directory "
+                         "(rig ids)")
     ap.add_argument("--run", default=None, help="a trained agent's run directory (same as --controller DIR)")
     ap.add_argument("--env-id", default="cepam_gym/CEPAM-v0")
-    ap.add_argument("--out", default=None, help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)")
+    ap.add_argument("--out", default=None,
+                    help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)")
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--fps", type=float, default=25.0)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--size", type=int, default=480, help="height of the joint's 3-D view in pixels (the rig's is 480)")
+    ap.add_argument("--size", type=int, default=480,
+                    help="height of the joint's 3-D view in pixels (the rig's is 480)")
     ap.add_argument("--snapshot", default=None, help="also save the last frame as this PNG")
     args = ap.parse_args(argv)
     controller = args.run or args.controller
