@@ -112,6 +112,7 @@ def tiny_run(tmp_path_factory):
     return run
 
 
+@pytest.mark.slow  # trains
 def test_tiny_run_writes_model_config_and_logs(tiny_run):
     run = tiny_run
     for name in ("model.zip", "vecnormalize.pkl", "best_model.zip", "config.yaml", "run.json",
@@ -135,6 +136,7 @@ def test_tiny_run_writes_model_config_and_logs(tiny_run):
     assert SAC.load(str(run / "model.zip")).num_timesteps == 300
 
 
+@pytest.mark.slow  # trains
 def test_load_policy_acts_deterministically(tiny_run):
     import gymnasium as gym
 
@@ -159,6 +161,7 @@ def test_load_policy_acts_deterministically(tiny_run):
     venv.close()
 
 
+@pytest.mark.slow  # trains
 def test_load_policy_rejects_wrong_env(tiny_run):
     import gymnasium as gym
 
@@ -174,6 +177,7 @@ def test_load_policy_rejects_wrong_env(tiny_run):
         load_policy(tiny_run / "nope", env)
 
 
+@pytest.mark.slow  # trains
 def test_agent_runs_in_the_bench_harness(tiny_run):
     from cepam_gym.bench import run_suite
 
@@ -182,6 +186,7 @@ def test_agent_runs_in_the_bench_harness(tiny_run):
     assert tr["length"].shape == (100, 2)
 
 
+@pytest.mark.slow  # trains
 def test_resume_continues_the_step_count(tiny_run, tmp_path):
     import shutil
 
@@ -207,6 +212,7 @@ def test_resume_continues_the_step_count(tiny_run, tmp_path):
     assert main(["--config", str(run / "config.yaml"), "--out", str(run), "--quiet"]) == 2
 
 
+@pytest.mark.slow  # trains
 def test_interrupt_saves_a_usable_checkpoint(tmp_path):
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -239,6 +245,7 @@ def test_interrupt_saves_a_usable_checkpoint(tmp_path):
     assert SAC.load(str(run / "model.zip")).num_timesteps == 250
 
 
+@pytest.mark.slow  # trains
 @pytest.mark.parametrize("algo, hp, agent, n_act", [
     ("PPO", {"n_steps": 32, "batch_size": 32, "n_epochs": 1}, {"target_shift": True, "residual": True}, 4),
     ("TD3", {"learning_starts": 20, "batch_size": 16, "action_noise": {"type": "normal", "sigma": 0.2}}, {}, 2),
@@ -312,6 +319,7 @@ def test_cli_lists_train_and_eval(capsys):
     assert "train" in out and "eval" in out
 
 
+@pytest.mark.slow  # trains
 def test_time_limit_stops_training_and_saves(tmp_path):
     from cepam_gym_agents.train import train
 
