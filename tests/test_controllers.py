@@ -182,3 +182,20 @@ def test_joint_env_gets_the_joint_variants(monkeypatch, tmp_path):
     finally:
         env.close()
         venv.close()
+
+
+def test_commands_check_the_controller_before_any_work(monkeypatch, tmp_path, capsys):
+    from cepam_gym.bench import cli as bench_cli
+    from cepam_gym.control import check_controller_spec
+
+    monkeypatch.setattr(registry, "agent_loaders", lambda: {"agent": _EntryPoint(lambda spec, e: None)})
+    check_controller_spec("baseline")
+    check_controller_spec(tmp_path)  # an existing run directory goes to the loader
+    with pytest.raises(ValueError, match="unknown controller 'pid'"):
+        check_controller_spec("pid")
+    with pytest.raises(SystemExit) as e:
+        bench_cli.main(["--controller", "pid", "--suite", "nominal", "--out-dir", str(tmp_path / "b")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert "unknown controller 'pid'" in err and "baseline" in err
+    assert not (tmp_path / "b").exists()

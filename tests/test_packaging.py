@@ -158,3 +158,16 @@ def test_installed_wheel_runs_from_any_directory(wheel, tmp_path):
     r = run(str(venv / "bin" / "cepam-gym"), "train", "--config", "no-such-config")
     assert r.returncode == 2
     assert "shipped configs" in r.stderr and "'quick'" in r.stderr
+
+
+def test_cli_reaches_train_and_eval_only_through_entry_points(monkeypatch, capsys):
+    import importlib.metadata
+
+    from cepam_gym import cli
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda **kw: [])  # no training package
+    for cmd in ("train", "eval"):
+        assert cli.main([cmd, "--help"]) == 2
+        err = capsys.readouterr().err
+        assert f"cepam-gym {cmd}: no package provides the command '{cmd}'" in err
+        assert "pip install 'cepam-gym[train]'" in err

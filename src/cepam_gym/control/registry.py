@@ -157,6 +157,18 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
     return loaders[loader_name].load()(agent_spec, env)
 
 
+def check_controller_spec(spec: str | Path) -> None:
+    """Raise ``ValueError`` (the message of :func:`make_controller`) unless ``spec`` is a registered
+    name or goes to an installed loader of trained agents: a command line checks its arguments
+    before it starts any work."""
+    name = str(spec)
+    if name in CONTROLLERS:
+        return
+    loaders = agent_loaders()
+    if _split_loader(name, loaders)[0] is None:
+        raise ValueError(_unknown(name, loaders))
+
+
 def _split_loader(name: str, loaders: dict) -> tuple[str | None, str]:
     """``(loader name, its spec)`` for a trained agent, or ``(None, name)``."""
     head, sep, rest = name.partition(":")
