@@ -306,7 +306,8 @@ def test_residual_features_terminal_obs_and_peek():
 
 
 def test_agents_import_is_light():
-    code = "import sys, cepam_gym_agents, cepam_gym; print('torch' in sys.modules, 'stable_baselines3' in sys.modules)"
+    code = ("import sys, cepam_gym_agents, cepam_gym; "
+            "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
 
