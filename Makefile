@@ -8,7 +8,7 @@ RAY_VENV ?= .venv-ray
 RAY_PY := $(RAY_VENV)/bin/python
 TORCH := torch==2.13.0
 
-.PHONY: install install-distributed run test bench clean
+.PHONY: install install-distributed run test test-fast lint bench clean
 
 install: $(VENV)/.installed
 
@@ -38,6 +38,14 @@ run: install  ## the main job on the default config
 test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray
 	$(PY) -m pytest -q
 	$(RAY_PY) -m pytest -q tests/test_rllib.py
+
+# the inner loop: everything but the tests marked slow (training, wheel builds, videos, golden
+# trajectories), on every core when pytest-xdist is there
+test-fast: install
+	$(PY) -m pytest -q -m "not slow" $$($(PY) -c "import xdist" 2>/dev/null && echo "-n auto")
+
+lint: install  ## ruff (configured in pyproject.toml): pip install ruff
+	$(PY) -m ruff check .
 
 bench: install
 	$(PY) benchmarks/throughput.py

@@ -1,4 +1,5 @@
-"""Training configs: YAML files of ``configs/`` as frozen dataclasses, validated on load.
+"""Training configs: YAML files (``configs/``, shipped as package data) as frozen dataclasses,
+validated on load.
 
 Layout of a config (every section optional except ``algorithm``; defaults below)::
 
@@ -421,31 +422,27 @@ class TrainConfig:
         return dataclasses.replace(self, **changes)
 
 
-def _shipped_config_dir() -> Path:
-    """``configs/`` of the source tree (editable install, checkout), else the copy a wheel installs
-    as data files under ``<prefix>/share/cepam-gym/configs`` (pyproject ``data-files``)."""
-    import sys
+def shipped_configs() -> dict:
+    """The configs shipped with the package, by name (``quick`` -> ``quick.yaml``): ``configs/``
+    of the repository, installed as the package data ``cepam_gym_agents.configs``."""
+    from importlib.resources import files
 
-    tree = Path(__file__).resolve().parent.parent / "configs"
-    if tree.is_dir():
-        return tree
-    return Path(sys.prefix) / "share" / "cepam-gym" / "configs"
+    root = files(f"{__package__}.configs")
+    return {f.name.rsplit(".", 1)[0]: f for f in root.iterdir() if f.name.endswith((".yaml", ".yml"))}
 
 
-CONFIG_DIR = _shipped_config_dir()  # the shipped configs
-
-
-def resolve_config_path(path: str | Path) -> Path:
-    """A config file: the path itself, else a shipped config by name (``quick`` ->
-    ``configs/quick.yaml`` of the repository)."""
+def resolve_config_path(path: str | Path):
+    """A config file: the path itself if it exists, else the shipped config of that name
+    (``quick``, ``quick.yaml`` or ``configs/quick.yaml``: the repository's ``configs/`` is what the
+    package ships). A shipped config is an :mod:`importlib.resources` traversable (``read_text``)."""
     p = Path(path)
     if p.is_file():
         return p
-    named = CONFIG_DIR / (p.name if p.suffix in (".yaml", ".yml") else f"{p.name}.yaml")
-    if p.parent == Path(".") and named.is_file():
-        return named
-    shipped = sorted(q.stem for q in CONFIG_DIR.glob("*.yaml"))
-    raise ConfigError(f"config file not found: {p} (shipped configs: {shipped})")
+    shipped = shipped_configs()
+    stem = p.stem if p.suffix in (".yaml", ".yml") else p.name
+    if p.parent in (Path("."), Path("configs")) and stem in shipped:
+        return shipped[stem]
+    raise ConfigError(f"config file not found: {p} (shipped configs: {sorted(shipped)})")
 
 
 def load_config(path: str | Path) -> TrainConfig:

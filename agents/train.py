@@ -75,7 +75,7 @@ def _now() -> str:
 # --------------------------------------------------------------------------- building blocks
 def make_train_env(cfg: TrainConfig, seed: int):
     """SB3 VecEnv: native batched env (one process) -> agent features -> VecNormalize (optional)."""
-    from cepam_gym.envs.sb3 import make_sb3_vec_env
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
 
     from .features import make_agent_vec_env
 

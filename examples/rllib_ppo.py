@@ -7,7 +7,7 @@
 Each iteration samples --train-batch env steps (split over the runners), runs --epochs of SGD on
 minibatches of --minibatch, and prints the mean return of the episodes finished in it. The final
 checkpoint and summary.json go to --out/<timestamp>/. The env creator is
-:func:`cepam_gym.rllib.make_env` (distinct seed per runner and sub-env; unknown env kwargs rejected).
+:func:`cepam_gym.integrations.rllib.make_env` (distinct seed per runner and sub-env; unknown env kwargs rejected).
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
     except ImportError:
         raise SystemExit('Ray RLlib is not installed: pip install "cepam-gym[distributed]"')
-    from cepam_gym.rllib import check_env_config, register_env
+    from cepam_gym.integrations.rllib import check_env_config, register_env
 
     cfg = env_config(args)
     check_env_config(cfg)  # bad kwargs fail here, not inside a remote env runner

@@ -20,7 +20,7 @@ from pathlib import Path
 def parse_grid(items: list[str]) -> dict[str, list]:
     import yaml
 
-    from agents.config import parse_number  # YAML 1.1 reads "3e-4" as a string
+    from cepam_gym_agents.config import parse_number  # YAML 1.1 reads "3e-4" as a string
 
     grid: dict[str, list] = {}
     for item in items:
@@ -40,8 +40,8 @@ def trainable(config: dict) -> None:
 
     from ray import tune
 
-    from agents.config import TrainConfig, load_config
-    from agents.train import train
+    from cepam_gym_agents.config import TrainConfig, load_config
+    from cepam_gym_agents.train import train
 
     base = load_config(config["base_config"]).to_dict()
     base["hyperparameters"] = {**base["hyperparameters"], **config["hyperparameters"]}
@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         raise SystemExit('Ray Tune is not installed: pip install "cepam-gym[distributed]"')
 
-    from agents.config import ConfigError, TrainConfig, load_config  # installed with cepam-gym
+    from cepam_gym_agents.config import ConfigError, TrainConfig, load_config  # installed with cepam-gym
 
     grid = parse_grid(args.grid or ["learning_rate=1e-4,3e-4"])
     try:  # fail before starting Ray if a key or value is bad
@@ -90,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"tune_sweep: {e}") from None
 
     address = args.address or os.environ.get("RAY_ADDRESS")
-    # the trials import agents and cepam_gym: on a cluster, install cepam-gym on every node
+    # the trials import cepam_gym_agents and cepam_gym: on a cluster, install cepam-gym on every node
     if address:
         ray.init(address=address)
     else:

@@ -14,7 +14,7 @@ import yaml
 pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.train
 
-from agents.config import ConfigError, TrainConfig, load_config  # noqa: E402
+from cepam_gym_agents.config import ConfigError, TrainConfig, load_config  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -92,7 +92,7 @@ def test_bad_values_are_named(changes, match):
 
 
 def test_cli_reports_bad_key_with_file_name(tmp_path, capsys):
-    from agents import train
+    from cepam_gym_agents import train
 
     p = tmp_path / "bad.yaml"
     p.write_text("algorithm: SAC\nhyperparameters: {gamma: 0.9, tau_: 0.1}\n")
@@ -105,13 +105,14 @@ def test_cli_reports_bad_key_with_file_name(tmp_path, capsys):
 # --------------------------------------------------------------------------- training runs
 @pytest.fixture(scope="module")
 def tiny_run(tmp_path_factory):
-    from agents.train import train
+    from cepam_gym_agents.train import train
 
     run = tmp_path_factory.mktemp("agents") / "tiny"
     assert train(_cfg(), run, quiet=True) == 0
     return run
 
 
+@pytest.mark.slow  # trains
 def test_tiny_run_writes_model_config_and_logs(tiny_run):
     run = tiny_run
     for name in ("model.zip", "vecnormalize.pkl", "best_model.zip", "config.yaml", "run.json",
@@ -135,10 +136,11 @@ def test_tiny_run_writes_model_config_and_logs(tiny_run):
     assert SAC.load(str(run / "model.zip")).num_timesteps == 300
 
 
+@pytest.mark.slow  # trains
 def test_load_policy_acts_deterministically(tiny_run):
     import gymnasium as gym
 
-    from agents.policy import load_policy
+    from cepam_gym_agents.policy import load_policy
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=3)
     obs, _ = venv.reset(seed=0)
@@ -159,10 +161,11 @@ def test_load_policy_acts_deterministically(tiny_run):
     venv.close()
 
 
+@pytest.mark.slow  # trains
 def test_load_policy_rejects_wrong_env(tiny_run):
     import gymnasium as gym
 
-    from agents.policy import load_policy
+    from cepam_gym_agents.policy import load_policy
 
     env = gym.make_vec("cepam_gym/CEPAMLength-v0", num_envs=1)  # 8 observations, not 9
     with pytest.raises(ValueError, match="wrong env"):
@@ -174,6 +177,7 @@ def test_load_policy_rejects_wrong_env(tiny_run):
         load_policy(tiny_run / "nope", env)
 
 
+@pytest.mark.slow  # trains
 def test_agent_runs_in_the_bench_harness(tiny_run):
     from cepam_gym.bench import run_suite
 
@@ -182,10 +186,11 @@ def test_agent_runs_in_the_bench_harness(tiny_run):
     assert tr["length"].shape == (100, 2)
 
 
+@pytest.mark.slow  # trains
 def test_resume_continues_the_step_count(tiny_run, tmp_path):
     import shutil
 
-    from agents.train import main
+    from cepam_gym_agents.train import main
 
     run = tmp_path / "resumed"
     shutil.copytree(tiny_run, run)
@@ -207,10 +212,11 @@ def test_resume_continues_the_step_count(tiny_run, tmp_path):
     assert main(["--config", str(run / "config.yaml"), "--out", str(run), "--quiet"]) == 2
 
 
+@pytest.mark.slow  # trains
 def test_interrupt_saves_a_usable_checkpoint(tmp_path):
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from agents.train import EXIT_INTERRUPTED, train
+    from cepam_gym_agents.train import EXIT_INTERRUPTED, train
 
     class CtrlC(BaseCallback):
         def _on_step(self):
@@ -227,7 +233,7 @@ def test_interrupt_saves_a_usable_checkpoint(tmp_path):
     assert json.loads((run / "run.json").read_text())["status"] == "interrupted"
     import gymnasium as gym
 
-    from agents.policy import load_policy
+    from cepam_gym_agents.policy import load_policy
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=1)
@@ -239,6 +245,7 @@ def test_interrupt_saves_a_usable_checkpoint(tmp_path):
     assert SAC.load(str(run / "model.zip")).num_timesteps == 250
 
 
+@pytest.mark.slow  # trains
 @pytest.mark.parametrize("algo, hp, agent, n_act", [
     ("PPO", {"n_steps": 32, "batch_size": 32, "n_epochs": 1}, {"target_shift": True, "residual": True}, 4),
     ("TD3", {"learning_starts": 20, "batch_size": 16, "action_noise": {"type": "normal", "sigma": 0.2}}, {}, 2),
@@ -246,8 +253,8 @@ def test_interrupt_saves_a_usable_checkpoint(tmp_path):
 def test_ppo_and_td3_train_and_act(tmp_path, algo, hp, agent, n_act):
     import gymnasium as gym
 
-    from agents.policy import load_policy
-    from agents.train import train
+    from cepam_gym_agents.policy import load_policy
+    from cepam_gym_agents.train import train
 
     cfg = _cfg(algorithm=algo, total_timesteps=128, hyperparameters=hp, agent=agent,
                normalize={"obs": True, "reward": True}, eval={"every_steps": 1000, "episodes": 1},
@@ -265,8 +272,8 @@ def test_ppo_and_td3_train_and_act(tmp_path, algo, hp, agent, n_act):
 def test_residual_features_terminal_obs_and_peek():
     import gymnasium as gym
 
-    from agents.config import AgentConfig
-    from agents.features import Features, make_agent_vec_env
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features, make_agent_vec_env
     from cepam_gym.control import InverseStaticController
     from cepam_gym.envs.sb3 import make_sb3_vec_env
 
@@ -299,7 +306,8 @@ def test_residual_features_terminal_obs_and_peek():
 
 
 def test_agents_import_is_light():
-    code = "import sys, agents, cepam_gym; print('torch' in sys.modules, 'stable_baselines3' in sys.modules)"
+    code = ("import sys, cepam_gym_agents, cepam_gym; "
+            "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
 
@@ -312,8 +320,9 @@ def test_cli_lists_train_and_eval(capsys):
     assert "train" in out and "eval" in out
 
 
+@pytest.mark.slow  # trains
 def test_time_limit_stops_training_and_saves(tmp_path):
-    from agents.train import train
+    from cepam_gym_agents.train import train
 
     cfg = _cfg(total_timesteps=100_000, time_limit_minutes=0)
     assert train(cfg, tmp_path / "limited", quiet=True) == 0
@@ -322,12 +331,19 @@ def test_time_limit_stops_training_and_saves(tmp_path):
     assert (tmp_path / "limited" / "model.zip").is_file()
 
 
-def test_shipped_config_by_name_and_missing_file():
-    from agents.config import resolve_config_path
+def test_shipped_config_by_name_and_missing_file(tmp_path, monkeypatch):
+    from cepam_gym_agents.config import resolve_config_path, shipped_configs
 
-    assert resolve_config_path("quick") == ROOT / "configs" / "quick.yaml"
+    monkeypatch.chdir(tmp_path)  # no configs/ here: the package data answers
+    assert set(shipped_configs()) == {p.stem for p in (ROOT / "configs").glob("*.yaml")}
+    quick = (ROOT / "configs" / "quick.yaml").read_text()
+    for name in ("quick", "quick.yaml", "configs/quick.yaml"):
+        assert resolve_config_path(name).read_text() == quick
+    assert load_config("quick") == load_config(ROOT / "configs" / "quick.yaml")
     with pytest.raises(ConfigError, match="config file not found: nope.yaml"):
         load_config("nope.yaml")
+    with pytest.raises(ConfigError, match="config file not found: elsewhere/quick.yaml"):
+        load_config("elsewhere/quick.yaml")  # a path that is not there is not a shipped name
 
 
 @pytest.mark.parametrize("env_id, residual, n_act", [("cepam_gym/CEPAM-v0", False, 2), ("cepam_gym/CEPAM-v0", True, 4),
@@ -335,8 +351,8 @@ def test_shipped_config_by_name_and_missing_file():
 def test_target_shift_moves_the_baselines_targets(env_id, residual, n_act):
     import gymnasium as gym
 
-    from agents.config import AgentConfig
-    from agents.features import Features
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features
     from cepam_gym.control import InverseStaticController
 
     venv = gym.make_vec(env_id, num_envs=2)
@@ -369,8 +385,8 @@ def test_target_shift_excludes_baseline_in_obs():
 def test_target_shift_filter_is_first_order_and_observed():
     import gymnasium as gym
 
-    from agents.config import AgentConfig
-    from agents.features import Features
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=2)
@@ -393,8 +409,8 @@ def test_target_shift_filter_is_first_order_and_observed():
 def test_obs_filters_are_low_passed_observations_restarted_per_episode():
     import gymnasium as gym
 
-    from agents.config import AgentConfig
-    from agents.features import Features
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     feats = Features(venv, AgentConfig(obs_filters_s=[0.1, 1.0]), 9)

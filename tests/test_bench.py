@@ -67,6 +67,7 @@ def test_failures_and_cvar():
     assert m["score"] == pytest.approx(2 * 0.1)
 
 
+@pytest.mark.slow  # a subprocess: interpreter, numba cache and two suites (~10 s)
 def test_bench_cli_json_one_object_per_suite():
     out = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "baseline",
                           "--suite", "nominal", "--suite", "stiffness-at-fixed-length", "--episodes", "3",

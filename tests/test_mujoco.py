@@ -264,6 +264,7 @@ def test_joint_frame_is_not_blank_and_follows_the_angle(mujoco):
 
 
 # --------------------------------------------------------------------------------- video
+@pytest.mark.slow  # renders and encodes a video (~15 s)
 def test_video_command_writes_an_episode(mujoco, tmp_path):
     from cepam_gym.cli import main
 
@@ -293,6 +294,7 @@ def test_joint_bench_suite_baseline_beats_zero(mujoco):
     assert m["baseline"]["score"] < 0.5 * m["zero"]["score"]
 
 
+@pytest.mark.slow  # a subprocess running the joint suite (~10 s)
 def test_joint_bench_cli_json_and_table(mujoco, tmp_path):
     import json
 

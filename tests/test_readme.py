@@ -22,7 +22,8 @@ def test_readme_has_the_quick_example_first():
     assert len(blocks[0].strip().splitlines()) <= 12  # "a ten-line example"
 
 
-@pytest.mark.parametrize("index", range(len(python_blocks())))
+@pytest.mark.parametrize("index", [pytest.param(i, marks=pytest.mark.slow) if ".learn(" in block else i
+                                   for i, block in enumerate(python_blocks())])  # training: slow
 def test_readme_python_block_runs(index):
     code = python_blocks()[index]
     if "stable_baselines3" in code:

@@ -21,7 +21,7 @@ def fresh_dir(path):
 
 def _run(argv: list[str]) -> int:
     """The main job on the default config: the plant's step response, the paper reproduction
-    table, then train an agent on ``configs/quick.yaml`` (a few minutes on 2 cores) and score it
+    table, then train an agent on the shipped ``quick`` config (a few minutes on 2 cores) and score it
     beside the inverse-model baseline on the ``nominal`` and ``randomized`` suites. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
     ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs) and ``agent/eval/``
@@ -33,7 +33,8 @@ def _run(argv: list[str]) -> int:
 
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
     ap.add_argument("--out-dir", default="runs/main")
-    ap.add_argument("--config", default="configs/quick.yaml", help="training config (YAML)")
+    ap.add_argument("--config", default="quick",
+                    help="training config: a shipped one by name (quick, cepam_ppo, ...) or a YAML file")
     ap.add_argument("--episodes", type=int, default=20, help="benchmark episodes per suite")
     ap.add_argument("--no-train", action="store_true", help="skip training: plant, reproduction, baseline only")
     args = ap.parse_args(argv)
@@ -47,23 +48,35 @@ def _run(argv: list[str]) -> int:
 
         return bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
                                "--episodes", str(args.episodes), "--out-dir", str(out / "bench")])
-    if not Path(args.config).exists():
-        print(f"cepam-gym run: training config {args.config} not found (run from the repository "
-              "root, or pass --config)", file=sys.stderr)
-        return 2
     try:
-        from agents import evaluate, train
+        train, evaluate = _plugin_command("train"), _plugin_command("eval")
     except ImportError as e:
         print(f"cepam-gym run: training needs the [train] extra ({e}); `make run` installs it",
               file=sys.stderr)
         return 2
     print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
     run_dir = fresh_dir(out / "agent")
-    code = train.main(["--config", args.config, "--out", str(run_dir)])
+    code = train(["--config", args.config, "--out", str(run_dir)])
     if code:
         return code
-    return evaluate.main(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
-                          "--episodes", str(args.episodes)])
+    return evaluate(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
+                     "--episodes", str(args.episodes)])
+
+
+PLUGIN_GROUP = "cepam_gym.commands"  # commands of other packages: the training package's train, eval
+
+
+def _plugin_command(name: str):
+    """The ``main(argv)`` of the command ``name`` that an installed package declares in the
+    entry-point group :data:`PLUGIN_GROUP` (``train`` and ``eval`` come with the training package):
+    the command line reaches the training code by name, never by an import."""
+    from importlib.metadata import entry_points
+
+    found = entry_points(group=PLUGIN_GROUP, name=name)
+    if not found:
+        raise ImportError(f"no package provides the command {name!r} (entry-point group {PLUGIN_GROUP}); "
+                          "pip install 'cepam-gym[train]'")
+    return next(iter(found)).load()
 
 
 def _rollout(argv: list[str]) -> int:
@@ -106,13 +119,14 @@ def _rollout(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"run": _run, "rollout": _rollout}
-    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation.cli:validate_main", "bench": "cepam_gym.bench.cli",
-            "train": "agents.train", "eval": "agents.evaluate", "video": "cepam_gym.mujoco.video",
+    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation.cli:validate_main",
+            "bench": "cepam_gym.bench.cli", "video": "cepam_gym.mujoco.video",
             "calibrate": "cepam_gym.validation.cli:calibrate_main"}
+    plugins = ("train", "eval")
     if not argv or argv[0] in ("-h", "--help"):
         print("usage: cepam-gym {run,bench,train,eval,demo,validate,calibrate,rollout,video} [options]\n"
               "  bench     score controllers on the benchmark suites\n"
-              "  train     train an agent from a YAML config (configs/quick.yaml)\n"
+              "  train     train an agent from a YAML config (--config quick, or a file)\n"
               "  eval      score a trained agent beside the baseline (--run DIR)\n"
               "  run       the main job on the default config\n"
               "  demo      plant step response plot\n"
@@ -129,6 +143,13 @@ def main(argv: list[str] | None = None) -> int:
 
         module, _, func = lazy[cmd].partition(":")
         return getattr(importlib.import_module(module), func or "main")(rest) or 0
+    if cmd in plugins:
+        try:
+            command = _plugin_command(cmd)
+        except ImportError as e:
+            print(f"cepam-gym {cmd}: {e}", file=sys.stderr)
+            return 2
+        return command(rest) or 0
     print(f"cepam-gym: unknown command {cmd!r}; try --help", file=sys.stderr)
     return 2
 

@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from ..control import check_controller_spec, controller_names
 from .harness import run_suite
 from .suites import SUITES, available
 
@@ -13,7 +14,8 @@ from .suites import SUITES, available
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="cepam-gym bench", description=__doc__)
     ap.add_argument("--controller", action="append", default=None,
-                    help="baseline | zero | random | a trained agent's run directory (repeatable)")
+                    help=f"one of {', '.join(controller_names())}, or a trained agent's run directory "
+                         "(repeatable)")
     ap.add_argument("--suite", action="append", default=None,
                     help=f"one of {list(SUITES)} or 'all' (repeatable; default all)")
     ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)")
@@ -29,6 +31,11 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
     if args.episodes is not None and args.episodes < 1:
         ap.error("--episodes must be >= 1")
+    for c in controllers:
+        try:
+            check_controller_spec(c)
+        except ValueError as e:
+            ap.error(str(e))
     rows, traces = [], {}
     for s in suites:
         for c in controllers:

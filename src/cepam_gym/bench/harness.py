@@ -2,78 +2,16 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
 import cepam_gym  # noqa: F401  (registers the ids)
 
+from ..control import make_controller
+from ..control.trivial import RandomController, ZeroController  # noqa: F401  (their old home)
 from .metrics import RIG, TraceSpec, score_traces
 from .suites import SUITES, Suite
 
 TRACE_KEYS = tuple(RIG.info_keys)  # the trace columns (a suite's TraceSpec maps them to info keys)
-
-
-class ZeroController:
-    """All valves closed (or zero set-points): the plant drifts under the load."""
-
-    def __init__(self, env):
-        self.n = None
-
-    def reset(self, indices=None):
-        pass
-
-    def act(self, obs, info=None):
-        return np.zeros(np.shape(obs)[:-1] + (2,), dtype=np.float32)
-
-
-class RandomController:
-    """Uniform random commands, seeded."""
-
-    def __init__(self, env, seed: int = 0):
-        self.rng = np.random.default_rng(seed)
-
-    def reset(self, indices=None):
-        pass
-
-    def act(self, obs, info=None):
-        return self.rng.uniform(-1, 1, np.shape(obs)[:-1] + (2,)).astype(np.float32)
-
-
-def make_controller(spec: str, env):
-    """``baseline``, ``zero``, ``random``, or a run directory / model file of a trained agent.
-    On a joint env (``cepam_gym/CEPAMJoint-v0``) the joint's controllers
-    (:func:`cepam_gym.mujoco.joint.make_joint_controller`)."""
-    if _is_joint_env(env):
-        from ..mujoco.joint import make_joint_controller
-
-        return make_joint_controller(spec, env)
-    if spec == "baseline":
-        from ..control import InverseStaticController
-
-        return InverseStaticController(env)
-    if spec == "zero":
-        return ZeroController(env)
-    if spec == "random":
-        return RandomController(env)
-    try:
-        from agents.policy import load_policy  # the [train] extra; issue 5
-    except ImportError as e:
-        raise ValueError(f"unknown controller {spec!r}: use baseline, zero, random, or a trained "
-                         f"agent's run directory (needs the [train] extra: {e})") from None
-    return load_policy(spec, env)
-
-
-def _is_joint_env(env) -> bool:
-    # a joint env exists only once its module is imported: never import mujoco just to check
-    joint = sys.modules.get("cepam_gym.mujoco.joint")
-    if joint is None:
-        return False
-    try:
-        joint._joint_env_of(env)
-    except TypeError:
-        return False
-    return True
 
 
 def _env_facts(venv) -> tuple[int, float, bool]:
@@ -123,7 +61,8 @@ def record(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int,
 
 def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = None,
               max_steps: int | None = None) -> tuple[dict, dict]:
-    """Run ``episodes`` seeded episodes of a suite; return ``(metrics, traces)``."""
+    """Run ``episodes`` seeded episodes of a suite under the controller ``controller_spec`` names
+    (:func:`cepam_gym.control.make_controller`); return ``(metrics, traces)``."""
     suite = SUITES[suite] if isinstance(suite, str) else suite
     tr, track_k = record(lambda venv: make_controller(controller_spec, venv), suite.env_id,
                          suite.env_kwargs, episodes or suite.episodes, suite.seed, max_steps,

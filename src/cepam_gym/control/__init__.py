@@ -1,5 +1,33 @@
-"""Controllers that need no learning: the inverse-static-model baseline and trivial policies."""
+"""Every controller behind one protocol (``reset``, ``act``) and a registry by name.
+
+``make_controller(name_or_path, env)`` builds ``zero``, ``random``, ``baseline`` (the
+inverse-static-model baseline; ``joint_baseline`` on the MuJoCo joint env) or a trained agent
+through an installed loader (:mod:`cepam_gym.control.registry`).
+"""
 
 from .baseline import InverseStaticController
+from .registry import (
+    CONTROLLERS,
+    JOINT_VARIANTS,
+    Controller,
+    check_controller_spec,
+    controller_names,
+    is_joint_env,
+    make_controller,
+    register_controller,
+)
+from .trivial import RandomController, ZeroController
 
-__all__ = ["InverseStaticController"]
+__all__ = [
+    "CONTROLLERS",
+    "JOINT_VARIANTS",
+    "Controller",
+    "InverseStaticController",
+    "RandomController",
+    "ZeroController",
+    "check_controller_spec",
+    "controller_names",
+    "is_joint_env",
+    "make_controller",
+    "register_controller",
+]

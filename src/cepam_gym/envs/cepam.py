@@ -13,6 +13,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from .. import plant as pl
 from ..tasks import kernel as tk
+from ..viewer import FrameWindow
 from .core import CEPAMBatch
 
 INFO_KEYS = ("length", "velocity", "stiffness", "stiffness_closed", "force", "pressure_c",
@@ -258,14 +259,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         if self.render_mode == "rgb_array":
             return frame
         if self._renderer is None:
-            if self.renderer == "mujoco":
-                from ..mujoco.video import FrameWindow
-
-                self._renderer = FrameWindow(frame.shape)
-            else:
-                from .render import HumanWindow
-
-                self._renderer = HumanWindow()
+            self._renderer = FrameWindow(frame.shape)
         self._renderer.show(frame)
         return None
 

@@ -62,24 +62,3 @@ def draw(core, i: int) -> np.ndarray:
         _rect(img, 275, yk - 1, 305, yk + 1, (0, 170, 0))
     return img
 
-
-class HumanWindow:
-    """Shows frames in a matplotlib window (``render_mode="human"``)."""
-
-    def __init__(self):
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as e:  # pragma: no cover
-            raise ImportError("render_mode='human' needs matplotlib: pip install matplotlib") from e
-        self._plt = plt
-        plt.ion()
-        self._fig, ax = plt.subplots(figsize=(3.2, 4.0))
-        ax.axis("off")
-        self._im = ax.imshow(np.zeros((H, W, 3), dtype=np.uint8))
-
-    def show(self, frame: np.ndarray) -> None:
-        self._im.set_data(frame)
-        self._plt.pause(0.001)
-
-    def close(self) -> None:
-        self._plt.close(self._fig)

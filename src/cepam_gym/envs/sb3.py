@@ -1,83 +1,8 @@
-"""stable-baselines3 ``VecEnv`` over the native batched env: SB3 trains on N plants in one
-process, one compiled kernel call per step. Needs the ``[train]`` extra (imported lazily)."""
+"""Old path of :mod:`cepam_gym.integrations.sb3` (kept so that existing imports work): importing
+it gives that very module, so ``from cepam_gym.envs.sb3 import make_sb3_vec_env`` is unchanged."""
 
-from __future__ import annotations
+import sys
 
-from typing import Any
+from ..integrations import sb3 as _sb3
 
-import numpy as np
-
-try:
-    from stable_baselines3.common.vec_env import VecEnv, VecMonitor
-except ImportError as e:  # pragma: no cover - exercised only without the extra
-    raise ImportError(
-        "cepam_gym.envs.sb3 needs stable-baselines3: pip install 'cepam-gym[train]' "
-        "(install torch==2.13.0 first for the CPU build)") from e
-
-from .cepam import CEPAMVectorEnv
-
-
-class SB3VecEnv(VecEnv):
-    """Adapts :class:`CEPAMVectorEnv` (Gymnasium vector API, same-step autoreset) to SB3."""
-
-    def __init__(self, venv: CEPAMVectorEnv):
-        self.venv = venv
-        super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
-        self._actions = None
-        self._seeded_once = False
-
-    def reset(self):
-        seed = self._seeds[0] if self._seeds and self._seeds[0] is not None else None
-        obs, _ = self.venv.reset(seed=seed)
-        self._reset_seeds()
-        self._reset_options()
-        return obs
-
-    def step_async(self, actions) -> None:
-        self._actions = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
-
-    def step_wait(self):
-        obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
-        dones = terminated | truncated
-        keys = [k for k, v in infos.items() if not k.startswith("_") and isinstance(v, np.ndarray)
-                and v.dtype != object and k != "final_obs"]
-        cols = [infos[k].tolist() for k in keys]
-        out: list[dict[str, Any]] = [dict(zip(keys, vals)) for vals in zip(*cols)]
-        for i in np.flatnonzero(dones):
-            out[i]["terminal_observation"] = infos["final_obs"][i]
-            out[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-            out[i]["termination_reason"] = infos["termination_reason"][i]
-        return obs, rewards.astype(np.float32), dones, out
-
-    def close(self) -> None:
-        self.venv.close()
-
-    def get_attr(self, attr_name, indices=None):
-        return [getattr(self.venv, attr_name) for _ in self._get_indices(indices)]
-
-    def set_attr(self, attr_name, value, indices=None) -> None:
-        setattr(self.venv, attr_name, value)
-
-    def env_method(self, method_name, *method_args, indices=None, **method_kwargs):
-        return [getattr(self.venv, method_name)(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class, indices=None):
-        return [False for _ in self._get_indices(indices)]
-
-    def get_images(self):
-        frames = self.venv.render()
-        return list(frames) if frames is not None else [None] * self.num_envs
-
-
-def make_sb3_vec_env(env_id: str = "cepam_gym/CEPAM-v0", num_envs: int = 8, seed: int | None = None,
-                     monitor: bool = True, **kwargs: Any):
-    """SB3 VecEnv of ``num_envs`` plants of a registered id (``VecMonitor`` records episodes)."""
-    import gymnasium as gym
-
-    import cepam_gym  # noqa: F401  (registers the ids)
-
-    venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
-    env = SB3VecEnv(venv.unwrapped if hasattr(venv, "unwrapped") else venv)
-    if seed is not None:
-        env.seed(seed)
-    return VecMonitor(env) if monitor else env
+sys.modules[__name__] = _sb3

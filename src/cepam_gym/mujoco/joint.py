@@ -418,7 +418,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         if self.render_mode == "rgb_array":
             return frame
         if self._window is None:
-            from .video import FrameWindow
+            from ..viewer import FrameWindow
 
             self._window = FrameWindow(frame.shape)
         self._window.show(frame)

@@ -20,31 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..control import controller_names, make_controller
+
 JOINT_ID = "cepam_gym/CEPAMJoint-v0"
-
-
-class FrameWindow:
-    """Shows RGB frames of any size in a matplotlib window (``render_mode="human"``)."""
-
-    def __init__(self, shape):
-        try:
-            import matplotlib.pyplot as plt
-        except ImportError as e:  # pragma: no cover
-            raise ImportError("render_mode='human' needs matplotlib: pip install matplotlib") from e
-        self._plt = plt
-        plt.ion()
-        h, w = shape[:2]
-        self._fig, ax = plt.subplots(figsize=(w / 100, h / 100), dpi=100)
-        ax.axis("off")
-        self._fig.subplots_adjust(0, 0, 1, 1)
-        self._im = ax.imshow(np.zeros((h, w, 3), dtype=np.uint8))
-
-    def show(self, frame: np.ndarray) -> None:
-        self._im.set_data(frame)
-        self._plt.pause(0.001)
-
-    def close(self) -> None:
-        self._plt.close(self._fig)
 
 
 class TracePanel:
@@ -161,6 +139,7 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
     import gymnasium as gym
 
     import cepam_gym  # noqa: F401  (registers the ids)
+
     from ._mj import require_mujoco
 
     require_mujoco()
@@ -175,14 +154,7 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
     u = env.unwrapped
     dt = u.control_dt if is_joint else u.core.control_dt
     n_steps = max(1, round(seconds / dt))
-    if is_joint:
-        from .joint import make_joint_controller
-
-        ctl = make_joint_controller(controller, env)
-    else:
-        from ..bench.harness import make_controller
-
-        ctl = make_controller(controller, env)
+    ctl = make_controller(controller, env)  # the joint's variant on the joint env
     stride = max(1, round(1.0 / (fps * dt)))
     fps_out = 1.0 / (stride * dt)
     obs, info = env.reset(seed=seed)
@@ -190,7 +162,8 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
     supply = (u.nominal if is_joint else u.core.nominal).supply_pressure / 1e3
     view = env.render()
     h = view.shape[0]
-    panel = TracePanel(int(round(h * 7 / 6 / 16)) * 16, h, n_steps * dt, _rows(env, is_joint, n_steps), supply)
+    panel = TracePanel(int(round(h * 7 / 6 / 16)) * 16, h, n_steps * dt, _rows(env, is_joint, n_steps),
+                       supply)
     append, close, path = _writer(out, fps_out)
     try:
         for k in range(n_steps):
@@ -217,14 +190,17 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="cepam-gym video", description=__doc__.split("\n\n")[0])
     ap.add_argument("--controller", default="baseline",
-                    help="baseline | zero | random | a trained agent's run directory (rig ids)")
+                    help=f"one of {', '.join(controller_names())}, or a trained agent's run directory "
+                         "(rig ids)")
     ap.add_argument("--run", default=None, help="a trained agent's run directory (same as --controller DIR)")
     ap.add_argument("--env-id", default="cepam_gym/CEPAM-v0")
-    ap.add_argument("--out", default=None, help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)")
+    ap.add_argument("--out", default=None,
+                    help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)")
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--fps", type=float, default=25.0)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--size", type=int, default=480, help="height of the joint's 3-D view in pixels (the rig's is 480)")
+    ap.add_argument("--size", type=int, default=480,
+                    help="height of the joint's 3-D view in pixels (the rig's is 480)")
     ap.add_argument("--snapshot", default=None, help="also save the last frame as this PNG")
     args = ap.parse_args(argv)
     controller = args.run or args.controller
