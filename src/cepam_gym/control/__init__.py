@@ -1,8 +1,10 @@
 """Every controller behind one protocol (``reset``, ``act``) and a registry by name.
 
 ``make_controller(name_or_path, env)`` builds ``zero``, ``random``, ``baseline`` (the
-inverse-static-model baseline; ``joint_baseline`` on the MuJoCo joint env) or a trained agent
-through an installed loader (:mod:`cepam_gym.control.registry`).
+inverse-static-model baseline; ``joint_baseline`` on the MuJoCo joint env), ``mpc`` (a
+cross-entropy MPC on the nominal model, observations only), ``oracle`` (the same planner with the
+true state, parameters, loads and future targets: the benchmark's headroom yardstick) or a trained
+agent through an installed loader (:mod:`cepam_gym.control.registry`).
 """
 
 from .baseline import InverseStaticController

@@ -35,7 +35,9 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     "random": "cepam_gym.control.trivial:RandomController",
     "baseline": "cepam_gym.control.baseline:InverseStaticController",
     "joint_baseline": "cepam_gym.mujoco.joint:JointInverseStaticController",
-    # to come: "mpc", "oracle"
+    # model-predictive: the nominal model on observations only, and the privileged headroom yardstick
+    "mpc": "cepam_gym.control.mpc:ModelPredictiveController",
+    "oracle": "cepam_gym.control.oracle:OracleController",
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}
