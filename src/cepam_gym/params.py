@@ -172,6 +172,11 @@ class PlantParams:
         b = self.epam_sleeve_free_length / math.cos(self.epam_sleeve_free_angle)
         return b, b * math.sin(self.epam_sleeve_free_angle) / (math.pi * self.epam_sleeve_free_diameter)
 
+    @property
+    def pressure_cap(self) -> float:
+        """The highest gauge pressure [Pa] a chamber may be asked for: ``min(supply, burst)``."""
+        return min(self.supply_pressure, self.burst_pressure)
+
     def wall_thickness(self) -> float:
         """t_a = t_s + t_b (Eq. 35) when the enhanced model is selected, else 0."""
         return self.sleeve_thickness + self.bladder_thickness if self.force_model == "enhanced" else 0.0
@@ -285,6 +290,13 @@ class PlantParams:
         if not isinstance(data, dict):
             raise ValueError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
         return cls.from_dict(data, where=str(path))
+
+
+def pressure_cap_of(p) -> np.ndarray:
+    """:attr:`PlantParams.pressure_cap` of parameter row(s) ``p`` (randomised plants):
+    ``min(supply, burst)`` gauge [Pa]."""
+    p = np.asarray(p, dtype=float)
+    return np.minimum(p[..., ix.P_SUP] - p[..., ix.P_ATM], p[..., ix.P_BURST])
 
 
 def fill_derived(p: np.ndarray) -> np.ndarray:

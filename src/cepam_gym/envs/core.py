@@ -18,6 +18,7 @@ from ..params import PlantParams, preset
 from ..physics import layout as ix
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
+from ..tasks.layout import rig_layout
 from ..physics.api import static_pressures
 from ..tasks.schedules import episode_schedules
 
@@ -107,7 +108,7 @@ class CEPAMBatch:
                 raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
             task = TASKS[task]
         if task_options:
-            names = {f.name for f in dataclasses.fields(TaskSpec)} - {"name", "weights"}
+            names = {f.name for f in dataclasses.fields(TaskSpec)} - {"name", "weights", "scales"}
             bad = set(task_options) - names
             if bad:
                 raise ValueError(f"task_options: unknown keys {sorted(bad)}; valid: {sorted(names)}")
@@ -133,8 +134,9 @@ class CEPAMBatch:
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
+        self.obs_layout = rig_layout(task, self.nominal)
         self.task_vec = self._task_vector()
-        self.obs_dim = 9 if task.track_stiffness else 8
+        self.obs_dim = self.obs_layout.size
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
         self._stable_checked = False
@@ -185,21 +187,9 @@ class CEPAMBatch:
         return tk.env_step_single(self._F, self._I, self.obs, x0, x1)
 
     def _task_vector(self) -> np.ndarray:
-        t, w = self.task, self.task.weights
-        v = np.zeros(tk.N_TASK)
-        v[tk.T_W_LEN], v[tk.T_W_STIFF], v[tk.T_W_EFFORT] = w.length, w.stiffness, w.effort
-        v[tk.T_W_AIR], v[tk.T_W_BURST] = w.air, w.burst
-        v[tk.T_TRACK_K] = float(t.track_stiffness)
-        v[tk.T_OBS_K] = float(t.track_stiffness)
-        lo, hi = self.nominal.min_length, self.nominal.max_length
-        v[tk.T_L_CENTER], v[tk.T_L_HALF] = 0.5 * (lo + hi), 0.5 * (hi - lo)
-        v[tk.T_V_SCALE] = 0.1  # m/s
-        v[tk.T_P_SCALE] = self.nominal.supply_pressure
-        v[tk.T_K_SCALE] = 1000.0  # N/m
-        v[tk.T_SETPOINT_MAX] = min(self.nominal.supply_pressure, self.nominal.burst_pressure)
-        v[tk.T_LEN_CLIP] = 5.0  # cm
-        v[tk.T_STIFF_CLIP] = 2.0
-        return v
+        t = self.task
+        return tk.task_vector(dataclasses.astuple(t.weights), t.scales, self.obs_layout,
+                              self.nominal.pressure_cap, t.track_stiffness)
 
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
