@@ -19,6 +19,7 @@ from ..physics import layout as ix
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
 from ..tasks.layout import rig_layout
+from ..tasks.spec import check_kwargs
 from ..physics.api import static_pressures
 from ..tasks.schedules import episode_schedules
 
@@ -62,7 +63,9 @@ def check_action_mode(action_mode: str) -> int:
     return pl.MODES[action_mode]
 
 
-def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
+def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
+    """``{plant key: (low, high)}`` of the ``randomize`` kwarg, checked (``ValueError`` naming the
+    key); keys are unit-named like the YAML files."""
     out = {}
     keys = PlantParams.edge_keys()
     for key, rng in dict(randomize or {}).items():
@@ -76,6 +79,19 @@ def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[flo
             raise ValueError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
         out[key] = (lo, hi)
     return out
+
+
+_check_randomize = check_randomize  # the earlier private name
+
+
+def sample_params(nominal: PlantParams, randomize: Mapping[str, tuple[float, float]],
+                  rng: np.random.Generator, nominal_row: np.ndarray | None = None) -> np.ndarray:
+    """A parameter row for a new episode: ``nominal`` (its row ``nominal_row`` itself when given
+    and nothing is randomised) with each key of ``randomize`` drawn uniformly from its range."""
+    if not randomize:
+        return nominal.to_array() if nominal_row is None else nominal_row
+    draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in randomize.items()}
+    return PlantParams.from_dict(draw, base=nominal, where="randomize").to_array()
 
 
 def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
@@ -108,25 +124,19 @@ class CEPAMBatch:
                 raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
             task = TASKS[task]
         if task_options:
-            names = {f.name for f in dataclasses.fields(TaskSpec)} - {"name", "weights", "scales"}
-            bad = set(task_options) - names
-            if bad:
-                raise ValueError(f"task_options: unknown keys {sorted(bad)}; valid: {sorted(names)}")
-            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in task_options.items()}
+            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
+            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)
         if reward_weights:
-            names = {f.name for f in dataclasses.fields(RewardWeights)}
-            bad = set(reward_weights) - names
-            if bad:
-                raise ValueError(f"reward_weights: unknown terms {sorted(bad)}; valid: {sorted(names)}")
-            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **reward_weights))
+            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
+            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
         self.task = task
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
-        self.randomize = _check_randomize(randomize)
+        self.randomize = check_randomize(randomize)
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
@@ -199,10 +209,7 @@ class CEPAMBatch:
         self.noise_rng = np.random.default_rng(None if seed is None else [seed, 0x5EED])
 
     def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
-        if not self.randomize:
-            return self._nominal_row
-        draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.randomize.items()}
-        return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array()
+        return sample_params(self.nominal, self.randomize, rng, self._nominal_row)
 
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
