@@ -23,6 +23,7 @@ import numpy as np
 
 from . import units
 from .physics import layout as ix
+from .physics.muscle import braid_from_rest
 
 FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
@@ -162,15 +163,16 @@ class PlantParams:
                 f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm")
 
     # --------------------------------------------------------------- derived
+    # the braid inversion is physics.muscle.braid_from_rest, run as Python here (``py_func``: the
+    # parameters are built once per plant, not in a compiled loop)
     def cpam_braid(self) -> tuple[float, float]:
         """Thread length b_c [m] and turns n_c of the CPAM (Eq. 8-9 at rest)."""
-        b = self.cpam_rest_length / math.cos(self.cpam_rest_angle)
-        return b, b * math.sin(self.cpam_rest_angle) / (math.pi * self.cpam_rest_diameter)
+        return braid_from_rest.py_func(self.cpam_rest_length, self.cpam_rest_diameter, self.cpam_rest_angle)
 
     def epam_braid(self) -> tuple[float, float]:
         """Thread length b_e [m] and turns n_e of the EPAM sleeve (Eq. 11-12, free sleeve)."""
-        b = self.epam_sleeve_free_length / math.cos(self.epam_sleeve_free_angle)
-        return b, b * math.sin(self.epam_sleeve_free_angle) / (math.pi * self.epam_sleeve_free_diameter)
+        return braid_from_rest.py_func(self.epam_sleeve_free_length, self.epam_sleeve_free_diameter,
+                                       self.epam_sleeve_free_angle)
 
     @property
     def pressure_cap(self) -> float:

@@ -28,7 +28,7 @@ from numba import njit, prange
 
 from ._jit import fmax, fmin, jit, jit_inline, sqrt, strided_tuple
 from .physics import layout as ix
-from .physics.air import chamber_rates, state_from_pressure
+from .physics.air import chamber_rates, pressure_abs, pressure_abs_inv, state_from_pressure, temperature
 from .physics.load import load_constants, load_step_k
 from .physics.muscle import chamber_volumes, closed_chamber_stiffness, cpam_terms, epam_terms, force_from_slopes
 from .physics.valve import spool_step
@@ -112,10 +112,10 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     pressures [Pa] and rates [kg/s, W]; the ``p dV`` work is left to :func:`substep_air`."""
     tau, cvalve, order, zeta, decay = valves
     patm = p[ix.P_ATM]
-    pca = (ix.GAMMA - 1.0) * uc * inv_vol_c  # absolute
-    pea = (ix.GAMMA - 1.0) * ue * inv_vol_e
-    tc = uc / (mc * ix.CV)
-    te = ue / (me * ix.CV)
+    pca = pressure_abs_inv(uc, inv_vol_c)  # absolute
+    pea = pressure_abs_inv(ue, inv_vol_e)
+    tc = temperature(mc, uc)
+    te = temperature(me, ue)
     pc = pca - patm  # gauge
     pe = pea - patm
     sc, src = spool_step(sc, src, _command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
@@ -322,8 +322,8 @@ def _measure(x, p, aux):
     L = x[S_L]
     vol_c, vol_e, _dvc, _dve = chamber_volumes(L, p)
     patm = p[ix.P_ATM]
-    pc = (ix.GAMMA - 1.0) * x[S_UC] / vol_c - patm
-    pe = (ix.GAMMA - 1.0) * x[S_UE] / vol_e - patm
+    pc = pressure_abs(x[S_UC], vol_c) - patm
+    pe = pressure_abs(x[S_UE], vol_e) - patm
     _v1, _v2, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
     _v3, _v4, _s, dvae, _s2, d2vae = epam_terms(L, p)
     force, k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae)
@@ -332,8 +332,8 @@ def _measure(x, p, aux):
     aux[A_STIFF_CLOSED] = closed_chamber_stiffness(L, pc, pe, p)
     aux[A_PC] = pc
     aux[A_PE] = pe
-    aux[A_TC] = x[S_UC] / (x[S_MC] * ix.CV)
-    aux[A_TE] = x[S_UE] / (x[S_ME] * ix.CV)
+    aux[A_TC] = temperature(x[S_MC], x[S_UC])
+    aux[A_TE] = temperature(x[S_ME], x[S_UE])
     aux[A_VC] = vol_c
     aux[A_VE] = vol_e
     finite = 1.0

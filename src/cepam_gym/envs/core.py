@@ -94,6 +94,21 @@ def sample_params(nominal: PlantParams, randomize: Mapping[str, tuple[float, flo
     return PlantParams.from_dict(draw, base=nominal, where="randomize").to_array()
 
 
+def as_actions(actions, num_envs: int) -> np.ndarray:
+    """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array (a single env's may have
+    any shape of 2 elements); ``ValueError`` on a wrong shape, NaN or inf. Not clipped."""
+    a = np.asarray(actions, dtype=np.float64)
+    if a.shape != (num_envs, 2):
+        if a.size == 2 and num_envs == 1:
+            a = a.reshape(1, 2)
+        else:
+            raise ValueError(f"action must have shape {(2,) if num_envs == 1 else (num_envs, 2)}, "
+                             f"got {np.shape(actions)}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"action contains NaN or inf: {actions!r}")
+    return a
+
+
 def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
     """Noise standard deviations (SI) for [length, velocity, pressure_c, pressure_e, supply]."""
     sd = dict(sensor_noise or {})
@@ -269,16 +284,7 @@ class CEPAMBatch:
             a[0, 0] = x0
             a[0, 1] = x1
             return a
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != (self.num_envs, 2):
-            if a.size == 2 and self.num_envs == 1:
-                a = a.reshape(1, 2)
-            else:
-                raise ValueError(f"action must have shape {(2,) if self.num_envs == 1 else (self.num_envs, 2)}, "
-                                 f"got {np.shape(actions)}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action contains NaN or inf: {actions!r}")
-        self.prev_action[:] = a
+        self.prev_action[:] = as_actions(actions, self.num_envs)
         return self.prev_action
 
     def step(self, actions: np.ndarray) -> None:

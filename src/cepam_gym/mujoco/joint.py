@@ -23,7 +23,8 @@ from gymnasium.utils import EzPickle
 
 from .. import plant as pl
 from ..control.joint_baseline import JointInverseStaticController, find_joint_env, make_joint_controller
-from ..envs.core import check_action_mode, check_randomize, check_timing, resolve_params, sample_params
+from ..envs.core import (as_actions, check_action_mode, check_randomize, check_timing, resolve_params,
+                         sample_params)
 from ..physics import layout as ix
 from ..tasks import kernel as tk
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
@@ -223,15 +224,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     def step(self, action):
         if not self._reset_done:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
-        if a.shape != (2,):
-            if a.size == 2:
-                a = a.reshape(2)
-            else:
-                raise ValueError(f"action must have shape (2,), got {np.shape(action)}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action contains NaN or inf: {action!r}")
-        a = np.clip(a, -1.0, 1.0)
+        a = np.clip(as_actions(action, 1)[0], -1.0, 1.0)
         k = min(self.t_idx, self.n_steps - 1)
         inp = self.link.inp
         inp[pl.I_CMD_C], inp[pl.I_CMD_E] = tk.valve_commands(self.mode, a[0], a[1], self.setpoint_max)
