@@ -424,10 +424,10 @@ def stability_number(params, dt: float) -> np.ndarray:
     t = np.maximum(p[:, ix.T_SUP], p[:, ix.T_AMB])
     slope = c * ix.RHO0 * np.sqrt(ix.T0 / t) * np.sqrt(1.0 - x * x) / (1.0 - p[:, ix.R_LAM])
     v_min = np.full(p.shape[0], np.inf)
-    from .physics.api import chamber_volumes as volumes
+    from .physics import api
 
     for L in np.linspace(p[:, ix.L_MIN], p[:, ix.L_MAX], 16):
-        vc, ve, _, _ = volumes(L, p)
+        vc, ve, _, _ = api.chamber_volumes(L, p)
         v_min = np.minimum(v_min, np.minimum(vc, ve))
     return dt * ix.GAMMA * ix.R_AIR * t / v_min * slope
 

@@ -15,13 +15,13 @@ import numpy as np
 
 from .. import plant as pl
 from ..params import PlantParams, preset
+from ..physics import api
 from ..physics import layout as ix
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
 from ..tasks.layout import rig_layout
-from ..tasks.spec import check_kwargs
-from ..physics.api import static_pressures
 from ..tasks.schedules import episode_schedules
+from ..tasks.spec import check_kwargs
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
@@ -256,7 +256,7 @@ class CEPAMBatch:
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
         p = self.params[idx]
         weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
-        pc, pe, _ = static_pressures(initial[:, 0], initial[:, 1], weight, p)
+        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
         self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
         self.aux[idx] = pl.measure(self.state[idx], p)
         self.t_idx[idx] = 0
