@@ -81,9 +81,6 @@ def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[floa
     return out
 
 
-_check_randomize = check_randomize  # the earlier private name
-
-
 def sample_params(nominal: PlantParams, randomize: Mapping[str, tuple[float, float]],
                   rng: np.random.Generator, nominal_row: np.ndarray | None = None) -> np.ndarray:
     """A parameter row for a new episode: ``nominal`` (its row ``nominal_row`` itself when given

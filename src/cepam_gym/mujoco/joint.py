@@ -249,11 +249,11 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     # ------------------------------------------------------------ measurements
     def joint_state(self) -> tuple[float, float]:
         """``(angle [rad], angular velocity [rad/s])`` of the hinge."""
-        return float(self.data.qpos[0]), float(self.data.qvel[0])
+        return self.sim.joint_state()
 
     def joint_stiffness(self) -> float:
         """``K r^2`` [N m/rad]: the muscle's stiffness at constant pressures through the pinion."""
-        return float(self.aux[pl.A_STIFF] * self.geometry.lever_arm ** 2)
+        return self.sim.joint_stiffness(self.aux)
 
     def _obs(self) -> np.ndarray:
         th, om = self.joint_state()
@@ -266,18 +266,9 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     def _info(self, scored: bool, k: int | None = None) -> dict[str, Any]:
         if k is None:
             k = min(self.t_idx, self.n_steps - 1)
-        th, om = self.joint_state()
-        g, p, aux = self.geometry, self.params, self.aux
-        r = g.lever_arm
-        ks = self.joint_stiffness()
         return {
-            "angle": th, "angular_velocity": om,
-            "muscle_length": float(self.link.x[pl.S_L]), "muscle_force": float(aux[pl.A_FORCE]),
-            "muscle_torque": float(-r * aux[pl.A_FORCE]),
-            "stiffness": float(aux[pl.A_STIFF]), "joint_stiffness": ks,
-            "joint_stiffness_total": ks + float(g.link_mass * p[ix.GRAV] * g.link_com * math.cos(th)),
-            "pressure_c": float(aux[pl.A_PC]), "pressure_e": float(aux[pl.A_PE]),
-            "air_used": float(aux[pl.A_AIR]) if scored else 0.0,
+            **self.sim.measure(self.aux),
+            "air_used": float(self.aux[pl.A_AIR]) if scored else 0.0,
             "external_torque": float(self.external_torque[k]),
             "target_angle": float(self.target_angle[k]),
             "target_stiffness": float(self.target_stiffness[k]),

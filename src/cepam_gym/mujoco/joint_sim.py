@@ -9,6 +9,8 @@ are in the MJCF, :func:`~cepam_gym.mujoco.joint_task.joint_xml`). docs/mujoco.md
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .. import plant as pl
@@ -66,3 +68,28 @@ class JointSimulator:
             mj.mj_step(m, d)
         L = min(max(l_max - r * qpos[0], l_min), l_max)
         return link.finish(L, -r * qvel[0])
+
+    # ------------------------------------------------------------ measurements
+    def joint_state(self) -> tuple[float, float]:
+        """``(angle [rad], angular velocity [rad/s])`` of the hinge."""
+        return float(self.data.qpos[0]), float(self.data.qvel[0])
+
+    def joint_stiffness(self, aux) -> float:
+        """``K r^2`` [N m/rad]: the muscle's stiffness at constant pressures through the pinion."""
+        return float(aux[pl.A_STIFF] * self.geometry.lever_arm ** 2)
+
+    def measure(self, aux) -> dict[str, float]:
+        """The mechanism's quantities (SI) with the plant's ``aux``: angle, rate, muscle length,
+        force and torque, muscle and joint stiffness (with gravity's ``m g l_c cos theta`` in
+        ``joint_stiffness_total``), gauge pressures."""
+        th, om = self.joint_state()
+        g, p = self.geometry, self.p
+        ks = self.joint_stiffness(aux)
+        return {
+            "angle": th, "angular_velocity": om,
+            "muscle_length": float(self.link.x[pl.S_L]), "muscle_force": float(aux[pl.A_FORCE]),
+            "muscle_torque": float(-g.lever_arm * aux[pl.A_FORCE]),
+            "stiffness": float(aux[pl.A_STIFF]), "joint_stiffness": ks,
+            "joint_stiffness_total": ks + float(g.link_mass * p[ix.GRAV] * g.link_com * math.cos(th)),
+            "pressure_c": float(aux[pl.A_PC]), "pressure_e": float(aux[pl.A_PE]),
+        }
