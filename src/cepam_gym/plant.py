@@ -238,7 +238,8 @@ def _lane_substep(W, i, mode, dt):
         mode, inp, p, W[_w(S_T, i)], dt, L, mc, uc, me, ue, W[_w(_W_INVC, i)], W[_w(_W_INVE, i)],
         W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)],
         W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves)
-    W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], pc, pe, sup, dt)
+    W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)],
+                                                          pc, pe, sup, dt)
     L, v, stop = load_step_k(L, W[_w(S_V, i)], force + W[_w(_W_FEXT, i)], W[_w(_W_DTM, i)],
                              W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)], p[ix.L_MIN], p[ix.L_MAX], dt)
     vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)

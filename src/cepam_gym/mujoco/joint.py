@@ -194,8 +194,9 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self._reset_done = False
 
     def _build(self, p) -> None:
-        self.sim = JointSimulator(self.mujoco, self.geometry, p, self.mode, self.sub_dt, self.width, self.height)
-        self.model, self.data, self.link, self.geom_ids = self.sim.model, self.sim.data, self.sim.link, self.sim.geom_ids
+        sim = self.sim = JointSimulator(self.mujoco, self.geometry, p, self.mode, self.sub_dt,
+                                        self.width, self.height)
+        self.model, self.data, self.link, self.geom_ids = sim.model, sim.data, sim.link, sim.geom_ids
         self.view.model_changed()
 
     # ------------------------------------------------------------------- reset

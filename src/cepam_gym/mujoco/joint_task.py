@@ -159,7 +159,8 @@ def joint_layout(task: JointTask, max_angle: float, supply_pressure: float) -> O
     """The joint env's observation: angles about half of full flexion ``max_angle`` [rad],
     pressures per nominal ``supply_pressure`` [Pa], the task's velocity and stiffness scales."""
     s, half, ps = task.scales, 0.5 * max_angle, supply_pressure
-    cols = (ObsColumn("angle", half, half, "rad"), ObsColumn("angular_velocity", s.velocity_scale, 0.0, "rad/s"),
+    cols = (ObsColumn("angle", half, half, "rad"),
+            ObsColumn("angular_velocity", s.velocity_scale, 0.0, "rad/s"),
             ObsColumn("pressure_c", ps, 0.0, "Pa"), ObsColumn("pressure_e", ps, 0.0, "Pa"),
             ObsColumn("supply_pressure", ps, 0.0, "Pa"), ObsColumn("target_angle", half, half, "rad"),
             ObsColumn("target_stiffness", s.stiffness_scale, 0.0, "N m/rad"),

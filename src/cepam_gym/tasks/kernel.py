@@ -33,7 +33,8 @@ T_OBS = 13
 MAX_OBS = len(OBS_FIELDS)
 N_TASK = T_OBS + 3 * MAX_OBS
 
-REWARD_TERMS = ("length", "stiffness", "effort", "air", "burst")  # the first one tracks the mechanism's position
+# the first term tracks the mechanism's position (the joint env names it "angle")
+REWARD_TERMS = ("length", "stiffness", "effort", "air", "burst")
 N_TERMS = 5
 # noise columns: length [m], velocity [m/s], pressure_c, pressure_e, supply [Pa]
 N_NOISE = 5
