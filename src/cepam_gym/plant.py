@@ -153,7 +153,13 @@ def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
 # with :func:`substep_account` keeping the control step's peak pressure and air use, and
 # :func:`end_of_step` writing ``aux`` once per control step. :func:`_lane_substep` (the plant's
 # block kernel) and :mod:`cepam_gym.mujoco.coupling` (mechanics in MuJoCo) are the two callers.
-# New physics of the air, valves or muscle force belongs in these pieces, so both get it.
+# New physics belongs in these pieces (or the kernels they call), so both callers get it:
+# muscle force (e.g. tension-only braids) in physics.muscle.force_from_slopes / cpam_terms /
+# epam_terms, reached through substep_forces and _measure; chamber volumes (e.g. elastic
+# bladders) in volumes_at, which both callers use for V(L); valves and air in substep_rates /
+# substep_air; new measurements in end_of_step. The mechanics is the caller's: friction with a
+# state of its own goes into the plant's load step (physics.load.load_step_k, a new S_* column)
+# and, for the coupling, into the MuJoCo model (joint frictionloss).
 
 
 @jit_inline
