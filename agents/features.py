@@ -48,9 +48,9 @@ class Features:
         self.frame_dim = self.raw_dim + (2 if cfg.baseline_in_obs else 0) + self._shift_obs + \
             self.raw_dim * len(cfg.obs_filters_s)
         if cfg.obs_filters_s:
-            from cepam_gym.control.baseline import _core_of
+            from cepam_gym.control.baseline import core_of
 
-            dt = _core_of(env).control_dt
+            dt = core_of(env).control_dt
             self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None

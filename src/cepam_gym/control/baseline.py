@@ -41,7 +41,7 @@ class InverseStaticController:
 
     def __init__(self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5,
                  load_filter_s: float = 0.15):
-        core = _core_of(env)
+        core = core_of(env)
         self.task = core.task
         self.layout = core.obs_layout
         self._configure(core.nominal, core.nominal.to_array(), core.action_mode, core.control_dt,
@@ -160,14 +160,19 @@ class InverseStaticController:
         return action[0] if single else action
 
 
-def _core_of(env):
+def core_of(env):
+    """The :class:`~cepam_gym.envs.core.CEPAMBatch` inside a rig env (single, vector, wrapped or
+    the SB3 adapter): its task, observation layout, nominal plant and timing."""
     for attr in ("core", "unwrapped", "venv", "env"):
         obj = getattr(env, attr, None)
         if attr == "core" and obj is not None:
             return obj
         if obj is not None and obj is not env:
             try:
-                return _core_of(obj)
+                return core_of(obj)
             except TypeError:
                 pass
     raise TypeError(f"cannot find the CE-PAM env inside {env!r}")
+
+
+_core_of = core_of  # the earlier private name
