@@ -39,12 +39,12 @@ N_ACC = 9
 
 
 @jit
-def _settle(x, p, dt, length, acc):
-    """Apply the pending sub-step's air update now that the mechanism's new ``length`` is known
-    (flows, then the compression work of the volume change, as in the plant's own loop)."""
+def _settle(x, dt, vol_c, vol_e, acc):
+    """Apply the pending sub-step's air update now that the mechanism has moved and the chamber
+    volumes are ``vol_c, vol_e`` (flows, then the compression work of the volume change: the
+    plant's post-mechanics half)."""
     if acc[PEND] == 0.0:
         return
-    vol_c, vol_e, _a, _b, _c = pl.volumes_at(length, p)
     x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE] = pl.substep_air(
         x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE], acc[PEND_DMC], acc[PEND_DUC],
         acc[PEND_DME], acc[PEND_DUE], acc[PEND_VC] / vol_c, acc[PEND_VE] / vol_e, dt)
@@ -62,10 +62,10 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     ``acc`` accumulates supply air used [kg] and the peak gauge pressure [Pa] of the control step
     (:func:`cepam_gym.plant.substep_account`).
     """
-    _settle(x, p, dt, length, acc)
+    vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
+    _settle(x, dt, vol_c, vol_e, acc)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
-    vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_forces(
         mode, inp, p, x[pl.S_T], dt, length, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE],
         1.0 / vol_c, 1.0 / vol_e, dvc, dvac, dvae, x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE],
@@ -92,7 +92,8 @@ def end_stop(length, p):
 def finish_step(x, p, dt, length, velocity, acc, aux):
     """``aux`` of the state at the end of a control step, with the step's bookkeeping, through
     the plant's own :func:`cepam_gym.plant.end_of_step`."""
-    _settle(x, p, dt, length, acc)
+    vol_c, vol_e, _dvc, _dvac, _dvae = pl.volumes_at(length, p)
+    _settle(x, dt, vol_c, vol_e, acc)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME],
