@@ -40,14 +40,13 @@ N_TERMS = 5
 N_NOISE = 5
 
 
-def task_vector(weights, scales, layout: ObsLayout, setpoint_max: float, track_stiffness: bool = True,
-                out: np.ndarray | None = None) -> np.ndarray:
+def task_vector(weights, scales, layout: ObsLayout, setpoint_max: float,
+                track_stiffness: bool = True) -> np.ndarray:
     """The task vector of a task: ``weights`` the five reward weights in REWARD_TERMS order,
     ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout (at
     most :data:`MAX_OBS` columns), ``setpoint_max`` [Pa] the gauge pressure of the action +1 in
     pressure mode."""
-    v = np.zeros(N_TASK) if out is None else out
-    v[:] = 0.0
+    v = np.zeros(N_TASK)
     v[T_W_TRACK:T_W_BURST + 1] = [float(w) for w in weights]
     v[T_TRACK_K] = float(track_stiffness)
     v[T_TRACK_UNIT], v[T_TRACK_CLIP] = scales.tracking_unit, scales.tracking_clip
