@@ -28,16 +28,16 @@ class Features:
         self.n_shift = 0
         if cfg.uses_baseline:
             from cepam_gym.control import InverseStaticController
-            from cepam_gym.tasks import kernel as tk
 
             self.baseline = InverseStaticController(env)
             track_k = self.baseline.task.track_stiffness
             if cfg.target_shift:
                 self.n_shift = 2 if track_k else 1
-                # observation columns of the targets and the length scaling (see tasks.kernel)
-                self._col_l = 5
-                self._col_k = 6 if track_k else None
-                self._dl = cfg.target_shift_length_mm * 1e-3 / self.baseline.task_vec[tk.T_L_HALF]
+                # observation columns of the targets and the length scaling (tasks.layout)
+                layout = self.baseline.layout
+                self._col_l = layout.column("target_length")
+                self._col_k = layout.column("target_stiffness") if track_k else None
+                self._dl = cfg.target_shift_length_mm * 1e-3 / layout.scale("target_length")
                 tau = cfg.target_shift_filter_s
                 self._alpha = 1.0 - np.exp(-self.baseline.dt / tau) if tau > 0 else 1.0
         # target shifts, then two valve commands (residual, or the valves themselves without a
@@ -48,9 +48,9 @@ class Features:
         self.frame_dim = self.raw_dim + (2 if cfg.baseline_in_obs else 0) + self._shift_obs + \
             self.raw_dim * len(cfg.obs_filters_s)
         if cfg.obs_filters_s:
-            from cepam_gym.control.baseline import _core_of
+            from cepam_gym.control.baseline import core_of
 
-            dt = _core_of(env).control_dt
+            dt = core_of(env).control_dt
             self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None
@@ -73,10 +73,7 @@ class Features:
     def reset(self, indices=None) -> None:
         """Forget the state of all envs, or of ``indices`` (their episodes ended)."""
         if self.baseline is not None:
-            if indices is None or self.baseline._weight is None:
-                self.baseline.reset()
-            else:
-                self.baseline.reset(indices)
+            self.baseline.reset(indices)
         if indices is None or self._fresh is None:
             self._hist = self._fresh = None
         else:
@@ -137,13 +134,13 @@ class Features:
         b = self.baseline
         copy = (lambda a: None if a is None else a.copy())
         return (copy(self._hist), copy(self._fresh),
-                None if b is None else (copy(b._weight), copy(b._integral)), self._obs, copy(self._shift),
+                None if b is None else b.get_state(), self._obs, copy(self._shift),
                 copy(self._ema), copy(self._ema_fresh))
 
     def _restore(self, saved) -> None:
         self._hist, self._fresh, b, self._obs, self._shift, self._ema, self._ema_fresh = saved
-        if b is not None:
-            self.baseline._weight, self.baseline._integral = b
+        if self.baseline is not None:
+            self.baseline.set_state(b)
 
     def action(self, a: np.ndarray, base: np.ndarray | None) -> np.ndarray:
         """The env action (N, 2) for the policy's action ``a`` (N, n_actions) on the observation

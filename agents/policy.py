@@ -123,9 +123,9 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
 
 
 def _core(env):
-    from cepam_gym.control.baseline import _core_of
+    from cepam_gym.control.baseline import core_of
 
-    return _core_of(env)
+    return core_of(env)
 
 
 # --------------------------------------------------------------------------- evaluation

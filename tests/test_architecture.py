@@ -189,14 +189,14 @@ LAYERS = {
     "physics": ("cepam_gym.physics",),
     "plant": ("cepam_gym", "cepam_gym.params", "cepam_gym.plant", "cepam_gym.mujoco.coupling"),
     "tasks": ("cepam_gym.tasks", "cepam_gym.mujoco.joint_task"),
-    "envs": ("cepam_gym.envs", "cepam_gym.mujoco.rig", "cepam_gym.mujoco.joint"),
+    "envs": ("cepam_gym.envs", "cepam_gym.mujoco.rig", "cepam_gym.mujoco.joint", "cepam_gym.mujoco.joint_sim",
+             "cepam_gym.mujoco.joint_view"),
     "control": ("cepam_gym.control",),
     "bench": ("cepam_gym.bench",),
     "top": (
         "cepam_gym.cli",
         "cepam_gym.demo",
         "cepam_gym.validation",
-        "cepam_gym.calibration",
         "cepam_gym.integrations",
         "cepam_gym.rllib",
         "cepam_gym.mujoco",
@@ -207,13 +207,6 @@ ORDER = list(LAYERS)
 # upward imports that are the point of a module, each with its reason
 UPWARD_OK = {
     ("cepam_gym.envs.sb3", "cepam_gym.integrations.sb3"): "the adapter's old import path, kept as an alias",
-}
-# upward imports still in files that another branch is reworking; the lead removes an entry
-# (the test then runs strict) once the file is fixed
-KNOWN_VIOLATIONS = {
-    "cepam_gym.mujoco.joint": "the joint env imports control.baseline (its JointInverseStaticController "
-    "belongs in control/) and bench.harness (make_joint_controller, superseded "
-    "by cepam_gym.control.make_controller)",
 }
 
 
@@ -249,20 +242,7 @@ def test_layers_import_only_downward(layer):
     bad = [
         v
         for name in MODULES
-        if _layer(name) == layer and name not in KNOWN_VIOLATIONS
+        if _layer(name) == layer
         for v in _upward(name, graph)
     ]
     assert not bad, bad
-
-
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=why))
-        for n, why in KNOWN_VIOLATIONS.items()
-    ],
-)
-def test_known_layer_violations(name):
-    """Strict xfail: passes (and so fails the run) once the file stops looking up, as a reminder to
-    delete its KNOWN_VIOLATIONS entry."""
-    assert not _upward(name, _graph())

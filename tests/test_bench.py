@@ -152,11 +152,10 @@ def test_joint_reward_weighs_angle_and_stiffness_like_its_score():
     import math
 
     from cepam_gym.bench.metrics import JOINT
-    from cepam_gym.mujoco import joint
-    from cepam_gym.mujoco.joint_task import JointRewardWeights
+    from cepam_gym.mujoco.joint_task import JointRewardWeights, JointTask
 
     w = JointRewardWeights()
-    per_score_unit_angle = w.angle * math.radians(JOINT.score_norm) / joint._ANGLE_UNIT
+    per_score_unit_angle = w.angle * math.radians(JOINT.score_norm) / JointTask().scales.tracking_unit
     per_score_unit_stiffness = w.stiffness * 0.20  # the score's 20 %
     assert per_score_unit_angle == pytest.approx(per_score_unit_stiffness)
 

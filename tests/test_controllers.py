@@ -163,7 +163,7 @@ def test_rig_envs_are_told_apart_without_importing_mujoco():
 
 def test_joint_env_gets_the_joint_variants(monkeypatch, tmp_path):
     pytest.importorskip("mujoco")
-    from cepam_gym.mujoco.joint import JointInverseStaticController
+    from cepam_gym.control.joint_baseline import JointInverseStaticController
 
     env = gym.make("cepam_gym/CEPAMJoint-v0")
     venv = gym.make_vec("cepam_gym/CEPAMJoint-v0", num_envs=2)

@@ -69,13 +69,12 @@ def test_sensor_noise_reaches_observations_only():
     o0, o1, i_clean = run(None)
     n0, n1, i_noisy = run({"length_mm": 1.0, "pressure_kpa": 5.0})
     assert i_clean["length"] == i_noisy["length"]  # the plant is untouched
-    scale = gym.make("cepam_gym/CEPAM-v0").unwrapped.core.task_vec
-    from cepam_gym.tasks import kernel as tk
-
-    d_len = (n1[0] - o1[0]) * scale[tk.T_L_HALF]  # measured minus true length [m]
+    layout = gym.make("cepam_gym/CEPAM-v0").unwrapped.core.obs_layout
+    col = layout.column
+    d_len = layout.value(n1, "length") - layout.value(o1, "length")  # measured minus true length [m]
     assert 1e-6 < abs(d_len) < 5e-3
-    assert n1[2] != o1[2] and n1[3] != o1[3]
-    assert n1[5] == o1[5]  # targets are not measured: no noise
+    assert n1[col("pressure_c")] != o1[col("pressure_c")] and n1[col("pressure_e")] != o1[col("pressure_e")]
+    assert n1[col("target_length")] == o1[col("target_length")]  # targets are not measured: no noise
 
 
 def test_info_keys_and_reward_terms_sum_to_reward():

@@ -17,7 +17,8 @@ import pytest
 import cepam_gym
 from cepam_gym import plant as pl
 from cepam_gym.physics import api
-from cepam_gym.mujoco.joint import CEPAMJointEnv, JointInverseStaticController
+from cepam_gym.control.joint_baseline import JointInverseStaticController
+from cepam_gym.mujoco.joint import CEPAMJointEnv
 from cepam_gym.mujoco.rig import RigRenderer, RigSimulator
 from cepam_gym.physics import layout as ix
 
@@ -124,6 +125,10 @@ def test_mujoco_load_mechanics_agree_with_the_numpy_plant(mujoco):
         worst_l = max(worst_l, abs(xs[pl.S_L] - x[0, pl.S_L]))
         worst_p = max(worst_p, abs(auxs[pl.A_PC] - aux[0, pl.A_PC]), abs(auxs[pl.A_PE] - aux[0, pl.A_PE]))
         lengths.append(x[0, pl.S_L])
+        # the end-of-step bookkeeping is the plant's own (plant.end_of_step): same flows, air, peak
+        for col in (pl.A_MDOT_C, pl.A_MDOT_E, pl.A_AIR, pl.A_PMAX):
+            assert auxs[col] == pytest.approx(aux[0, col], rel=1e-6, abs=1e-15), pl.AUX_FIELDS[col]
+        assert auxs[pl.A_STOP] == aux[0, pl.A_STOP] and auxs[pl.A_BURST] == aux[0, pl.A_BURST]
     assert np.ptp(lengths) > 2e-3  # the test moves the muscle
     assert worst_l < 1e-9 and worst_p < 1.0
 
@@ -250,6 +255,39 @@ def test_joint_baseline_settles_on_the_nominal_plant(mujoco, mode):
     assert info["angle"] == pytest.approx(1.1, abs=0.02)  # about 1 degree
     assert info["joint_stiffness"] == pytest.approx(0.45, rel=0.05)
     assert abs(info["angular_velocity"]) < 0.01
+
+
+def test_joint_reward_terms_are_the_rig_terms_over_the_mechanism_map(mujoco):
+    """The joint scores with the rig's reward function (tasks.kernel.reward_terms) on the angle
+    and the joint stiffness, and its terms are the documented ones."""
+    import math
+
+    from cepam_gym.tasks import kernel as tk
+
+    env = CEPAMJointEnv(action_mode="pressure", reward_weights={"air": 0.3})
+    assert env.terms.shape == (tk.N_TERMS,)
+    env.reset(seed=2)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        a = rng.uniform(-1, 1, 2)
+        _, r, _, _, info = env.step(a)
+        got = [info[f"reward_{t}"] for t in ("angle", "stiffness", "effort", "air", "burst")]
+        terms = np.zeros(tk.N_TERMS)
+        total = tk.reward_terms(info["angle"], info["target_angle"], info["joint_stiffness"],
+                                info["target_stiffness"], a[0], a[1], info["air_used"], False,
+                                env.task_vec, terms)
+        assert terms.tolist() == got and total == r
+        w = env.weights
+        expect = [-w.angle * min(abs(info["angle"] - info["target_angle"]) / math.radians(10), 5.0),
+                  -w.stiffness * min(abs(info["joint_stiffness"] - info["target_stiffness"])
+                                     / info["target_stiffness"], 2.0),
+                  -w.effort * 0.5 * (a[0] ** 2 + a[1] ** 2), -0.3 * info["air_used"] / 1e-5, 0.0]
+        assert got == pytest.approx(expect, rel=1e-12, abs=1e-15)
+    # the observation is the layout's encoding of the measured quantities, by name
+    obs = env._obs()
+    decoded = env.obs_layout.decode(obs)
+    assert decoded["angle"] == pytest.approx(info["angle"], abs=1e-6)
+    assert decoded["pressure_c"] == pytest.approx(info["pressure_c"], rel=1e-6, abs=1.0)
 
 
 def test_joint_frame_is_not_blank_and_follows_the_angle(mujoco):

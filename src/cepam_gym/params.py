@@ -23,6 +23,7 @@ import numpy as np
 
 from . import units
 from .physics import layout as ix
+from .physics.muscle import braid_from_rest
 
 FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
@@ -162,15 +163,21 @@ class PlantParams:
                 f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm")
 
     # --------------------------------------------------------------- derived
+    # the braid inversion is physics.muscle.braid_from_rest, run as Python here (``py_func``: the
+    # parameters are built once per plant, not in a compiled loop)
     def cpam_braid(self) -> tuple[float, float]:
         """Thread length b_c [m] and turns n_c of the CPAM (Eq. 8-9 at rest)."""
-        b = self.cpam_rest_length / math.cos(self.cpam_rest_angle)
-        return b, b * math.sin(self.cpam_rest_angle) / (math.pi * self.cpam_rest_diameter)
+        return braid_from_rest.py_func(self.cpam_rest_length, self.cpam_rest_diameter, self.cpam_rest_angle)
 
     def epam_braid(self) -> tuple[float, float]:
         """Thread length b_e [m] and turns n_e of the EPAM sleeve (Eq. 11-12, free sleeve)."""
-        b = self.epam_sleeve_free_length / math.cos(self.epam_sleeve_free_angle)
-        return b, b * math.sin(self.epam_sleeve_free_angle) / (math.pi * self.epam_sleeve_free_diameter)
+        return braid_from_rest.py_func(self.epam_sleeve_free_length, self.epam_sleeve_free_diameter,
+                                       self.epam_sleeve_free_angle)
+
+    @property
+    def pressure_cap(self) -> float:
+        """The highest gauge pressure [Pa] a chamber may be asked for: ``min(supply, burst)``."""
+        return min(self.supply_pressure, self.burst_pressure)
 
     def wall_thickness(self) -> float:
         """t_a = t_s + t_b (Eq. 35) when the enhanced model is selected, else 0."""
@@ -285,6 +292,13 @@ class PlantParams:
         if not isinstance(data, dict):
             raise ValueError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
         return cls.from_dict(data, where=str(path))
+
+
+def pressure_cap_of(p) -> np.ndarray:
+    """:attr:`PlantParams.pressure_cap` of parameter row(s) ``p`` (randomised plants):
+    ``min(supply, burst)`` gauge [Pa]."""
+    p = np.asarray(p, dtype=float)
+    return np.minimum(p[..., ix.P_SUP] - p[..., ix.P_ATM], p[..., ix.P_BURST])
 
 
 def fill_derived(p: np.ndarray) -> np.ndarray:

@@ -31,7 +31,6 @@ import numpy as np
 
 from ..physics import api
 from ..physics import layout as ix
-from ..tasks import kernel as tk
 from ..tasks.schedules import stiffness_interval
 
 
@@ -42,9 +41,9 @@ class InverseStaticController:
 
     def __init__(self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5,
                  load_filter_s: float = 0.15):
-        core = _core_of(env)
+        core = core_of(env)
         self.task = core.task
-        self.task_vec = core.task_vec.copy()
+        self.layout = core.obs_layout
         self._configure(core.nominal, core.nominal.to_array(), core.action_mode, core.control_dt,
                         gap_fraction, kp, ki, load_filter_s)
 
@@ -57,7 +56,7 @@ class InverseStaticController:
         self.gap_fraction = gap_fraction
         self.kp, self.ki = kp, ki
         self.alpha = 1.0 - np.exp(-dt / load_filter_s)
-        self.p_cap = min(nominal.supply_pressure, nominal.burst_pressure)
+        self.p_cap = nominal.pressure_cap
         self.reset()
 
     def reset(self, indices=None) -> None:
@@ -69,15 +68,26 @@ class InverseStaticController:
             self._weight[indices] = np.nan
             self._integral[indices] = 0.0
 
+    def get_state(self):
+        """A copy of the per-env filter and integrator states (``None`` before the first act),
+        for :meth:`set_state`: code that runs the controller on trial observations and rewinds it."""
+        if self._weight is None:
+            return None
+        return self._weight.copy(), self._integral.copy()
+
+    def set_state(self, state) -> None:
+        """Restore what :meth:`get_state` returned."""
+        if state is None:
+            self._weight = self._integral = None
+        else:
+            self._weight, self._integral = state[0].copy(), state[1].copy()
+
     # ------------------------------------------------------------------ helpers
     def _decode(self, obs: np.ndarray):
-        t = self.task_vec
-        L = obs[:, 0] * t[tk.T_L_HALF] + t[tk.T_L_CENTER]
-        pc = obs[:, 2] * t[tk.T_P_SCALE]
-        pe = obs[:, 3] * t[tk.T_P_SCALE]
-        target_l = obs[:, 5] * t[tk.T_L_HALF] + t[tk.T_L_CENTER]
-        target_k = obs[:, 6] * t[tk.T_K_SCALE] if self.task.track_stiffness else None
-        return L, pc, pe, target_l, target_k
+        """Measured length, pressures and targets (SI) from the observation, by column name."""
+        v = self.layout.decode(obs)
+        target_k = v["target_stiffness"] if self.layout.has("target_stiffness") else None
+        return v["length"], v["pressure_c"], v["pressure_e"], v["target_length"], target_k
 
     def setpoints(self, L_target, K_target, weight):
         """Projected inverse static model: gauge pressures ``(Pc*, Pe*)`` [Pa] (arrays)."""
@@ -124,7 +134,7 @@ class InverseStaticController:
         w_min = p[ix.M_END] * p[ix.GRAV]
         weight = np.maximum(self._filtered(w_now), w_min)
         pc_set, pe_set = self.setpoints(L_t, K_t, weight)
-        return self._drive(pc_set, pe_set, L, pc, pe, self.task_vec[tk.T_SETPOINT_MAX], single)
+        return self._drive(pc_set, pe_set, L, pc, pe, self.p_cap, single)
 
     def _filtered(self, load_now: np.ndarray) -> np.ndarray:
         """Low-pass filter of the load estimate (the hanging weight here; subclasses may filter
@@ -150,14 +160,19 @@ class InverseStaticController:
         return action[0] if single else action
 
 
-def _core_of(env):
+def core_of(env):
+    """The :class:`~cepam_gym.envs.core.CEPAMBatch` inside a rig env (single, vector, wrapped or
+    the SB3 adapter): its task, observation layout, nominal plant and timing."""
     for attr in ("core", "unwrapped", "venv", "env"):
         obj = getattr(env, attr, None)
         if attr == "core" and obj is not None:
             return obj
         if obj is not None and obj is not env:
             try:
-                return _core_of(obj)
+                return core_of(obj)
             except TypeError:
                 pass
     raise TypeError(f"cannot find the CE-PAM env inside {env!r}")
+
+
+_core_of = core_of  # the earlier private name

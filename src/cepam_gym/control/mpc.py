@@ -27,7 +27,7 @@ from .. import plant as pl
 from ..physics import api
 from ..physics import layout as ix
 from ..tasks import kernel as tk
-from .baseline import InverseStaticController, _core_of
+from .baseline import InverseStaticController, core_of
 from .planner import CEMConfig, CEMPlanner
 
 
@@ -36,7 +36,7 @@ class ModelPredictiveController(InverseStaticController):
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
         super().__init__(env)
-        core = _core_of(env)
+        core = core_of(env)
         cfg = config or CEMConfig()
         if overrides:
             import dataclasses
@@ -44,7 +44,7 @@ class ModelPredictiveController(InverseStaticController):
             cfg = dataclasses.replace(cfg, **overrides)
         self.cfg = cfg
         self.planner = CEMPlanner(cfg, core.mode, core.sub_dt, core.n_sub,
-                                  float(self.task_vec[tk.T_SETPOINT_MAX]),
+                                  float(core.task_vec[tk.T_SETPOINT_MAX]),
                                   track_stiffness=self.task.track_stiffness)
         self._mode_id = core.mode
 
@@ -58,10 +58,10 @@ class ModelPredictiveController(InverseStaticController):
         p = self.params
         x = pl.initial_state(p[None], np.clip(L, p[ix.L_MIN], p[ix.L_MAX]), np.maximum(pc, -0.9 * p[ix.P_ATM]),
                              np.maximum(pe, -0.9 * p[ix.P_ATM]))
-        x[:, pl.S_V] = obs[:, 1] * self.task_vec[tk.T_V_SCALE]
+        x[:, pl.S_V] = self.layout.value(obs, "velocity")
         if self._mode_id == pl.PROPORTIONAL:
-            # the previous action is the last two observation columns in every rig layout
-            x[:, pl.S_SC], x[:, pl.S_SE] = obs[:, -2], obs[:, -1]
+            x[:, pl.S_SC] = self.layout.value(obs, "previous_action_c")
+            x[:, pl.S_SE] = self.layout.value(obs, "previous_action_e")
         return x
 
     def act(self, obs, info=None) -> np.ndarray:

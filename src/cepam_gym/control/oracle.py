@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..tasks import kernel as tk
-from .baseline import _core_of
+from .baseline import core_of
 from .planner import CEMConfig, CEMPlanner
 
 
@@ -29,7 +29,7 @@ class OracleController:
     native CE-PAM env (single, vector or SB3 adapter), whose true state it reads every step."""
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
-        self.core = core = _core_of(env)
+        self.core = core = core_of(env)
         cfg = config or CEMConfig()
         if overrides:
             import dataclasses

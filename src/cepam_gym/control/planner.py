@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import plant as pl
+from ..tasks import kernel as tk
 
 LENGTH_NORM = 5e-3  # m: the benchmark's score counts 5 mm of length error as 1 ...
 STIFFNESS_NORM = 0.2  # ... and 20 % of stiffness error as 1
@@ -78,10 +79,11 @@ class CEMPlanner:
             self.mean[np.asarray(indices)] = 0.0
 
     def _commands(self, a: np.ndarray) -> np.ndarray:
-        """Plant valve commands of env actions in [-1, 1] (the env kernel's mapping)."""
-        if self.mode == pl.PRESSURE:
-            return 0.5 * self.setpoint_max * (a + 1.0)
-        return a
+        """Plant valve commands (M, 2) of env actions (M, 2) in [-1, 1]: the env kernel's mapping."""
+        if self.mode != pl.PRESSURE:
+            return a
+        c, e = tk.valve_commands(self.mode, a[:, 0], a[:, 1], self.setpoint_max)
+        return np.stack([c, e], axis=1)
 
     def rollout_cost(self, state, params, actions, target_l, target_k, load) -> np.ndarray:
         """Cost (M,) of action sequences ``actions`` (M, H, 2) from states (M, N_STATE) with

@@ -34,7 +34,7 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     "zero": "cepam_gym.control.trivial:ZeroController",
     "random": "cepam_gym.control.trivial:RandomController",
     "baseline": "cepam_gym.control.baseline:InverseStaticController",
-    "joint_baseline": "cepam_gym.mujoco.joint:JointInverseStaticController",
+    "joint_baseline": "cepam_gym.control.joint_baseline:JointInverseStaticController",
     # model-predictive: the nominal model on observations only, and the privileged headroom yardstick
     "mpc": "cepam_gym.control.mpc:ModelPredictiveController",
     "oracle": "cepam_gym.control.oracle:OracleController",

@@ -131,7 +131,8 @@ _DOC = """
     ## Observation space
 
     ``Box(-10, 10, (9,), float32)`` (8 without the stiffness target, ``CEPAMLength-v0``): only what
-    a rig measures, scaled to about unit range.
+    a rig measures, scaled to about unit range. The columns are named in ``env.unwrapped.core.obs_layout``
+    (:class:`~cepam_gym.tasks.layout.ObsLayout`: ``column(name)``, ``decode(obs)`` in SI units).
 
     | # | observation | scaling |
     |---|---|---|

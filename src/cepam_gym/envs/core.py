@@ -15,11 +15,13 @@ import numpy as np
 
 from .. import plant as pl
 from ..params import PlantParams, preset
+from ..physics import api
 from ..physics import layout as ix
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
-from ..physics.api import static_pressures
+from ..tasks.layout import rig_layout
 from ..tasks.schedules import episode_schedules
+from ..tasks.spec import check_kwargs
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
@@ -61,7 +63,9 @@ def check_action_mode(action_mode: str) -> int:
     return pl.MODES[action_mode]
 
 
-def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
+def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
+    """``{plant key: (low, high)}`` of the ``randomize`` kwarg, checked (``ValueError`` naming the
+    key); keys are unit-named like the YAML files."""
     out = {}
     keys = PlantParams.edge_keys()
     for key, rng in dict(randomize or {}).items():
@@ -75,6 +79,31 @@ def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[flo
             raise ValueError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
         out[key] = (lo, hi)
     return out
+
+
+def sample_params(nominal: PlantParams, randomize: Mapping[str, tuple[float, float]],
+                  rng: np.random.Generator, nominal_row: np.ndarray | None = None) -> np.ndarray:
+    """A parameter row for a new episode: ``nominal`` (its row ``nominal_row`` itself when given
+    and nothing is randomised) with each key of ``randomize`` drawn uniformly from its range."""
+    if not randomize:
+        return nominal.to_array() if nominal_row is None else nominal_row
+    draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in randomize.items()}
+    return PlantParams.from_dict(draw, base=nominal, where="randomize").to_array()
+
+
+def as_actions(actions, num_envs: int) -> np.ndarray:
+    """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array (a single env's may have
+    any shape of 2 elements); ``ValueError`` on a wrong shape, NaN or inf. Not clipped."""
+    a = np.asarray(actions, dtype=np.float64)
+    if a.shape != (num_envs, 2):
+        if a.size == 2 and num_envs == 1:
+            a = a.reshape(1, 2)
+        else:
+            raise ValueError(f"action must have shape {(2,) if num_envs == 1 else (num_envs, 2)}, "
+                             f"got {np.shape(actions)}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"action contains NaN or inf: {actions!r}")
+    return a
 
 
 def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
@@ -107,25 +136,20 @@ class CEPAMBatch:
                 raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
             task = TASKS[task]
         if task_options:
-            names = {f.name for f in dataclasses.fields(TaskSpec)} - {"name", "weights"}
-            bad = set(task_options) - names
-            if bad:
-                raise ValueError(f"task_options: unknown keys {sorted(bad)}; valid: {sorted(names)}")
-            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in task_options.items()}
+            opts = check_kwargs(TaskSpec, task_options, "task_options",
+                                exclude=("name", "weights", "scales"))
+            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)
         if reward_weights:
-            names = {f.name for f in dataclasses.fields(RewardWeights)}
-            bad = set(reward_weights) - names
-            if bad:
-                raise ValueError(f"reward_weights: unknown terms {sorted(bad)}; valid: {sorted(names)}")
-            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **reward_weights))
+            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
+            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
         self.task = task
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
-        self.randomize = _check_randomize(randomize)
+        self.randomize = check_randomize(randomize)
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
@@ -133,8 +157,9 @@ class CEPAMBatch:
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
+        self.obs_layout = rig_layout(task, self.nominal)
         self.task_vec = self._task_vector()
-        self.obs_dim = 9 if task.track_stiffness else 8
+        self.obs_dim = self.obs_layout.size
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
         self._stable_checked = False
@@ -185,21 +210,9 @@ class CEPAMBatch:
         return tk.env_step_single(self._F, self._I, self.obs, x0, x1)
 
     def _task_vector(self) -> np.ndarray:
-        t, w = self.task, self.task.weights
-        v = np.zeros(tk.N_TASK)
-        v[tk.T_W_LEN], v[tk.T_W_STIFF], v[tk.T_W_EFFORT] = w.length, w.stiffness, w.effort
-        v[tk.T_W_AIR], v[tk.T_W_BURST] = w.air, w.burst
-        v[tk.T_TRACK_K] = float(t.track_stiffness)
-        v[tk.T_OBS_K] = float(t.track_stiffness)
-        lo, hi = self.nominal.min_length, self.nominal.max_length
-        v[tk.T_L_CENTER], v[tk.T_L_HALF] = 0.5 * (lo + hi), 0.5 * (hi - lo)
-        v[tk.T_V_SCALE] = 0.1  # m/s
-        v[tk.T_P_SCALE] = self.nominal.supply_pressure
-        v[tk.T_K_SCALE] = 1000.0  # N/m
-        v[tk.T_SETPOINT_MAX] = min(self.nominal.supply_pressure, self.nominal.burst_pressure)
-        v[tk.T_LEN_CLIP] = 5.0  # cm
-        v[tk.T_STIFF_CLIP] = 2.0
-        return v
+        t = self.task
+        return tk.task_vector(dataclasses.astuple(t.weights), t.scales, self.obs_layout,
+                              self.nominal.pressure_cap, t.track_stiffness)
 
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
@@ -209,10 +222,7 @@ class CEPAMBatch:
         self.noise_rng = np.random.default_rng(None if seed is None else [seed, 0x5EED])
 
     def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
-        if not self.randomize:
-            return self._nominal_row
-        draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.randomize.items()}
-        return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array()
+        return sample_params(self.nominal, self.randomize, rng, self._nominal_row)
 
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
@@ -244,7 +254,7 @@ class CEPAMBatch:
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
         p = self.params[idx]
         weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
-        pc, pe, _ = static_pressures(initial[:, 0], initial[:, 1], weight, p)
+        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
         self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
         self.aux[idx] = pl.measure(self.state[idx], p)
         self.t_idx[idx] = 0
@@ -272,16 +282,7 @@ class CEPAMBatch:
             a[0, 0] = x0
             a[0, 1] = x1
             return a
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != (self.num_envs, 2):
-            if a.size == 2 and self.num_envs == 1:
-                a = a.reshape(1, 2)
-            else:
-                raise ValueError(f"action must have shape {(2,) if self.num_envs == 1 else (self.num_envs, 2)}, "
-                                 f"got {np.shape(actions)}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"action contains NaN or inf: {actions!r}")
-        self.prev_action[:] = a
+        self.prev_action[:] = as_actions(actions, self.num_envs)
         return self.prev_action
 
     def step(self, actions: np.ndarray) -> None:

@@ -1,7 +1,12 @@
-"""The joint task of ``cepam_gym/CEPAMJoint-v0``: the hinge geometry (muscle length <-> angle,
-loads -> the rig's equivalent hanging weight), targets and torque profiles, reward weights, and
-the MJCF model. The env itself is :mod:`cepam_gym.mujoco.joint` (its docstring explains the
-mechanism and the coupling)."""
+"""The joint task of ``cepam_gym/CEPAMJoint-v0``: the rig's task over a mechanism map.
+
+The hinge geometry maps the muscle to the joint (length <-> angle, muscle stiffness <-> joint
+stiffness, loads <-> the rig's equivalent hanging weight); through it the joint reuses the task
+layer: target schedules (:mod:`cepam_gym.tasks.schedules`), reward terms, termination and action
+mapping (:mod:`cepam_gym.tasks.kernel`), observation layout (:mod:`cepam_gym.tasks.layout`). Here:
+the geometry, targets and torque profiles, reward weights and scales, the observation layout, and
+the MJCF model. The env itself is :mod:`cepam_gym.mujoco.joint`; docs/mujoco.md explains the
+mechanism and the coupling."""
 
 from __future__ import annotations
 
@@ -12,8 +17,9 @@ from typing import Mapping
 import numpy as np
 
 from ..physics import layout as ix
-from ..tasks.schedules import _segments, load_profile, stiffness_interval
-from ..tasks.spec import LOAD_KINDS, TaskSpec
+from ..tasks.layout import ObsColumn, ObsLayout
+from ..tasks.schedules import load_profile, segments, stiffness_interval
+from ..tasks.spec import LOAD_KINDS, TaskScales, TaskSpec
 from ._mj import scene_header
 
 _CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
@@ -90,6 +96,11 @@ class JointTask:
     load_kinds: tuple[str, ...] = LOAD_KINDS  # profile of the external torque
     segment_duration: tuple[float, float] = (2.0, 4.0)
     pressure_margin: float = 0.85
+    # one unit of the angle reward term: 10 deg, the error the joint benchmark scores as 1 (as 20 %
+    # of stiffness is, which JointRewardWeights.stiffness = 5 prices alike); angular velocity per
+    # 5 rad/s and joint stiffness per 1 N m/rad in the observation
+    scales: TaskScales = TaskScales(tracking_unit=math.radians(10.0), velocity_scale=5.0,
+                                    stiffness_scale=1.0)
 
     def __post_init__(self):
         lo, hi = self.angle_range
@@ -102,6 +113,13 @@ class JointTask:
         # the fields shared with the rig's TaskSpec are checked by TaskSpec itself
         TaskSpec("joint", load_kinds=tuple(self.load_kinds), segment_duration=tuple(self.segment_duration),
                  pressure_margin=self.pressure_margin)
+
+    def check_range(self, geom: JointGeometry, p) -> None:
+        """``ValueError`` when the target angles exceed the joint's range for plant row ``p``."""
+        amax = geom.max_angle(p)
+        if self.angle_range[1] > amax:
+            raise ValueError(f"task angle_range {self.angle_range} rad exceeds the joint's range "
+                             f"[0, {amax:.3g}] rad (muscle end stops through lever_arm {geom.lever_arm} m)")
 
     def muscle_spec(self, geom: JointGeometry, p) -> TaskSpec:
         """The same task seen by the muscle (lengths, stiffness K = K_joint / r^2), for the
@@ -132,6 +150,24 @@ class JointRewardWeights:
                 raise ValueError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
 
 
+# the quantities the joint env measures, in the order of the rig's OBS_FIELDS
+JOINT_FIELDS = ("angle", "angular_velocity", "pressure_c", "pressure_e", "supply_pressure",
+                "target_angle", "target_stiffness", "previous_action_c", "previous_action_e")
+
+
+def joint_layout(task: JointTask, max_angle: float, supply_pressure: float) -> ObsLayout:
+    """The joint env's observation: angles about half of full flexion ``max_angle`` [rad],
+    pressures per nominal ``supply_pressure`` [Pa], the task's velocity and stiffness scales."""
+    s, half, ps = task.scales, 0.5 * max_angle, supply_pressure
+    cols = (ObsColumn("angle", half, half, "rad"),
+            ObsColumn("angular_velocity", s.velocity_scale, 0.0, "rad/s"),
+            ObsColumn("pressure_c", ps, 0.0, "Pa"), ObsColumn("pressure_e", ps, 0.0, "Pa"),
+            ObsColumn("supply_pressure", ps, 0.0, "Pa"), ObsColumn("target_angle", half, half, "rad"),
+            ObsColumn("target_stiffness", s.stiffness_scale, 0.0, "N m/rad"),
+            ObsColumn("previous_action_c"), ObsColumn("previous_action_e"))
+    return ObsLayout(cols, JOINT_FIELDS, s.obs_clip)
+
+
 def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeometry, p,
                     n_steps: int, dt: float):
     """One episode: ``(target_angle, target_stiffness, external_torque)`` arrays of ``n_steps``
@@ -141,7 +177,7 @@ def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeomet
     spec = task.muscle_spec(geom, p)
     r2 = geom.lever_arm ** 2
     torque = load_profile(rng, spec, n_steps, dt)
-    segs = _segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last one is the initial state
+    segs = segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last one is the initial state
     ta = np.full(n_steps, np.nan)
     tk = np.full(n_steps, np.nan)
     initial = None
@@ -167,6 +203,33 @@ def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeomet
         else:
             ta[a:b], tk[a:b] = target
     return ta, tk, torque, initial
+
+
+PIN_KEYS = ("target_angle", "target_stiffness", "external_torque")  # reset options held all episode
+INIT_KEYS = ("initial_angle", "initial_stiffness")  # reset options of the starting point
+
+
+def apply_reset_options(options, schedules, initial, geom: JointGeometry, p):
+    """``reset(options=...)`` of the joint env on one episode's ``schedules`` (target angle,
+    target stiffness, external torque: pinned in place by :data:`PIN_KEYS`) and ``initial``
+    ``(angle, stiffness)`` (replaced by :data:`INIT_KEYS`, no reachability check); returns the
+    initial pair. ``ValueError`` naming an unknown key or a bad value."""
+    options = dict(options or {})
+    bad = set(options) - set(PIN_KEYS) - set(INIT_KEYS)
+    if bad:
+        raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(PIN_KEYS + INIT_KEYS)}")
+    for key, arr in zip(PIN_KEYS, schedules):
+        if key in options:
+            v = float(options[key])
+            if not math.isfinite(v):
+                raise ValueError(f"reset option {key} must be finite, got {options[key]!r}")
+            arr[:] = v
+    a0 = float(options.get("initial_angle", initial[0]))
+    k0 = float(options.get("initial_stiffness", initial[1]))
+    if not (0.0 <= a0 <= geom.max_angle(p)) or not (math.isfinite(k0) and k0 > 0):
+        raise ValueError(f"initial_angle must be within [0, {geom.max_angle(p):.3g}] rad and "
+                         f"initial_stiffness > 0, got {a0}, {k0}")
+    return a0, k0
 
 
 JOINT_XML = """

@@ -18,15 +18,23 @@ from .layout import CP, CV, GAMMA, R_AIR
 from .valve import signed_flow_k
 
 
-@jit
-def pressure_abs(m, u, volume):
-    """Absolute pressure [Pa] of air with mass ``m``, internal energy ``u`` in ``volume``."""
+@jit_inline
+def pressure_abs(u, volume):
+    """Absolute pressure [Pa] of air with internal energy ``u`` [J] in ``volume`` [m^3]:
+    ``(gamma - 1) U / V`` (the mass cancels)."""
     return (GAMMA - 1.0) * u / volume
 
 
-@jit
+@jit_inline
+def pressure_abs_inv(u, inv_volume):
+    """:func:`pressure_abs` given ``1 / V`` (the plant's sub-step keeps the reciprocal, which also
+    serves the work ratio, and multiplies)."""
+    return (GAMMA - 1.0) * u * inv_volume
+
+
+@jit_inline
 def temperature(m, u):
-    """Temperature [K] of air with mass ``m`` and internal energy ``u``."""
+    """Temperature [K] of air with mass ``m`` [kg] and internal energy ``u`` [J]: ``U / (m cv)``."""
     return u / (m * CV)
 
 

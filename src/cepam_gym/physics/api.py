@@ -4,6 +4,14 @@ parameter row, or an ``(N, N_PARAMS)`` array matching the batch), and returns ar
 broadcast shape (0-d arrays become Python-float-like numpy scalars).
 
 The scalar kernels are the ones the plant runs; this module only loops over them.
+
+**Naming convention.** ``api.<name>`` is the array form of the scalar kernel ``<name>`` of
+:mod:`~cepam_gym.physics.muscle`, :mod:`~cepam_gym.physics.statics` or
+:mod:`~cepam_gym.physics.valve` when one exists (``api.chamber_volumes`` of
+``muscle.chamber_volumes``, ``api.static_pressures`` of ``statics.static_pressures``, ...), and
+takes the same arguments with arrays and a parameter source in place of scalars and one row.
+The two never meet unqualified: callers import the module (``from cepam_gym.physics import api``)
+and write ``api.<name>``, never ``from cepam_gym.physics.api import <name>`` (a test checks this).
 """
 
 from __future__ import annotations
@@ -13,6 +21,9 @@ from numba import njit
 
 from . import layout as ix
 from . import muscle, statics, valve
+
+__all__ = ["force_terms", "force", "stiffness", "closed_chamber_stiffness", "chamber_volumes",
+           "static_pressures", "iso6358_flow", "contact_pressures"]
 
 
 def _param_rows(params, n: int) -> np.ndarray:

@@ -14,68 +14,120 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .. import plant as pl
 from .._jit import jit
 from ..physics import layout as ix
-from .. import plant as pl
+from .layout import OBS_FIELDS, ObsLayout
+from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
 
-# columns of the task vector (TaskSpec + env kwargs flattened for the kernel)
-(T_W_LEN, T_W_STIFF, T_W_EFFORT, T_W_AIR, T_W_BURST, T_TRACK_K, T_L_CENTER, T_L_HALF,
- T_V_SCALE, T_P_SCALE, T_K_SCALE, T_SETPOINT_MAX, T_LEN_CLIP, T_STIFF_CLIP, T_OBS_K) = range(15)
-N_TASK = 15
+__all__ = ["OBS_FIELDS", "TERMINATION_REASONS", "task_vector", "encode", "write_obs", "reward_terms",
+           "termination", "valve_commands", "env_step", "observe"]
 
+# The task vector: everything the kernel needs to know of the task, flattened (built by
+# :func:`task_vector` from the task spec, its scales and its observation layout): reward weights
+# (in REWARD_TERMS order), units and clips of the terms, the pressure set-point range, then the
+# observation layout, one (source field, offset, scale) triple per column.
+(T_W_TRACK, T_W_STIFF, T_W_EFFORT, T_W_AIR, T_W_BURST, T_TRACK_K, T_TRACK_UNIT, T_TRACK_CLIP,
+ T_STIFF_CLIP, T_AIR_UNIT, T_SETPOINT_MAX, T_OBS_CLIP, T_OBS_N) = range(13)
+T_OBS = 13
+MAX_OBS = len(OBS_FIELDS)
+N_TASK = T_OBS + 3 * MAX_OBS
+
+# the first term tracks the mechanism's position (the joint env names it "angle")
 REWARD_TERMS = ("length", "stiffness", "effort", "air", "burst")
 N_TERMS = 5
-# observation features (the stiffness target only when the task tracks stiffness)
-OBS_FIELDS = ("length", "velocity", "pressure_c", "pressure_e", "supply_pressure",
-              "target_length", "target_stiffness", "previous_action_c", "previous_action_e")
 # noise columns: length [m], velocity [m/s], pressure_c, pressure_e, supply [Pa]
 N_NOISE = 5
 
-TERMINATION_NONE, TERMINATION_BURST, TERMINATION_NONFINITE = 0, 1, 2
-TERMINATION_REASONS = ("", "burst", "non_finite_state")
 
-_OBS_CLIP = 10.0
+def task_vector(weights, scales, layout: ObsLayout, setpoint_max: float,
+                track_stiffness: bool = True) -> np.ndarray:
+    """The task vector of a task: ``weights`` the five reward weights in REWARD_TERMS order,
+    ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout (at
+    most :data:`MAX_OBS` columns), ``setpoint_max`` [Pa] the gauge pressure of the action +1 in
+    pressure mode."""
+    v = np.zeros(N_TASK)
+    v[T_W_TRACK:T_W_BURST + 1] = [float(w) for w in weights]
+    v[T_TRACK_K] = float(track_stiffness)
+    v[T_TRACK_UNIT], v[T_TRACK_CLIP] = scales.tracking_unit, scales.tracking_clip
+    v[T_STIFF_CLIP], v[T_AIR_UNIT] = scales.stiffness_clip, scales.air_unit
+    v[T_SETPOINT_MAX] = setpoint_max
+    if layout.size > MAX_OBS:
+        raise ValueError(f"an observation layout has at most {MAX_OBS} columns, got {layout.size}")
+    v[T_OBS_CLIP], v[T_OBS_N] = layout.clip, layout.size
+    n = layout.size
+    v[T_OBS:T_OBS + 3 * n:3] = layout.sources()
+    v[T_OBS + 1:T_OBS + 3 * n:3] = layout.offsets()
+    v[T_OBS + 2:T_OBS + 3 * n:3] = layout.scales()
+    return v
+
+
+@jit
+def encode(vals, task, obs):
+    """Observation of the measured ``vals`` (a tuple in the layout's ``fields`` order, SI) by the
+    layout in ``task``: ``clip((value - offset) / scale)`` per column
+    (:class:`~cepam_gym.tasks.layout.ObsLayout`)."""
+    clip = task[T_OBS_CLIP]
+    for j in range(int(task[T_OBS_N])):
+        c = T_OBS + 3 * j
+        v = (vals[int(task[c])] - task[c + 1]) / task[c + 2]
+        obs[j] = max(-clip, min(clip, v))
 
 
 @jit
 def write_obs(x, aux, target_l, target_k, prev_a, p, task, noise, obs):
-    """Scaled float observation of one env (what a real rig measures, plus targets and a_{t-1})."""
-    lc = task[T_L_CENTER]
-    lh = task[T_L_HALF]
-    ps = task[T_P_SCALE]
+    """Scaled float observation of one rig env (what a real rig measures, plus targets and
+    a_{t-1}): the quantities of :data:`OBS_FIELDS`, encoded by the task's layout."""
     vals = (
-        (x[pl.S_L] + noise[0] - lc) / lh,
-        (x[pl.S_V] + noise[1]) / task[T_V_SCALE],
-        (aux[pl.A_PC] + noise[2]) / ps,
-        (aux[pl.A_PE] + noise[3]) / ps,
-        (p[ix.P_SUP] - p[ix.P_ATM] + noise[4]) / ps,
-        (target_l - lc) / lh,
-        target_k / task[T_K_SCALE],
+        x[pl.S_L] + noise[0],
+        x[pl.S_V] + noise[1],
+        aux[pl.A_PC] + noise[2],
+        aux[pl.A_PE] + noise[3],
+        p[ix.P_SUP] - p[ix.P_ATM] + noise[4],
+        target_l,
+        target_k,
         prev_a[0],
         prev_a[1],
     )
-    j = 0
-    for k in range(9):
-        if k == 6 and task[T_OBS_K] == 0.0:
-            continue
-        v = vals[k]
-        obs[j] = max(-_OBS_CLIP, min(_OBS_CLIP, v))
-        j += 1
+    encode(vals, task, obs)
 
 
 @jit
-def reward_terms(L, K, air, burst, a, target_l, target_k, task, terms):
-    """Signed reward terms of one env (all <= 0); returns their sum."""
-    e_len = min(abs(L - target_l) / 0.01, task[T_LEN_CLIP])  # cm
-    terms[0] = -task[T_W_LEN] * e_len
+def reward_terms(x, x_target, K, K_target, a0, a1, air, burst, task, terms):
+    """Signed reward terms of one env (all <= 0), written to ``terms``; returns their sum.
+
+    ``x`` is the tracked position (muscle length [m] on the rig, joint angle [rad] on the joint),
+    ``K`` the stiffness the task sets (N/m, or N m/rad), ``a0, a1`` the applied action, ``air`` the
+    supply air of the step [kg], ``burst`` whether a chamber burst. The same function scores every
+    env (rig and joint)."""
+    terms[0] = -task[T_W_TRACK] * min(abs(x - x_target) / task[T_TRACK_UNIT], task[T_TRACK_CLIP])
     if task[T_TRACK_K] != 0.0:
-        terms[1] = -task[T_W_STIFF] * min(abs(K - target_k) / target_k, task[T_STIFF_CLIP])
+        terms[1] = -task[T_W_STIFF] * min(abs(K - K_target) / K_target, task[T_STIFF_CLIP])
     else:
         terms[1] = 0.0
-    terms[2] = -task[T_W_EFFORT] * 0.5 * (a[0] * a[0] + a[1] * a[1])
-    terms[3] = -task[T_W_AIR] * air / 1e-5  # per 10 mg
+    terms[2] = -task[T_W_EFFORT] * 0.5 * (a0 * a0 + a1 * a1)
+    terms[3] = -task[T_W_AIR] * air / task[T_AIR_UNIT]
     terms[4] = -task[T_W_BURST] if burst else 0.0
     return terms[0] + terms[1] + terms[2] + terms[3] + terms[4]
+
+
+@jit
+def termination(finite, burst):
+    """Termination reason code (:data:`TERMINATION_REASONS`) of a step: a non-finite state or
+    reward first, then a burst."""
+    if not finite:
+        return TERMINATION_NONFINITE
+    return TERMINATION_BURST if burst else TERMINATION_NONE
+
+
+@jit
+def valve_commands(mode, a0, a1, setpoint_max):
+    """The plant's two valve inputs for an (already clipped) action: in pressure mode the action
+    maps [-1, 1] to a gauge set-point in [0, setpoint_max] [Pa]; otherwise it is the command."""
+    if mode == pl.PRESSURE:
+        half = 0.5 * setpoint_max
+        return half * (a0 + 1.0), half * (a1 + 1.0)
+    return a0, a1
 
 
 @jit
@@ -92,13 +144,7 @@ def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_
         a[0] = max(-1.0, min(1.0, a[0]))
         a[1] = max(-1.0, min(1.0, a[1]))
         inp = inputs[i]
-        if mode == pl.PRESSURE:
-            half = 0.5 * task[T_SETPOINT_MAX]
-            inp[pl.I_CMD_C] = half * (a[0] + 1.0)
-            inp[pl.I_CMD_E] = half * (a[1] + 1.0)
-        else:
-            inp[pl.I_CMD_C] = a[0]
-            inp[pl.I_CMD_E] = a[1]
+        inp[pl.I_CMD_C], inp[pl.I_CMD_E] = valve_commands(mode, a[0], a[1], task[T_SETPOINT_MAX])
         inp[pl.I_LOAD] = loads[i, min(t_idx[i], n_t - 1)]
         inp[pl.I_FEXT] = 0.0
     pl.advance_block(state, inputs, params, lo, n, mode, dt, n_sub, state, aux, W)
@@ -108,17 +154,14 @@ def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_
         x = state[i]
         ax = aux[i]
         burst = ax[pl.A_BURST] != 0.0
-        reward = reward_terms(x[pl.S_L], ax[pl.A_STIFF], ax[pl.A_AIR], burst, actions[i], tl[i, k],
-                              tk[i, k], task, terms[i])
+        a = actions[i]
+        reward = reward_terms(x[pl.S_L], tl[i, k], ax[pl.A_STIFF], tk[i, k], a[0], a[1], ax[pl.A_AIR],
+                              burst, task, terms[i])
         p = params[0] if params.shape[0] == 1 else params[i]
         write_obs(x, ax, tl[i, k1], tk[i, k1], actions[i], p, task,
                   noise[0] if noise.shape[0] == 1 else noise[i], obs[i])
-        if ax[pl.A_FINITE] == 0.0 or not math.isfinite(reward):
-            rewards[i] = 0.0
-            reasons[i] = TERMINATION_NONFINITE
-        else:
-            rewards[i] = reward
-            reasons[i] = TERMINATION_BURST if burst else TERMINATION_NONE
+        reasons[i] = termination(ax[pl.A_FINITE] != 0.0 and math.isfinite(reward), burst)
+        rewards[i] = 0.0 if reasons[i] == TERMINATION_NONFINITE else reward
         t_idx[i] += 1
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..physics import api
 from ..physics import layout as ix
+from ..params import pressure_cap_of
 from .spec import TaskSpec
 
 _TRIES = 32
@@ -54,7 +55,9 @@ def load_profile(rng: np.random.Generator, spec: TaskSpec, n_steps: int, dt: flo
     return np.minimum(np.maximum(load, lo), hi)  # np.clip, at a tenth of its call overhead
 
 
-def _segments(rng, spec: TaskSpec, n_steps: int, dt: float) -> list[tuple[int, int]]:
+def segments(rng, spec: TaskSpec, n_steps: int, dt: float) -> list[tuple[int, int]]:
+    """``(start, stop)`` step indices of the target segments of one episode, each lasting a
+    random ``segment_duration`` (the last one cut at the episode's end)."""
     out, i = [], 0
     while i < n_steps:
         j = min(n_steps, i + max(1, int(_uniform(rng, *spec.segment_duration) / dt)))
@@ -78,8 +81,7 @@ def stiffness_interval(length, w_lo, w_hi, params, spec: TaskSpec):
     ``[w_lo, w_hi]`` [N]; empty when ``K_lo >= K_hi``. ``params`` is one row, or one row per
     element of the (1-D) arguments."""
     p = np.asarray(params, dtype=float)
-    cols = p.T if p.ndim == 2 else p
-    p_cap = spec.pressure_margin * np.minimum(cols[ix.P_SUP] - cols[ix.P_ATM], cols[ix.P_BURST])
+    p_cap = spec.pressure_margin * pressure_cap_of(p)
     p_floor = 2e3  # Pa above the contact pressure: keeps targets off the P_a = 0 kink
     prc, pre = api.contact_pressures(length, p)
     k_lo = np.full(np.broadcast(length, w_lo, w_hi).shape, spec.stiffness_range[0], dtype=float)
@@ -116,7 +118,7 @@ _CANDIDATES = 8  # target candidates drawn per segment before the vectorised fea
 def _draw(rng, spec: TaskSpec, n_steps: int, dt: float):
     """All random draws of one episode, in a fixed order that depends only on this env's rng."""
     load = load_profile(rng, spec, n_steps, dt)
-    segs = _segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last "segment" is the initial state
+    segs = segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last "segment" is the initial state
     n = len(segs)
     if spec.fixed_length is not None:
         cand_l = np.full((n, _CANDIDATES), spec.fixed_length)

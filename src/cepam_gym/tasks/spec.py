@@ -1,4 +1,5 @@
-"""What a task asks: targets, loads, reward weights, observation scaling. Frozen dataclasses."""
+"""What a task asks: targets, loads, reward weights, reward units and observation scaling,
+termination reasons. Frozen dataclasses."""
 
 from __future__ import annotations
 
@@ -7,6 +8,44 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
+
+# termination reasons: integer codes (what the step kernels return) and their names (info)
+TERMINATION_NONE, TERMINATION_BURST, TERMINATION_NONFINITE = 0, 1, 2
+TERMINATION_REASONS = ("", "burst", "non_finite_state")
+
+
+def check_kwargs(cls, given, what: str, noun: str = "keys", exclude=()) -> dict:
+    """``given`` (a mapping or None) as a dict, after checking its keys are fields of dataclass
+    ``cls`` (minus ``exclude``); ``ValueError`` naming the unknown keys and the valid ones."""
+    given = dict(given or {})
+    names = {f.name for f in fields(cls)} - set(exclude)
+    bad = set(given) - names
+    if bad:
+        raise ValueError(f"{what}: unknown {noun} {sorted(bad)}; valid: {sorted(names)}")
+    return given
+
+
+@dataclass(frozen=True)
+class TaskScales:
+    """Units of the reward terms and scales of the observation (SI).
+
+    ``tracking_unit`` is one unit of the tracking term (1 cm of length on the rig, 10 deg of
+    angle on the joint), which is clipped at ``tracking_clip`` units; the relative stiffness error
+    is clipped at ``stiffness_clip``; ``air_unit`` is one unit of the air term (10 mg)."""
+
+    tracking_unit: float = 0.01  # m
+    tracking_clip: float = 5.0
+    stiffness_clip: float = 2.0
+    air_unit: float = 1e-5  # kg
+    velocity_scale: float = 0.1  # m/s per observation unit
+    stiffness_scale: float = 1000.0  # N/m per observation unit
+    obs_clip: float = 10.0
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"task scale {f.name} must be finite and > 0, got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -43,6 +82,7 @@ class TaskSpec:
     segment_duration: tuple[float, float] = (2.0, 4.0)  # how long a target holds [s]
     pressure_margin: float = 0.85  # targets need pressures below this fraction of min(supply, burst)
     weights: RewardWeights = field(default_factory=RewardWeights)
+    scales: TaskScales = field(default_factory=TaskScales)
 
     def __post_init__(self):
         lo, hi = self.length_range

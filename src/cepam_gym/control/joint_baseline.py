@@ -1,0 +1,75 @@
+"""The inverse-static baseline of ``cepam_gym/CEPAMJoint-v0``: the rig's baseline through the
+joint's mechanism map (:class:`~cepam_gym.mujoco.joint_task.JointGeometry`). Needs no MuJoCo:
+it reads the env's nominal plant, geometry and observation layout."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..mujoco.joint_task import JointGeometry
+from ..physics import api
+from ..physics import layout as ix
+from .baseline import InverseStaticController
+
+
+class JointInverseStaticController(InverseStaticController):
+    """The rig's inverse-static baseline (:class:`cepam_gym.control.InverseStaticController`)
+    through the joint geometry; ``reset(indices=None)`` / ``act(obs, info=None)`` like the
+    benchmark harness's controllers, on single ``(9,)`` or batched ``(N, 9)`` observations.
+
+    Per control step, with the *nominal* plant and geometry:
+
+    1. angle, pressures and targets from the observation (by column name); muscle lengths
+       ``L = L_max - r theta``;
+    2. **external torque estimate** from the quasi-static balance of the hinge:
+       ``tau_ext = -r (F(L, Pc, Pe) + m_end g) - m g l_c sin(theta)``, low-pass filtered;
+    3. **inverse static model** at the target: the equivalent hanging weight at ``theta*``
+       (:meth:`JointGeometry.equivalent_weight`) and the muscle stiffness ``K* = K_joint* / r^2``
+       give the set-points (:meth:`InverseStaticController.setpoints`, the same projection of
+       unreachable targets);
+    4. the same pressure loop per chamber as the rig's baseline (feedforward from the ISO 6358
+       flow plus PI), or the set-points themselves in ``"pressure"`` mode.
+    """
+
+    def __init__(self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5,
+                 load_filter_s: float = 0.15):
+        j = find_joint_env(env)
+        self.geometry = j.geometry
+        self.setpoint_max = j.setpoint_max
+        self.layout = j.obs_layout
+        self.task = j.task.muscle_spec(j.geometry, j.nominal_row)
+        self._configure(j.nominal, j.nominal_row.copy(), j.action_mode, j.control_dt,
+                        gap_fraction, kp, ki, load_filter_s)
+
+    def act(self, obs, info=None) -> np.ndarray:
+        single = np.ndim(obs) == 1
+        obs = np.atleast_2d(np.asarray(obs, dtype=float))
+        p, g = self.params, self.geometry
+        v = self.layout.decode(obs)
+        th, pc, pe, th_t = v["angle"], v["pressure_c"], v["pressure_e"], v["target_angle"]
+        k_t = v["target_stiffness"] / g.lever_arm ** 2
+        L = g.length(th, p)
+        r, grav = g.lever_arm, p[ix.GRAV]
+        tau_now = -r * (api.force(L, pc, pe, p) + p[ix.M_END] * grav) - g.gravity_torque(th, grav)
+        # the filtered load is the external torque [N m] here
+        weight = g.equivalent_weight(th_t, np.maximum(self._filtered(tau_now), 0.0), p)
+        pc_set, pe_set = self.setpoints(g.length(th_t, p), k_t, weight)
+        return self._drive(pc_set, pe_set, L, pc, pe, self.setpoint_max, single)
+
+
+def find_joint_env(env):
+    """The joint env inside ``env`` (wrappers, a vector env of joint envs); ``TypeError`` if none.
+    Recognised by its :class:`JointGeometry`, so this module never imports the env (or MuJoCo)."""
+    e = env
+    for _ in range(16):
+        if isinstance(getattr(e, "geometry", None), JointGeometry) and hasattr(e, "obs_layout"):
+            return e
+        nxt = getattr(e, "unwrapped", None)
+        if nxt is e or nxt is None:
+            nxt = getattr(e, "env", None)
+        if nxt is None and getattr(e, "envs", None):  # a SyncVectorEnv: same nominal plant in each
+            nxt = e.envs[0]
+        if nxt is None:
+            break
+        e = nxt
+    raise TypeError(f"cannot find a CEPAMJointEnv inside {env!r}")
