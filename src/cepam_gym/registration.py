@@ -4,10 +4,16 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-ENV_IDS = {
-    "cepam_gym/CEPAM-v0": "cepam",
-    "cepam_gym/CEPAMLength-v0": "length",
-    "cepam_gym/CEPAMStiffness-v0": "stiffness",
+# rig ids -> their default kwargs (a user's own kwargs win). v1: planned references announced
+# PREVIEW_STEPS control steps ahead (0.2 s at 50 Hz) in the observation.
+PREVIEW_STEPS = 10
+ENV_IDS: dict[str, dict] = {
+    "cepam_gym/CEPAM-v0": {"task": "cepam"},
+    "cepam_gym/CEPAMLength-v0": {"task": "length"},
+    "cepam_gym/CEPAMStiffness-v0": {"task": "stiffness"},
+    "cepam_gym/CEPAM-v1": {"task": "cepam_v1", "preview_steps": PREVIEW_STEPS},
+    "cepam_gym/CEPAMLength-v1": {"task": "length_v1", "preview_steps": PREVIEW_STEPS},
+    "cepam_gym/CEPAMStiffness-v1": {"task": "stiffness_v1", "preview_steps": PREVIEW_STEPS},
 }
 MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
 # ids that need the [mujoco] extra (imported only by gym.make): not in ENV_IDS, which lists the
@@ -16,7 +22,7 @@ MUJOCO_ENV_IDS = {"cepam_gym/CEPAMJoint-v0": "cepam_gym.mujoco.joint:CEPAMJointE
 
 
 def register_envs() -> None:
-    for env_id, task in ENV_IDS.items():
+    for env_id, kwargs in ENV_IDS.items():
         if env_id in gym.registry:
             continue
         gym.register(
@@ -24,7 +30,7 @@ def register_envs() -> None:
             entry_point="cepam_gym.envs.cepam:CEPAMEnv",
             vector_entry_point="cepam_gym.envs.cepam:CEPAMVectorEnv",
             max_episode_steps=MAX_EPISODE_STEPS,
-            kwargs={"task": task},
+            kwargs=dict(kwargs),
         )
     for env_id, entry_point in MUJOCO_ENV_IDS.items():
         if env_id not in gym.registry:

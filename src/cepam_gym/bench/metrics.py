@@ -70,6 +70,8 @@ class TraceSpec:
 
 
 RIG = TraceSpec()
+# the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
+RIG_V1 = TraceSpec(allowance_s=0.5)
 JOINT = TraceSpec(
     quantity="angle", unit="deg", scale=180.0 / np.pi, band=np.deg2rad(2.0), min_step=np.deg2rad(5.0),
     score_norm=10.0,

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from .metrics import JOINT, RIG, TraceSpec
+from .metrics import JOINT, RIG, RIG_V1, TraceSpec
 
 # Plausible spread of a hand-made CE-PAM and its rig around the nominal (default, calibrated)
 # parameters, in the keys' own units: centred on the nominal value except the Coulomb friction,
@@ -54,6 +54,23 @@ SUITES: dict[str, Suite] = {s.name: s for s in (
           doc="large load steps, near-limit targets, fast target changes"),
     Suite("joint", "cepam_gym/CEPAMJoint-v0", {}, seed=5000, traces=JOINT, extra="mujoco",
           doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques"),
+    # v1: planned references announced 0.2 s ahead; the headline error leaves out 0.5 s after a
+    # jump of the target (RIG_V1); seeds fixed per suite
+    Suite("nominal-v1", "cepam_gym/CEPAM-v1", {"task_options": {"load_kinds": ["step"]}}, seed=11000,
+          traces=RIG_V1, doc="v1 references with preview, default parameters, no noise, load steps"),
+    Suite("randomized-v1", "cepam_gym/CEPAM-v1",
+          {"randomize": RANDOMIZE, "supply_drift_kpa": 5.0,
+           "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0}}, seed=12000,
+          traces=RIG_V1, doc="v1 references with preview, domain-randomized plant, sensor noise, supply drift"),
+    Suite("tracking-v1", "cepam_gym/CEPAM-v1",
+          {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
+          seed=13000, traces=RIG_V1, doc="smooth references only (sines, chirps, minimum-jerk moves), constant load"),
+    Suite("stiffness-at-fixed-length-v1", "cepam_gym/CEPAMStiffness-v1", {}, seed=14000, traces=RIG_V1,
+          doc="paper section XII: 17.5 cm, stiffness ramps and moves"),
+    Suite("stress-v1", "cepam_gym/CEPAM-v1",
+          {"task_options": {"load_range": [0.0, 0.45], "load_kinds": ["step", "random"],
+                            "pressure_margin": 0.95, "segment_duration": [1.0, 2.0]}}, seed=15000,
+          traces=RIG_V1, doc="v1 with large load steps, near-limit targets, fast changes"),
 )}
 
 

@@ -20,7 +20,7 @@ from ..physics import layout as ix
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
 from ..tasks.layout import rig_layout
-from ..tasks.schedules import episode_schedules
+from ..tasks.references import planned_schedules
 from ..tasks.spec import check_kwargs
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
@@ -127,7 +127,7 @@ class CEPAMBatch:
                  episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
                  randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
                  action_latency_steps: int = 0, supply_drift_kpa: float = 0.0,
-                 task_options: Mapping[str, Any] | None = None):
+                 task_options: Mapping[str, Any] | None = None, preview_steps: int = 0):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
@@ -157,7 +157,11 @@ class CEPAMBatch:
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
-        self.obs_layout = rig_layout(task, self.nominal)
+        if isinstance(preview_steps, bool) or int(preview_steps) != preview_steps or not 0 <= preview_steps <= 100:
+            raise ValueError(f"preview_steps must be an integer in [0, 100] (control steps announced), "
+                             f"got {preview_steps!r}")
+        self.preview_steps = int(preview_steps)
+        self.obs_layout = rig_layout(task, self.nominal, self.preview_steps)
         self.task_vec = self._task_vector()
         self.obs_dim = self.obs_layout.size
         # --- arrays
@@ -249,7 +253,7 @@ class CEPAMBatch:
         if self.randomize or not self._stable_checked:
             pl.check_stability(self.params[idx], self.sub_dt)
             self._stable_checked = True
-        tl, tkk, load, initial = episode_schedules([self.rngs[i] for i in idx], self.task,
+        tl, tkk, load, initial = planned_schedules([self.rngs[i] for i in idx], self.task,
                                                    self.params[idx], self.n_steps, self.control_dt)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
         p = self.params[idx]

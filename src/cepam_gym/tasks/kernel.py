@@ -17,10 +17,11 @@ from numba import njit, prange
 from .. import plant as pl
 from .._jit import jit
 from ..physics import layout as ix
-from .layout import OBS_FIELDS, ObsLayout
+from .layout import OBS_FIELDS, ObsLayout, preview_fields
 from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
 
-__all__ = ["OBS_FIELDS", "TERMINATION_REASONS", "task_vector", "encode", "write_obs", "reward_terms",
+__all__ = ["OBS_FIELDS", "TERMINATION_REASONS", "task_vector", "encode", "write_obs", "write_preview",
+           "reward_terms",
            "termination", "valve_commands", "env_step", "observe"]
 
 # The task vector: everything the kernel needs to know of the task, flattened (built by
@@ -31,7 +32,10 @@ __all__ = ["OBS_FIELDS", "TERMINATION_REASONS", "task_vector", "encode", "write_
  T_STIFF_CLIP, T_AIR_UNIT, T_SETPOINT_MAX, T_OBS_CLIP, T_OBS_N) = range(13)
 T_OBS = 13
 MAX_OBS = len(OBS_FIELDS)
-N_TASK = T_OBS + 3 * MAX_OBS
+# then the preview: steps announced, and the offset and scale of the length and stiffness columns
+T_PREVIEW = T_OBS + 3 * MAX_OBS
+T_PREV_L_OFF, T_PREV_L_SCALE, T_PREV_K_SCALE = T_PREVIEW + 1, T_PREVIEW + 2, T_PREVIEW + 3
+N_TASK = T_PREVIEW + 4
 
 # the first term tracks the mechanism's position (the joint env names it "angle")
 REWARD_TERMS = ("length", "stiffness", "effort", "air", "burst")
@@ -52,13 +56,24 @@ def task_vector(weights, scales, layout: ObsLayout, setpoint_max: float,
     v[T_TRACK_UNIT], v[T_TRACK_CLIP] = scales.tracking_unit, scales.tracking_clip
     v[T_STIFF_CLIP], v[T_AIR_UNIT] = scales.stiffness_clip, scales.air_unit
     v[T_SETPOINT_MAX] = setpoint_max
-    if layout.size > MAX_OBS:
-        raise ValueError(f"an observation layout has at most {MAX_OBS} columns, got {layout.size}")
-    v[T_OBS_CLIP], v[T_OBS_N] = layout.clip, layout.size
-    n = layout.size
-    v[T_OBS:T_OBS + 3 * n:3] = layout.sources()
-    v[T_OBS + 1:T_OBS + 3 * n:3] = layout.offsets()
-    v[T_OBS + 2:T_OBS + 3 * n:3] = layout.scales()
+    # the measured columns (at most one per measured quantity), then the preview columns
+    n = sum("_+" not in name for name in layout.names)
+    preview = layout.names[n:]
+    if n > MAX_OBS or any("_+" not in name for name in preview):
+        raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns, then the "
+                         f"preview columns; got {layout.names}")
+    v[T_OBS_CLIP], v[T_OBS_N] = layout.clip, n
+    v[T_OBS:T_OBS + 3 * n:3] = layout.sources()[:n]
+    v[T_OBS + 1:T_OBS + 3 * n:3] = layout.offsets()[:n]
+    v[T_OBS + 2:T_OBS + 3 * n:3] = layout.scales()[:n]
+    steps = sum(name.startswith("target_length_+") for name in preview)
+    if steps:
+        if preview != preview_fields(steps, track_stiffness):
+            raise ValueError(f"preview columns must be {preview_fields(steps, track_stiffness)}, got {preview}")
+        v[T_PREVIEW] = steps
+        v[T_PREV_L_OFF] = layout.columns[n].offset
+        v[T_PREV_L_SCALE] = layout.columns[n].scale
+        v[T_PREV_K_SCALE] = layout.columns[n + steps].scale if track_stiffness else 1.0
     return v
 
 
@@ -72,6 +87,26 @@ def encode(vals, task, obs):
         c = T_OBS + 3 * j
         v = (vals[int(task[c])] - task[c + 1]) / task[c + 2]
         obs[j] = max(-clip, min(clip, v))
+
+
+@jit
+def write_preview(tl_row, tk_row, k_next, task, obs):
+    """The preview columns: the targets of the ``T_PREVIEW`` control steps after step ``k_next``
+    (the one the ``target_*`` columns show), the last target held past the episode's end."""
+    steps = int(task[T_PREVIEW])
+    if steps == 0:
+        return
+    n_t = tl_row.shape[0]
+    base = int(task[T_OBS_N])
+    clip = task[T_OBS_CLIP]
+    track_k = task[T_TRACK_K] != 0.0
+    for j in range(steps):
+        kk = min(k_next + 1 + j, n_t - 1)
+        v = (tl_row[kk] - task[T_PREV_L_OFF]) / task[T_PREV_L_SCALE]
+        obs[base + j] = max(-clip, min(clip, v))
+        if track_k:
+            v = tk_row[kk] / task[T_PREV_K_SCALE]
+            obs[base + steps + j] = max(-clip, min(clip, v))
 
 
 @jit
@@ -160,6 +195,7 @@ def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_
         p = params[0] if params.shape[0] == 1 else params[i]
         write_obs(x, ax, tl[i, k1], tk[i, k1], actions[i], p, task,
                   noise[0] if noise.shape[0] == 1 else noise[i], obs[i])
+        write_preview(tl[i], tk[i], t_idx[i] + 1, task, obs[i])
         reasons[i] = termination(ax[pl.A_FINITE] != 0.0 and math.isfinite(reward), burst)
         rewards[i] = 0.0 if reasons[i] == TERMINATION_NONFINITE else reward
         t_idx[i] += 1
@@ -201,6 +237,7 @@ def observe(state, aux, params, tl, tk, t_idx, prev_actions, task, noise, obs):
         p = params[0] if params.shape[0] == 1 else params[i]
         rz = noise[0] if noise.shape[0] == 1 else noise[i]
         write_obs(state[i], aux[i], tl[i, k], tk[i, k], prev_actions[i], p, task, rz, obs[i])
+        write_preview(tl[i], tk[i], t_idx[i], task, obs[i])
 
 
 # ------------------------------------------------------------------ single env

@@ -107,10 +107,20 @@ class ObsLayout:
         return np.asarray(obs, dtype=float)[..., c] * col.scale + col.offset
 
 
-def rig_layout(spec, nominal) -> ObsLayout:
+def preview_fields(steps: int, track_stiffness: bool) -> tuple[str, ...]:
+    """Names of the preview columns: the target length of each of the next ``steps`` control
+    steps after the one the ``target_*`` columns show, then (if tracked) their stiffnesses."""
+    names = tuple(f"target_length_+{j}" for j in range(1, steps + 1))
+    if track_stiffness:
+        names += tuple(f"target_stiffness_+{j}" for j in range(1, steps + 1))
+    return names
+
+
+def rig_layout(spec, nominal, preview_steps: int = 0) -> ObsLayout:
     """The rig envs' layout for task ``spec`` (:class:`~cepam_gym.tasks.spec.TaskSpec`) and the
     nominal plant (:class:`~cepam_gym.params.PlantParams`): lengths about the middle of the end
-    stops, pressures per nominal supply; the stiffness target only when the task tracks it."""
+    stops, pressures per nominal supply; the stiffness target only when the task tracks it; then
+    ``preview_steps`` preview columns per tracked target (:func:`preview_fields`)."""
     s = spec.scales
     lo, hi = nominal.min_length, nominal.max_length
     center, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -121,4 +131,8 @@ def rig_layout(spec, nominal) -> ObsLayout:
     if spec.track_stiffness:
         cols.append(ObsColumn("target_stiffness", s.stiffness_scale, 0.0, "N/m"))
     cols += [ObsColumn("previous_action_c"), ObsColumn("previous_action_e")]
-    return ObsLayout(tuple(cols), OBS_FIELDS, s.obs_clip)
+    names = preview_fields(preview_steps, spec.track_stiffness)
+    for name in names:  # preview columns scale like the target they announce
+        src = cols[5] if name.startswith("target_length") else cols[6]
+        cols.append(ObsColumn(name, src.scale, src.offset, src.unit))
+    return ObsLayout(tuple(cols), OBS_FIELDS + names, s.obs_clip)

@@ -30,10 +30,11 @@ import numpy as np
 
 from ..physics import api
 from ..physics import layout as ix
-from .schedules import stiffness_interval
-from .spec import TaskSpec
+from .schedules import episode_schedules, stiffness_interval
+from .spec import REFERENCE_KINDS, TaskSpec
 
-REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")
+__all__ = ["REFERENCE_KINDS", "min_jerk", "smooth_steps", "project", "pressure_rate_ratio",
+           "periodic_length", "smooth_reference", "stiffness_ramp", "planned_schedules"]
 _SLOWDOWN = 0.7  # factor on the frequency (or 1/factor on a move) per followability retry
 _RETRIES = 8
 
@@ -185,3 +186,43 @@ def stiffness_ramp(target_k, load, params_row, spec: TaskSpec, dt: float, length
         s = np.minimum((np.arange(b - a) + 1) / m, 1.0)
         out[a:b] = out[a - 1] + (k[a] - out[a - 1]) * s
     return project(np.full(n, length), out, load, params_row, spec)
+
+
+def planned_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
+    """:func:`~cepam_gym.tasks.schedules.episode_schedules` with each episode's targets shaped by
+    a reference kind drawn from ``spec.references`` (each env's own generator, after its schedule
+    draws, so a batch equals single envs). Returns ``(target_length, target_stiffness, load,
+    initial)`` like it; with references other than ``step`` the episode starts at rest on its
+    reference's first point (no jump at t = 0). The loads stay the schedule's: a load change is a
+    disturbance the controller is not told about. A reference that cannot be made reachable at
+    some step (a load too large for the length the move passes) falls back to ``min_jerk`` moves
+    between the schedule's set-points, and those to the set-points themselves."""
+    tl, tk, load, initial = episode_schedules(rngs, spec, params, n_steps, dt)
+    if spec.references == ("step",):
+        return tl, tk, load, initial
+    params = np.atleast_2d(np.asarray(params, dtype=float))
+    for i, rng in enumerate(rngs):
+        p = params[i if params.shape[0] > 1 else 0]
+        kind = spec.references[int(rng.integers(len(spec.references)))]
+        shaped = _shape(kind, rng, spec, p, tl[i], tk[i], load[i], n_steps, dt)
+        if shaped is None and kind != "step":
+            shaped = _shape("min_jerk", rng, spec, p, tl[i], tk[i], load[i], n_steps, dt)
+        if shaped is not None:
+            tl[i], tk[i] = shaped
+            initial[i] = tl[i, 0], tk[i, 0]
+    return tl, tk, load, initial
+
+
+def _shape(kind, rng, spec, p, tl, tk, load, n_steps, dt):
+    """One episode's reference of ``kind`` from its step schedule, or None when not reachable."""
+    try:
+        if kind == "min_jerk":
+            return smooth_reference(tl, tk, load, p, spec, dt, spec.move_s)
+        if kind in ("sine", "chirp"):
+            return periodic_length(rng, spec, load, p, n_steps, dt, kind=kind)
+        if kind == "stiffness_ramp":
+            length = spec.fixed_length if spec.fixed_length is not None else float(tl[0])
+            return stiffness_ramp(tk, load, p, spec, dt, length)
+        return tl, tk
+    except ValueError:
+        return None

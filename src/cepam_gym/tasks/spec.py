@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
+REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # tasks.references
 
 # termination reasons: integer codes (what the step kernels return) and their names (info)
 TERMINATION_NONE, TERMINATION_BURST, TERMINATION_NONFINITE = 0, 1, 2
@@ -83,6 +84,10 @@ class TaskSpec:
     pressure_margin: float = 0.85  # targets need pressures below this fraction of min(supply, burst)
     weights: RewardWeights = field(default_factory=RewardWeights)
     scales: TaskScales = field(default_factory=TaskScales)
+    # reference shapes drawn per episode (tasks.references.REFERENCE_KINDS); ("step",) is the v0
+    # schedule: set-points held per segment, changing at once
+    references: tuple[str, ...] = ("step",)
+    move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s] (lengthened if needed)
 
     def __post_init__(self):
         lo, hi = self.length_range
@@ -101,6 +106,14 @@ class TaskSpec:
             raise ValueError(f"pressure_margin must be in (0, 1], got {self.pressure_margin}")
         if not (self.track_length or self.track_stiffness):
             raise ValueError("a task must track the length, the stiffness or both")
+        bad = [k for k in self.references if k not in REFERENCE_KINDS]
+        if bad or not self.references:
+            raise ValueError(f"references must be a non-empty subset of {REFERENCE_KINDS}, got {self.references}")
+        if self.fixed_length is not None and {"sine", "chirp"} & set(self.references):
+            raise ValueError(f"task {self.name!r} holds a fixed length: sine and chirp length references "
+                             "do not apply")
+        if not (np.isfinite(self.move_s) and self.move_s > 0):
+            raise ValueError(f"move_s must be finite and > 0, got {self.move_s!r}")
 
 
 TASKS = {
@@ -109,4 +122,9 @@ TASKS = {
     # paper section XII: same length (17.5 cm), several stiffnesses
     # (default weights: the benchmark's trade of 5 mm against 20 %, as in the other tasks)
     "stiffness": TaskSpec("stiffness", fixed_length=0.175, load_range=(0.0, 0.15)),
+    # v1: planned references (smooth moves, the paper's two profiles), announced in the observation
+    "cepam_v1": TaskSpec("cepam_v1", references=("min_jerk", "sine", "chirp", "stiffness_ramp")),
+    "length_v1": TaskSpec("length_v1", track_stiffness=False, references=("min_jerk", "sine", "chirp")),
+    "stiffness_v1": TaskSpec("stiffness_v1", fixed_length=0.175, load_range=(0.0, 0.15),
+                             references=("min_jerk", "stiffness_ramp")),
 }
