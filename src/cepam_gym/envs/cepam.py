@@ -177,12 +177,22 @@ _DOC = """
     | ``sensor_noise`` | ``None`` | ``{"length_mm", "velocity_mm_s", "pressure_kpa"}`` standard deviations |
     | ``action_latency_steps`` | 0 | actions reach the valves this many steps late |
     | ``supply_drift_kpa`` | 0.0 | random-walk intensity of the supply pressure, kPa/sqrt(s), clipped to +-20 % |
+    | ``stream`` | 0 | index of the env's random stream (see Seeding) |
     | ``task_options`` | ``{}`` | override TaskSpec fields: ``length_range`` [m], ``load_range`` [kg], ``load_kinds``, ``segment_duration`` [s], ``stiffness_range`` [N/m], ``pressure_margin`` |
     | ``render_mode`` | ``None`` | ``"rgb_array"`` or ``"human"`` |
     | ``renderer`` | ``"numpy"`` | ``"numpy"`` (2-D drawing) or ``"mujoco"`` (3-D rig, ``pip install 'cepam-gym[mujoco]'``, headless with ``MUJOCO_GL=egl``) |
 
     ``reset(options={"target_length": m, "target_stiffness": N/m, "load_mass": kg})`` pins any of
     them for the episode (evaluation at chosen operating points; no reachability check).
+
+    ## Seeding
+
+    ``reset(seed=s)`` seeds per-env streams spawned from ``numpy.random.SeedSequence(s)``: env i
+    of a vector env owns the spawned child ``i`` (``SeedSequence(s, spawn_key=(i,))``), which
+    feeds its parameter draws, schedules, sensor noise and supply drift. A single env owns child
+    ``stream`` (kwarg, default 0). So vector element i seeded ``s`` equals, bit for bit, a single
+    env made with ``stream=i`` and seeded ``s``, noise and drift included; different seeds give
+    independent streams.
 
     ## Version history
 
@@ -280,8 +290,9 @@ class CEPAMEnv(gym.Env, EzPickle):
 
 class CEPAMVectorEnv(VectorEnv, EzPickle):
     __doc__ = ("N CE-PAM envs stepped by one compiled kernel (``gym.make_vec(id, num_envs=N)``). "
-               "Same spaces, rewards and kwargs as the single env; env i seeded with ``seed + i`` "
-               "follows exactly the single env seeded with ``seed + i``. Autoreset: same step "
+               "Same spaces, rewards and kwargs as the single env; env i of a vector env seeded "
+               "``s`` follows exactly the single env made with ``stream=i`` and seeded ``s`` "
+               "(a vector env's ``stream`` kwarg offsets its envs' streams). Autoreset: same step "
                "(the returned observation of a finished env is the first of its next episode; the "
                "last one is in ``infos['final_obs']``, its info in ``infos['final_info']``)." + _DOC)
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.SAME_STEP, "render_fps": 50}

@@ -23,6 +23,9 @@ from ..tasks.schedules import episode_schedules
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
+# standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
+_N_NORMALS = 6
+_NORMAL_CHUNK = 32
 _NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
 
 
@@ -98,7 +101,7 @@ class CEPAMBatch:
                  episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
                  randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
                  action_latency_steps: int = 0, supply_drift_kpa: float = 0.0,
-                 task_options: Mapping[str, Any] | None = None):
+                 task_options: Mapping[str, Any] | None = None, stream: int = 0):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
@@ -130,6 +133,9 @@ class CEPAMBatch:
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
         self.latency = int(action_latency_steps)
+        if isinstance(stream, bool) or int(stream) != stream or stream < 0:
+            raise ValueError(f"stream must be an integer >= 0, got {stream!r}")
+        self.stream = int(stream)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
@@ -167,8 +173,7 @@ class CEPAMBatch:
             self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
         self.queue = np.zeros((self.latency + 1, n, 2))
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
-        self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
-        self.noise_rng = np.random.default_rng()
+        self.seed(None)
         # prev_action doubles as the buffer of the action being applied (clipped in place by the
         # kernel), so after a step it holds a_{t-1}; the kernel's arguments are bound once
         self._single_action = self.prev_action
@@ -203,10 +208,41 @@ class CEPAMBatch:
 
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
-        """Env i draws from ``default_rng(seed + i)``, as if it were a single env seeded so."""
-        ss = [None if seed is None else seed + i for i in range(self.num_envs)]
-        self.rngs = [np.random.default_rng(s) for s in ss]
-        self.noise_rng = np.random.default_rng(None if seed is None else [seed, 0x5EED])
+        """Per-env random streams spawned from ``numpy.random.SeedSequence(seed)``.
+
+        Env i of the batch owns stream ``self.stream + i``: the seed sequence
+        ``SeedSequence(seed, spawn_key=(stream + i,))`` (``SeedSequence(seed).spawn(n)[i]`` for
+        ``stream == 0``), whose two children feed (0) parameter draws and schedules and (1) sensor
+        noise and supply drift. Streams of different seeds, and of different envs of one seed,
+        are independent (no ``seed + i`` overlaps); an env's draws never depend on the batch it is
+        in, so env i of a batch seeded ``s`` follows exactly a single env seeded ``s`` whose
+        ``stream`` kwarg is i. ``None``: fresh OS entropy."""
+        root = np.random.SeedSequence(seed)
+        self.rngs, self.noise_rngs = [], []
+        for i in range(self.num_envs):
+            env_ss = np.random.SeedSequence(root.entropy, spawn_key=(self.stream + i,))
+            main, noise = env_ss.spawn(2)
+            self.rngs.append(np.random.Generator(np.random.PCG64(main)))
+            self.noise_rngs.append(np.random.Generator(np.random.PCG64(noise)))
+        # buffered standard normals per env (columns: 5 sensor-noise channels, supply drift),
+        # refilled _NORMAL_CHUNK steps at a time from each env's own noise stream
+        draws = self.has_noise or bool(self.supply_drift)
+        self._normals = np.zeros((self.num_envs if draws else 0, _NORMAL_CHUNK, _N_NORMALS))
+        self._normal_pos = np.full(self.num_envs, _NORMAL_CHUNK, dtype=np.int64)
+
+    def _next_normals(self, idx: np.ndarray | None = None) -> np.ndarray:
+        """One row of standard normals per env of ``idx`` (all if None), each from its own stream."""
+        pos = self._normal_pos if idx is None else self._normal_pos[idx]
+        if (pos >= _NORMAL_CHUNK).any():
+            envs = np.arange(self.num_envs) if idx is None else np.asarray(idx)
+            for i in envs[pos >= _NORMAL_CHUNK]:
+                self._normals[i] = self.noise_rngs[i].standard_normal((_NORMAL_CHUNK, _N_NORMALS))
+                self._normal_pos[i] = 0
+            pos = self._normal_pos if idx is None else self._normal_pos[idx]
+        rows = np.arange(self.num_envs) if idx is None else idx
+        out = self._normals[rows, pos]
+        self._normal_pos[rows] += 1
+        return out
 
     def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
         if not self.randomize:
@@ -250,15 +286,24 @@ class CEPAMBatch:
         self.t_idx[idx] = 0
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
-        self._draw_noise()
+        self._draw_noise(idx)
         tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
                    self.prev_action, self.task_vec, self.noise, self.obs)
 
     # ------------------------------------------------------------------- step
-    def _draw_noise(self) -> None:
-        """Fresh sensor noise, written in place (the kernel's argument tuple holds this buffer)."""
-        if self.has_noise:
-            self.noise[:] = self.noise_rng.standard_normal((self.num_envs, tk.N_NOISE)) * self.noise_sd
+    def _draw_noise(self, idx: np.ndarray | None = None) -> None:
+        """Fresh sensor noise of the envs ``idx`` (all if None), written in place (the kernel's
+        argument tuple holds this buffer). With supply drift on, the drift's normal comes from
+        the same row, so every step consumes one row of each env's stream."""
+        if self.has_noise or self.supply_drift:
+            z = self._next_normals(idx)
+            if self.has_noise:
+                if idx is None:
+                    self.noise[:] = z[:, :tk.N_NOISE] * self.noise_sd
+                else:
+                    self.noise[idx] = z[:, :tk.N_NOISE] * self.noise_sd
+            return z[:, tk.N_NOISE]
+        return None
 
     def check_actions(self, actions) -> np.ndarray:
         """A float64 (N, 2) copy of ``actions``; ``ValueError`` on a wrong shape, NaN or inf.
@@ -292,12 +337,11 @@ class CEPAMBatch:
             self.queue[:-1] = self.queue[1:]
             self.queue[-1] = actions
             self.prev_action[:] = self.queue[0]  # what reaches the valves now
+        z = self._draw_noise()
         if self.supply_drift:
             nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
-            walk = self.noise_rng.standard_normal(self.num_envs) * self.supply_drift * np.sqrt(self.control_dt)
+            walk = z * self.supply_drift * np.sqrt(self.control_dt)
             self.params[:, ix.P_SUP] = np.clip(self.params[:, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
-        if self.has_noise:
-            self._draw_noise()
         tk.env_step(*self._kernel_args)
 
     def current_targets(self):
