@@ -43,6 +43,7 @@ def _info_single(core: CEPAMBatch, scored: bool) -> dict[str, Any]:
     info["target_stiffness"] = float(core.target_k[0, k])
     if scored:
         info.update(zip(_TERM_KEYS, core.terms[0].tolist()))
+    info["redraws"] = int(core.redraws[0])
     return info
 
 
@@ -63,6 +64,7 @@ def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
     out["target_stiffness"] = core.target_k[r, k]
     if scored:
         out.update(zip(_TERM_KEYS, np.ascontiguousarray(core.terms.T)))
+    out["redraws"] = core.redraws.copy()
     return out
 
 
@@ -242,6 +244,7 @@ class CEPAMEnv(gym.Env, EzPickle):
                 raise ValueError(f"action contains NaN or inf: {action!r}")
             reward, reason = core.step_single(x0, x1)
             info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
+            info["redraws"] = int(core.redraws[0])
         else:
             core.step(core.check_actions(action))
             reward, reason = float(core.rewards[0]), int(core.reasons[0])

@@ -20,6 +20,7 @@ from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
 from ..physics.api import static_pressures
 from ..tasks.schedules import episode_schedules
+from .randomization import MAX_REDRAWS, Randomizer
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
@@ -129,6 +130,7 @@ class CEPAMBatch:
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
         self.randomize = _check_randomize(randomize)
+        self.randomizer = Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
@@ -143,7 +145,7 @@ class CEPAMBatch:
         self.obs_dim = 9 if task.track_stiffness else 8
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
-        self._stable_checked = False
+        self.redraws = np.zeros(n, dtype=np.int64)  # draws rejected at the current episode's reset
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call
         # (tasks.kernel.env_step_single) on two slabs its arrays are views of
@@ -244,12 +246,6 @@ class CEPAMBatch:
         self._normal_pos[rows] += 1
         return out
 
-    def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
-        if not self.randomize:
-            return self._nominal_row
-        draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.randomize.items()}
-        return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array()
-
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
         ``indices`` (scalars or per-env arrays); call right after :meth:`reset`. Used by the
@@ -270,13 +266,9 @@ class CEPAMBatch:
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
-        for i in idx:
-            self.params[i] = self._sample_params(self.rngs[i])
-        if self.randomize or not self._stable_checked:
-            pl.check_stability(self.params[idx], self.sub_dt)
-            self._stable_checked = True
-        tl, tkk, load, initial = episode_schedules([self.rngs[i] for i in idx], self.task,
-                                                   self.params[idx], self.n_steps, self.control_dt)
+        rngs = [self.rngs[i] for i in idx]
+        self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
+        tl, tkk, load, initial = self._schedules(idx, rngs)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
         p = self.params[idx]
         weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
@@ -289,6 +281,37 @@ class CEPAMBatch:
         self._draw_noise(idx)
         tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
                    self.prev_action, self.task_vec, self.noise, self.obs)
+
+    def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
+        """:func:`episode_schedules` of the envs ``idx``. A plant for which the task finds no
+        reachable target (``RuntimeError``) is redrawn with its schedule, env by env from its own
+        stream (the generators are rewound first, so every env draws as it would alone)."""
+        states = [r.bit_generator.state for r in rngs]
+        try:
+            return episode_schedules(rngs, self.task, self.params[idx], self.n_steps, self.control_dt)
+        except RuntimeError:
+            pass
+        for r, st in zip(rngs, states):
+            r.bit_generator.state = st
+        out = [np.empty((len(idx), self.n_steps)) for _ in range(3)] + [np.empty((len(idx), 2))]
+        for j, (i, rng) in enumerate(zip(idx, rngs)):
+            for attempt in range(MAX_REDRAWS + 2):
+                try:
+                    one = episode_schedules([rng], self.task, self.params[i:i + 1], self.n_steps,
+                                            self.control_dt)
+                    break
+                except RuntimeError:
+                    if attempt == MAX_REDRAWS + 1:
+                        raise
+                    self.redraws[i] += 1
+                    if attempt >= MAX_REDRAWS:  # the nominal plant (checked at build), a new schedule
+                        self.params[i] = self.randomizer.fallback()
+                    else:
+                        rows, extra = self.randomizer.draw([rng])
+                        self.params[i], self.redraws[i] = rows[0], self.redraws[i] + extra[0]
+            for a, b in zip(out, one):
+                a[j] = b[0]
+        return tuple(out)
 
     # ------------------------------------------------------------------- step
     def _draw_noise(self, idx: np.ndarray | None = None) -> None:
