@@ -185,7 +185,9 @@ _DOC = """
     | ``renderer`` | ``"numpy"`` | ``"numpy"`` (2-D drawing) or ``"mujoco"`` (3-D rig, ``pip install 'cepam-gym[mujoco]'``, headless with ``MUJOCO_GL=egl``) |
 
     ``reset(options={"target_length": m, "target_stiffness": N/m, "load_mass": kg})`` pins any of
-    them for the episode (evaluation at chosen operating points; no reachability check).
+    them for the episode (evaluation at chosen operating points; checked: length within the end
+    stops, stiffness > 0, 0 <= load <= 20 kg; no reachability check). A supply above the burst
+    pressure gives a warning.
 
     ## Seeding
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from typing import Any, Mapping
 
 import numpy as np
@@ -27,6 +28,8 @@ ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6
 _NORMAL_CHUNK = 32
+_MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
+_MAX_CONTROL_DT = 1.0  # s: larger values are milliseconds passed as seconds
 _NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
 
 
@@ -50,6 +53,9 @@ def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tu
     sub-step does not divide the control period or a duration is not positive."""
     if not (control_dt > 0 and sub_dt > 0):
         raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
+    if control_dt > _MAX_CONTROL_DT:
+        raise ValueError(f"control_dt is in seconds and at most {_MAX_CONTROL_DT:g} s, got {control_dt} "
+                         "(20 ms is 0.02)")
     n_sub = round(control_dt / sub_dt)
     if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
         raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
@@ -129,6 +135,12 @@ class CEPAMBatch:
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
+        self._check_task_units()
+        if self.nominal.supply_pressure > self.nominal.burst_pressure:
+            warnings.warn(f"supply_pressure ({self.nominal.supply_pressure / 1e3:g} kPa) is above "
+                          f"burst_pressure ({self.nominal.burst_pressure / 1e3:g} kPa): a fully open supply "
+                          "valve bursts the bladder (the episode then terminates, reason 'burst')",
+                          stacklevel=3)
         self.randomize = _check_randomize(randomize)
         self.randomizer = Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
         self.noise_sd = _check_noise(sensor_noise)
@@ -183,6 +195,16 @@ class CEPAMBatch:
                              self.n_sub, self.target_l, self.target_k, self.load, self.t_idx,
                              self.task_vec, self.noise, self.inputs, self.obs, self.rewards,
                              self.terms, self.aux, self.reasons)
+
+    def _check_task_units(self) -> None:
+        """Task ranges in SI against the plant: lengths [m] within the end stops."""
+        lo, hi = self.nominal.min_length, self.nominal.max_length
+        t = self.task
+        for name, vals in (("length_range", t.length_range),
+                           ("fixed_length", () if t.fixed_length is None else (t.fixed_length,))):
+            if any(not lo <= v <= hi for v in vals):
+                raise ValueError(f"task {name} is in metres and must lie within the end stops "
+                                 f"[{lo:g}, {hi:g}] m, got {vals}")
 
     def step_single(self, x0: float, x1: float) -> tuple[float, int]:
         """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
@@ -256,12 +278,33 @@ class CEPAMBatch:
                                (self.load, load_mass, "load_mass")):
             if val is None:
                 continue
-            v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
-            if not np.isfinite(v).all():
-                raise ValueError(f"{name} must be finite, got {val!r}")
+            try:
+                v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name} must be a number or one per env ({len(idx)}), got {val!r}") from None
+            self._check_pin(name, v)
             arr[idx] = v[:, None]
         tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
                    self.prev_action, self.task_vec, self.noise, self.obs)
+
+    def _check_pin(self, name: str, v: np.ndarray) -> None:
+        """Units and ranges of a pinned target (SI: m, N/m, kg), ``ValueError`` naming it."""
+        if not np.isfinite(v).all():
+            raise ValueError(f"{name} must be finite, got {v.tolist()}")
+        if name == "target_length":
+            lo, hi = self.nominal.min_length, self.nominal.max_length
+            if ((v < lo) | (v > hi)).any():
+                raise ValueError(f"target_length is in metres and must lie within the end stops "
+                                 f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)")
+        elif name == "target_stiffness":
+            if (v <= 0).any():
+                raise ValueError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
+        elif name == "load_mass":
+            if (v < 0).any():
+                raise ValueError(f"load_mass must be >= 0 kg, got {v.tolist()}")
+            if (v > _MAX_LOAD_KG).any():
+                raise ValueError(f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} "
+                                 "(200 g is 0.2)")
 
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""

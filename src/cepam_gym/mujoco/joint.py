@@ -278,6 +278,11 @@ class CEPAMJointEnv(gym.Env, EzPickle):
                 v = float(options[key])
                 if not math.isfinite(v):
                     raise ValueError(f"reset option {key} must be finite, got {options[key]!r}")
+                if key == "target_stiffness" and not v > 0:  # the reward divides by it
+                    raise ValueError(f"reset option target_stiffness must be > 0 N m/rad, got {v!r}")
+                if key == "target_angle" and not 0.0 <= v <= self.geometry.max_angle(p):
+                    raise ValueError(f"reset option target_angle is in radians and must lie within "
+                                     f"[0, {self.geometry.max_angle(p):.3g}] rad, got {v!r}")
                 arr[:] = v
         a0 = float(options.get("initial_angle", a0))
         k0 = float(options.get("initial_stiffness", k0))
