@@ -31,7 +31,7 @@ def test_vector_env_autoreset_contract_used_by_the_loop():
     """The loop bootstraps truncated episodes from infos['final_obs'] and treats the returned
     observation as the next episode's first: check both against single envs seeded alike."""
     n, horizon, seed = 3, 4, 10
-    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon)
+    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon, autoreset_mode="same_step")
     singles = [gym.make("cepam_gym/CEPAM-v0", max_episode_steps=horizon, stream=i) for i in range(n)]
     try:
         assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP

@@ -395,19 +395,22 @@ class CEPAMBatch:
         self.prev_action[:] = a
         return self.prev_action
 
-    def step(self, actions: np.ndarray) -> None:
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> None:
         """Advance all envs one control period; results in ``obs``, ``rewards``, ``terms``,
         ``reasons``, ``aux``. ``actions`` must be what :meth:`check_actions` returned (the
-        ``prev_action`` buffer, clipped in place by the kernel)."""
+        ``prev_action`` buffer, clipped in place by the kernel). ``active``: indices of the envs
+        whose step counts (the others are reset right after, by a next-step autoreset): only
+        they draw sensor noise and supply drift from their streams, as a single env would."""
         if self.latency:
             self.queue[:-1] = self.queue[1:]
             self.queue[-1] = actions
             self.prev_action[:] = self.queue[0]  # what reaches the valves now
-        z = self._draw_noise()
+        z = self._draw_noise(active)
         if self.supply_drift:
             nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
+            rows = slice(None) if active is None else active
             walk = z * self.supply_drift * np.sqrt(self.control_dt)
-            self.params[:, ix.P_SUP] = np.clip(self.params[:, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
+            self.params[rows, ix.P_SUP] = np.clip(self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
         tk.env_step(*self._kernel_args)
 
     def current_targets(self):
