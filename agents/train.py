@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym._cli_errors import debug_on, guarded_load, report, user_error_types
+
 from .config import ConfigError, TrainConfig, algorithm_class, dump_config, load_config
 
 EXIT_INTERRUPTED = 130
@@ -228,23 +230,35 @@ class Trainer:
         start = int(latest["steps"]) if latest else 0
         # a resumed session draws new episodes: seed + steps done
         seed = cfg.seed + start
-        env = make_train_env(cfg, seed)
+        try:
+            env = make_train_env(cfg, seed)
+        except (ValueError, TypeError) as e:
+            raise ConfigError(f"env {cfg.env.id} (env.kwargs of the config): {e}") from e
         raw = env
-        env = _normalize(env, cfg, self.run / latest["vecnormalize"] if latest and latest.get("vecnormalize") else None)
+        norm = self.run / latest["vecnormalize"] if latest and latest.get("vecnormalize") else None
+        env = guarded_load(norm, "observation normalizer", _normalize, env, cfg, norm)
         if latest:
-            self.model = algo.load(str(self.run / latest["model"]), env=env, device="cpu")
+            model_path = self.run / latest["model"]
+            self.model = guarded_load(model_path, f"{cfg.algorithm} model", algo.load, str(model_path),
+                                      env=env, device="cpu")
             if latest.get("replay_buffer") and hasattr(self.model, "load_replay_buffer"):
-                self.model.load_replay_buffer(str(self.run / latest["replay_buffer"]))
+                buf = self.run / latest["replay_buffer"]
+                guarded_load(buf, "replay buffer", self.model.load_replay_buffer, str(buf))
             set_random_seed(seed)
-            if (self.run / "evaluations.json").is_file():
-                self.evaluations = json.loads((self.run / "evaluations.json").read_text())
+            evals = self.run / "evaluations.json"
+            if evals.is_file():
+                self.evaluations = guarded_load(evals, "evaluation log", lambda: json.loads(evals.read_text()))
                 scores = [e["score"] for e in self.evaluations if e.get("score") is not None]
                 self.best_score = min(scores, default=float("inf"))
                 self.last_score = scores[-1] if scores else None
             self.wall_before = float(latest.get("wall_s", 0.0))
         else:
-            self.model = algo("MlpPolicy", env, seed=cfg.seed, verbose=0, device="cpu",
-                              policy_kwargs=_policy_kwargs(cfg), **_hyperparameters(cfg))
+            try:
+                self.model = algo("MlpPolicy", env, seed=cfg.seed, verbose=0, device="cpu",
+                                  policy_kwargs=_policy_kwargs(cfg), **_hyperparameters(cfg))
+            except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
+                raise ConfigError(f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
+                                  f"or policy_kwargs {cfg.policy_kwargs}: {e}") from e
         self.env = env
         self.vecnorm = env if cfg.normalize.enabled else None
         self.start_step = int(self.model.num_timesteps)
@@ -263,7 +277,7 @@ class Trainer:
         path = self.ckpt_dir / "latest.json"
         if not path.is_file():
             raise FileNotFoundError(f"--resume: no checkpoint in {self.run} (no checkpoints/latest.json)")
-        return json.loads(path.read_text())
+        return guarded_load(path, "checkpoint index", lambda: json.loads(path.read_text()))
 
     def _write_run_json(self, status: str, **extra) -> None:
         path = self.run / "run.json"
@@ -487,9 +501,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.total_timesteps is not None:
             cfg = cfg.replace(total_timesteps=args.total_timesteps)
         return train(cfg, run, resume=args.resume, quiet=args.quiet, argv=["train", *argv])
-    except (ConfigError, FileExistsError, FileNotFoundError) as e:
-        print(f"cepam-gym train: error: {e}", file=sys.stderr)
-        return 2
+    except user_error_types() as e:  # bad config, env kwargs, hyperparameters, missing or corrupted files
+        if debug_on():
+            raise
+        return report("cepam-gym train", e)
 
 
 if __name__ == "__main__":

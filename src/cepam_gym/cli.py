@@ -102,14 +102,35 @@ def _rollout(argv: list[str]) -> int:
     return 0
 
 
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("cepam-gym")
+    except metadata.PackageNotFoundError:  # a source tree on PYTHONPATH, not installed
+        return "unknown (not installed)"
+
+
 def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    from ._cli_errors import debug_requested, run_guarded
+
+    debug, argv = debug_requested(list(sys.argv[1:] if argv is None else argv))
+    if argv[:1] == ["--version"]:
+        print(f"cepam-gym {_version()}")
+        return 0
+    if argv and argv[0] not in ("-h", "--help"):
+        return run_guarded(f"cepam-gym {argv[0]}", _dispatch, argv, debug)
+    return _dispatch(argv)
+
+
+def _dispatch(argv: list[str]) -> int:
     commands = {"run": _run, "rollout": _rollout}
     lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation", "bench": "cepam_gym.bench.cli",
             "train": "agents.train", "eval": "agents.evaluate", "video": "cepam_gym.mujoco.video",
             "calibrate": "cepam_gym.calibration"}
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: cepam-gym {run,bench,train,eval,demo,validate,calibrate,rollout,video} [options]\n"
+        print("usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,rollout,video} "
+              "[options] [--debug]\n"
               "  bench     score controllers on the benchmark suites\n"
               "  train     train an agent from a YAML config (configs/quick.yaml)\n"
               "  eval      score a trained agent beside the baseline (--run DIR)\n"
@@ -118,7 +139,9 @@ def main(argv: list[str] | None = None) -> int:
               "  validate  the paper's reported numbers beside the model's\n"
               "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
               "  rollout   random-action episodes of every registered id\n"
-              "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)")
+              "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)\n"
+              "A user error (bad config, missing or corrupted file) is one line on stderr and exit code 2;\n"
+              "--debug (or CEPAM_GYM_DEBUG=1) shows its traceback.")
         return 0
     cmd, rest = argv[0], argv[1:]
     if cmd in commands:
