@@ -145,3 +145,23 @@ def test_torchrl_batched_gym_env_and_wrapper():
     td = wrapped.rollout(7, break_when_any_done=False)
     assert tuple(td.batch_size) == (4, 7)
     assert td["next", "done"].any()
+
+
+def test_num_threads_gives_the_same_steps_and_is_checked():
+    import numba
+
+    n = 300  # above the parallel kernel's threshold
+    outs = []
+    for threads in (None, 1, numba.config.NUMBA_NUM_THREADS):
+        venv = gym.make_vec(ID, num_envs=n, num_threads=threads)
+        venv.reset(seed=2)
+        a = np.random.default_rng(0).uniform(-1, 1, (n, 2))
+        for _ in range(5):
+            obs, r, *_ = venv.step(a)
+        outs.append((obs, r))
+    for obs, r in outs[1:]:
+        np.testing.assert_array_equal(obs, outs[0][0])
+        np.testing.assert_array_equal(r, outs[0][1])
+    for bad in (0, numba.config.NUMBA_NUM_THREADS + 1, 1.5):
+        with pytest.raises(ValueError, match="num_threads must be"):
+            gym.make_vec(ID, num_envs=2, num_threads=bad)

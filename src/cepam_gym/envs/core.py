@@ -87,6 +87,22 @@ def _check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[flo
     return out
 
 
+def _check_threads(num_threads) -> int | None:
+    """``num_threads`` of the batched kernel: ``None`` (numba's default, every core), or 1 ..
+    ``NUMBA_NUM_THREADS``. On a machine where another process keeps a core busy (training: the
+    learner), fewer threads than cores avoid waiting on a descheduled thread (benchmarks/throughput.py
+    ``--busy-core`` measures both)."""
+    if num_threads is None:
+        return None
+    import numba
+
+    top = numba.config.NUMBA_NUM_THREADS
+    if isinstance(num_threads, bool) or int(num_threads) != num_threads or not 1 <= num_threads <= top:
+        raise ValueError(f"num_threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS) or None, "
+                         f"got {num_threads!r}")
+    return int(num_threads)
+
+
 def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
     """Noise standard deviations (SI) for [length, velocity, pressure_c, pressure_e, supply]."""
     sd = dict(sensor_noise or {})
@@ -108,7 +124,8 @@ class CEPAMBatch:
                  episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
                  randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
                  action_latency_steps: int = 0, supply_drift_kpa: float = 0.0,
-                 task_options: Mapping[str, Any] | None = None, stream: int = 0):
+                 task_options: Mapping[str, Any] | None = None, stream: int = 0,
+                 num_threads: int | None = None):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
@@ -150,6 +167,7 @@ class CEPAMBatch:
         if isinstance(stream, bool) or int(stream) != stream or stream < 0:
             raise ValueError(f"stream must be an integer >= 0, got {stream!r}")
         self.stream = int(stream)
+        self.num_threads = _check_threads(num_threads)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
@@ -411,7 +429,14 @@ class CEPAMBatch:
             rows = slice(None) if active is None else active
             walk = z * self.supply_drift * np.sqrt(self.control_dt)
             self.params[rows, ix.P_SUP] = np.clip(self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
-        tk.env_step(*self._kernel_args)
+        if self.num_threads == 1:
+            tk._env_step_serial(*self._kernel_args)  # no parallel region at all
+        else:
+            if self.num_threads is not None:
+                import numba
+
+                numba.set_num_threads(self.num_threads)  # per calling thread: set before each call
+            tk.env_step(*self._kernel_args)
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""
