@@ -24,11 +24,10 @@ def _run(argv: list[str]) -> int:
     table, then train an agent on ``configs/quick.yaml`` (a few minutes on 2 cores) and score it
     beside the inverse-model baseline on the ``nominal`` and ``randomized`` suites. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
-    ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs) and ``agent/eval/``
-    (table.txt, results.json, plots)."""
+    ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs), ``agent/eval/``
+    (table.txt, results.json, plots) and ``summary.md`` (what ran, versions, where everything is,
+    the scores)."""
     from pathlib import Path
-
-    from . import demo, validation
 
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
     ap.add_argument("--out-dir", default="runs/main")
@@ -38,14 +37,41 @@ def _run(argv: list[str]) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"[1/3] plant step response: {demo.step_response(out_dir=out)}", flush=True)
+    from datetime import datetime, timezone
+
+    from .run_summary import write_summary
+
+    started, steps = datetime.now(timezone.utc), []
+    where = {"run_dir": None, "table": None}
+    try:
+        return _run_steps(args, out, steps, where)
+    finally:
+        path = write_summary(out, argv, started, steps, where["run_dir"], where["table"])
+        print(f"summary: {path}", flush=True)
+
+
+def _run_steps(args, out, steps: list, where: dict) -> int:
+    """The steps of :func:`_run`, each recorded in ``steps`` for the summary."""
+    from pathlib import Path
+
+    from . import demo, validation
+
+    steps.append(["plant step response", "failed", None])
+    steps[-1][1:] = ["done", demo.step_response(out_dir=out)]
+    print(f"[1/3] plant step response: {steps[-1][2]}", flush=True)
     print("[2/3] the paper's reported numbers beside the model's", flush=True)
+    steps.append(["the paper's numbers beside the model's", "failed", out / "validate"])
     validation.main(["--out-dir", str(out / "validate")])
+    steps[-1][1] = "done"
     if args.no_train:
         from .bench import cli as bench_cli
 
-        return bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
+        steps.append(["baseline on the nominal and randomized suites", "failed", out / "bench"])
+        code = bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
                                "--episodes", str(args.episodes), "--out-dir", str(out / "bench")])
+        steps[-1][1] = "done" if not code else f"exit code {code}"
+        where["table"] = out / "bench" / "table.txt"
+        return code
     if not Path(args.config).exists():
         print(f"cepam-gym run: training config {args.config} not found (run from the repository "
               "root, or pass --config)", file=sys.stderr)
@@ -58,11 +84,18 @@ def _run(argv: list[str]) -> int:
         return 2
     print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
     run_dir = fresh_dir(out / "agent")
+    where["run_dir"] = run_dir
+    steps.append([f"train an agent ({args.config})", "failed", run_dir])
     code = train.main(["--config", args.config, "--out", str(run_dir)])
+    steps[-1][1] = "done" if not code else f"exit code {code}"
     if code:
         return code
-    return evaluate.main(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
+    steps.append(["score the agent beside the baseline (nominal, randomized)", "failed", run_dir / "eval"])
+    code = evaluate.main(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
                           "--episodes", str(args.episodes)])
+    steps[-1][1] = "done" if not code else f"exit code {code}"
+    where["table"] = run_dir / "eval" / "table.txt"
+    return code
 
 
 def _rollout(argv: list[str]) -> int:
