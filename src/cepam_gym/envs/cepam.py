@@ -318,11 +318,15 @@ def _autoreset_mode(mode) -> AutoresetMode:
 
 def _with_masks(info: dict[str, Any], present: np.ndarray, absent_keys=()) -> dict[str, Any]:
     """Gymnasium's vector-info convention: each array ``k`` gets a boolean mask ``_k`` of the envs
-    whose info holds it (``absent_keys``: only the envs of ``present``; the others: all)."""
+    whose info holds it (``absent_keys``: only the envs of ``present``; the others: all). The
+    masks are rows of one array (one allocation per step; each row its own memory)."""
+    masks = np.ones((len(info), len(present)), dtype=bool)
     out = {}
-    for k, v in info.items():
+    for j, (k, v) in enumerate(info.items()):
         out[k] = v
-        out["_" + k] = present.copy() if k in absent_keys else np.ones(len(present), dtype=bool)
+        if k in absent_keys:
+            masks[j] = present
+        out["_" + k] = masks[j]
     return out
 
 
