@@ -142,7 +142,8 @@ _DOC = """
     ## Episode end
 
     Truncated after ``max_episode_steps`` (500 = 10 s at 50 Hz). Terminated only on physical
-    failure: ``info["termination_reason"]`` is ``"burst"`` or ``"non_finite_state"``.
+    failure: ``info["termination_reason"]`` is an integer code (0 while running) named by
+    ``metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
 
     ## Arguments
 
@@ -174,7 +175,8 @@ _INIT_KEYS = ("initial_angle", "initial_stiffness")
 
 class CEPAMJointEnv(gym.Env, EzPickle):
     __doc__ = "A hinge driven by a CE-PAM: joint angle and joint stiffness under external torques." + _DOC
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50,
+                "termination_reasons": ("none", "burst", "non_finite_state")}
 
     def __init__(self, plant=None, action_mode: str = "valve", control_dt: float = 0.02,
                  sub_dt: float = 5e-4, episode_seconds: float = 10.0,
@@ -355,7 +357,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         reward = float(sum(terms.values())) if finite else 0.0
         info = self._info(scored=True, k=k)
         info.update(terms)
-        info["termination_reason"] = TERMINATION_REASONS[reason]
+        info["termination_reason"] = int(reason)  # named by metadata["termination_reasons"]
         if self.render_mode == "human":
             self.render()
         return self._obs(), reward, reason != 0, False, info
