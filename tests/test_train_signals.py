@@ -164,3 +164,28 @@ def test_time_limit_stop_is_loud_and_recorded_and_rounding_reported(tiny, tmp_pa
     assert r.returncode == 0 and "training 1024 steps, not 1000" in r.stderr, r.stderr
     assert json.loads((tmp_path / "r2" / "summary.json").read_text())["steps"] == 1024
     assert _status(tmp_path / "r2")["sessions"][-1]["planned_steps"] == 1024
+
+
+def test_lock_without_flock_detects_a_stale_pid(tmp_path, monkeypatch):
+    """The fallback lock (no fcntl): a lock file whose pid is gone is taken over; a live one refuses."""
+    import builtins
+
+    from agents.train import RunLock
+
+    real_import = builtins.__import__
+
+    def no_fcntl(name, *a, **k):
+        if name == "fcntl":
+            raise ImportError("no fcntl here")
+        return real_import(name, *a, **k)
+
+    monkeypatch.setattr(builtins, "__import__", no_fcntl)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    (tmp_path / ".train.lock").write_text(f"pid {int(dead.stdout)} since then\n")
+    lock = RunLock(tmp_path)
+    lock.acquire()  # the stale lock is taken over
+    assert f"pid {os.getpid()}" in (tmp_path / ".train.lock").read_text()
+    with pytest.raises(FileExistsError, match=f"in use by another training session \\(pid {os.getpid()}"):
+        RunLock(tmp_path).acquire()
+    lock.release()
+    assert not (tmp_path / ".train.lock").exists()
