@@ -180,7 +180,7 @@ _DOC = """
     | ``control_dt``, ``sub_dt`` | 0.02, 5e-4 | seconds |
     | ``episode_seconds`` | 10.0 | length of the target and load schedule (beyond it the last targets hold); the episode itself is truncated by ``max_episode_steps`` (500 from the registration: pass both to change the episode length) |
     | ``reward_weights`` | ``{}`` | override any of the weights above |
-    | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, sampled per episode |
+    | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, sampled per episode; checked when the env is built (each key's ends, corners, a sample: a valid plant, stable integration, reachable targets; the error names the key); a draw that still fails is redrawn, counted in ``info["redraws"]`` |
     | ``sensor_noise`` | ``None`` | ``{"length_mm", "velocity_mm_s", "pressure_kpa"}`` standard deviations |
     | ``action_latency_steps`` | 0 | actions reach the valves this many steps late |
     | ``supply_drift_kpa`` | 0.0 | random-walk intensity of the supply pressure, kPa/sqrt(s), clipped to +-20 % |

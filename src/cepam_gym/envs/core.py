@@ -375,10 +375,11 @@ class CEPAMBatch:
         return tuple(out)
 
     # ------------------------------------------------------------------- step
-    def _draw_noise(self, idx: np.ndarray | None = None) -> None:
+    def _draw_noise(self, idx: np.ndarray | None = None) -> np.ndarray | None:
         """Fresh sensor noise of the envs ``idx`` (all if None), written in place (the kernel's
         argument tuple holds this buffer). With supply drift on, the drift's normal comes from
-        the same row, so every step consumes one row of each env's stream."""
+        the same row, so every step consumes one row of each env's stream. Returns the drift
+        normals (None when neither noise nor drift is on)."""
         if self.has_noise or self.supply_drift:
             z = self._next_normals(idx)
             if self.has_noise:
