@@ -126,6 +126,11 @@ def _busy_core_study(sizes, seconds: float, repeats: int) -> None:
             finally:
                 spinner.kill()
                 spinner.wait()
+        if n == sizes[0]:
+            try:
+                print(f"(numba threading layer: {numba.threading_layer()}; NUMBA_THREADING_LAYER selects another)")
+            except ValueError:  # no parallel region ran (every size below the parallel threshold)
+                pass
         for c in choices:
             q, b = float(np.median(quiet[c])), float(np.median(busy[c]))
             print(f"{n:6d} {c:11d} {q:14,.0f} {b:13,.0f} {b / q:11.2f}")
