@@ -28,7 +28,7 @@ Layout of a config (every section optional except ``algorithm``; defaults below)
     eval: {every_steps: 20000, episodes: 16, suite: null, seed: 12345}
     checkpoint: {every_steps: 50000, keep: 2, replay_buffer: true}
     log_every_steps: 5000
-    time_limit_minutes: null      # stop (and save as finished) after this much training wall time
+    time_limit_minutes: null      # stop (saved; run.json status stopped_by_time_limit) after this much training wall time
 
 Unknown keys are rejected with the key's path and the valid keys. Numbers are parsed as numbers
 even where YAML 1.1 (PyYAML) reads them as strings (``1e-3``, ``3e5``). Units: steps and episodes

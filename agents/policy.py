@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym._cli_errors import guarded_load
+
 from .config import TrainConfig, algorithm_class
 from .features import Features
 
@@ -63,7 +65,7 @@ def _files(run: Path, which: str) -> tuple[Path, Path | None]:
     }
     latest = run / "checkpoints" / "latest.json"
     if latest.is_file():
-        meta = json.loads(latest.read_text())
+        meta = guarded_load(latest, "checkpoint index", lambda: json.loads(latest.read_text()))
         candidates["latest"] = (run / meta["model"], run / meta["vecnormalize"] if meta.get("vecnormalize") else None)
     order = [which] if which != "auto" else ["best", "final", "latest"]
     for key in order:
@@ -80,14 +82,17 @@ def load_run_config(run: str | Path) -> TrainConfig:
     path = Path(run) / "config.yaml"
     if not path.is_file():
         raise FileNotFoundError(f"{run} is not a training run directory: no config.yaml")
-    return TrainConfig.from_dict(yaml.safe_load(path.read_text()))
+    return guarded_load(path, "run config", lambda: TrainConfig.from_dict(yaml.safe_load(path.read_text())))
 
 
 def load_normalizer(path: Path | None):
     if path is None:
         return None
-    with open(path, "rb") as f:
-        vn = pickle.load(f)
+    def load():
+        with open(path, "rb") as f:
+            return pickle.load(f)
+
+    vn = guarded_load(path, "observation normalizer", load)
     return vn if vn.norm_obs else None
 
 
@@ -117,7 +122,8 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
         raise ValueError(f"agent {run} was trained with action_mode={trained_mode!r}, the env uses "
                          f"{core.action_mode!r}")
     torch.set_num_threads(max(1, cfg.torch_threads))
-    model = algorithm_class(cfg.algorithm).load(str(model_path), device="cpu")
+    model = guarded_load(model_path, f"{cfg.algorithm} model", algorithm_class(cfg.algorithm).load,
+                         str(model_path), device="cpu")
     features = Features(env, cfg.agent, core.obs_dim)
     return AgentPolicy(model, features, load_normalizer(norm_path))
 

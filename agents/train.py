@@ -14,8 +14,18 @@ The run directory (default ``runs/<config name>-s<seed>``) receives:
 | ``evaluations.json`` | every periodic evaluation (benchmark metrics) |
 | ``tb/``, ``logs/`` | TensorBoard events and CSV: SB3's losses, episode returns, the env's reward terms, length and stiffness errors, evaluation scores |
 
-Ctrl-C saves a checkpoint of the current model (and the replay buffer) before exiting with 130;
-``--resume`` continues from the newest checkpoint with the step count it had.
+Ctrl-C (SIGINT) or SIGTERM (what batch schedulers send) saves a checkpoint of the current model
+(and the replay buffer) before exiting with 130 or 143; ``--resume`` continues from the newest
+checkpoint with the step count it had. The first checkpoint comes early (after 10 % of the session's
+steps or 2 minutes, whichever first), then every ``checkpoint.every_steps``. After a SIGKILL or a
+crash, ``--resume`` continues from the newest loadable model (checkpoint, final or best); a
+directory that never saved a model (killed during start-up) starts afresh, with or without
+``--resume``. A run directory is locked while a session trains in it (``.train.lock``, an OS lock
+released when the process dies, so a lock left by a killed run never blocks): a second session on
+it is refused, naming the first one's pid. A stop by ``time_limit_minutes`` is reported loudly and
+recorded in ``run.json`` (status ``stopped_by_time_limit``, not ``finished``); a
+``--total-timesteps`` that the algorithm rounds up (PPO collects ``n_steps x num_envs`` at a time)
+is reported with the number it will train.
 """
 
 from __future__ import annotations
@@ -32,9 +42,111 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym._cli_errors import debug_on, guarded_load, report, user_error_types
+
 from .config import ConfigError, TrainConfig, algorithm_class, dump_config, load_config
 
-EXIT_INTERRUPTED = 130
+EXIT_INTERRUPTED = 130  # 128 + SIGINT; a SIGTERM exits with 128 + 15
+FIRST_CHECKPOINT_FRACTION = 0.1  # of the session's steps
+FIRST_CHECKPOINT_MINUTES = 2.0
+LOCK_NAME = ".train.lock"
+
+
+# --------------------------------------------------------------------------- locking and signals
+class RunLock:
+    """An exclusive OS lock on ``run/.train.lock`` (``fcntl.flock``: released by the kernel when
+    the holder dies, SIGKILL included, so a stale file never blocks). The file records the
+    holder's pid and start time for the refusal message."""
+
+    def __init__(self, run: Path):
+        self.path = Path(run) / LOCK_NAME
+        self.fh = None
+
+    def acquire(self) -> None:
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            import fcntl
+        except ImportError:  # not POSIX: an exclusive-create lock file, stale if its pid is gone
+            return self._acquire_exclusive_create()
+        fh = open(self.path, "a+")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            holder = fh.read().strip() or "unknown pid"
+            fh.close()
+            raise self._refusal(holder) from None
+        fh.seek(0)
+        stale = fh.read().strip()
+        if stale:
+            self._say_stale(stale)
+        fh.seek(0)
+        fh.truncate()
+        fh.write(self._holder())
+        fh.flush()
+        self.fh = fh
+
+    def _acquire_exclusive_create(self) -> None:
+        for _ in range(2):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:
+                holder = self.path.read_text().strip()
+                pid = holder.split()[1] if holder.startswith("pid ") else ""
+                if pid.isdigit() and not _pid_alive(int(pid)):
+                    self._say_stale(holder)
+                    self.path.unlink(missing_ok=True)
+                    continue
+                raise self._refusal(holder or "unknown pid") from None
+            with os.fdopen(fd, "w") as fh:
+                fh.write(self._holder())
+            self.fh = False  # marks "held, by file"
+            return
+        raise self._refusal("a session that keeps re-creating the lock")
+
+    def _holder(self) -> str:
+        return f"pid {os.getpid()} since {_now()}\n"
+
+    def _refusal(self, holder: str) -> FileExistsError:
+        return FileExistsError(f"run directory {self.path.parent} is in use by another training session "
+                               f"({holder}); wait for it to end, or pass another --out")
+
+    def _say_stale(self, holder: str) -> None:
+        pid = holder.split()[1] if holder.startswith("pid ") else "?"
+        if not pid.isdigit() or not _pid_alive(int(pid)):
+            print(f"cepam-gym train: {self.path.parent}: lock of pid {pid} is stale (process gone): "
+                  "taking over", file=sys.stderr)
+
+    def release(self) -> None:
+        if self.fh is False:
+            self.path.unlink(missing_ok=True)
+        elif self.fh is not None:
+            self.fh.seek(0)
+            self.fh.truncate()
+            self.fh.close()  # closing drops the flock
+        self.fh = None
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+class _StopSignal(KeyboardInterrupt):
+    """SIGTERM turned into the KeyboardInterrupt path (save, then exit 128 + signum)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _on_sigterm(signum, frame):
+    raise _StopSignal(signum)
 
 
 # --------------------------------------------------------------------------- run directory
@@ -150,6 +262,10 @@ def _make_callback_class():
             self.next_log = (n // cfg.log_every_steps + 1) * cfg.log_every_steps
             self.next_eval = (n // cfg.eval.every_steps + 1) * cfg.eval.every_steps
             self.next_ckpt = (n // cfg.checkpoint.every_steps + 1) * cfg.checkpoint.every_steps
+            # an early first checkpoint: a run killed early still has something to resume from
+            remaining = max(1, cfg.total_timesteps - n)
+            self.first_ckpt = n + max(1, int(FIRST_CHECKPOINT_FRACTION * remaining))
+            self.first_ckpt_wall = time.perf_counter() + 60.0 * FIRST_CHECKPOINT_MINUTES
             self.t.open_progress(n)
 
         def _on_step(self) -> bool:
@@ -161,7 +277,12 @@ def _make_callback_class():
             if n >= self.next_eval:
                 self.t.evaluate(n)
                 self.next_eval += self.t.cfg.eval.every_steps * max(1, (n - self.next_eval) // self.t.cfg.eval.every_steps + 1)
+            if self.first_ckpt is not None and (n >= self.first_ckpt or time.perf_counter() >= self.first_ckpt_wall):
+                self.first_ckpt = None
+                if n < self.next_ckpt:
+                    self.t.save_checkpoint(n)
             if n >= self.next_ckpt:
+                self.first_ckpt = None
                 self.t.save_checkpoint(n)
                 self.next_ckpt += self.t.cfg.checkpoint.every_steps * max(1, (n - self.next_ckpt) // self.t.cfg.checkpoint.every_steps + 1)
             self.t.progress_to(n)
@@ -224,27 +345,43 @@ class Trainer:
         self.run.mkdir(parents=True, exist_ok=True)
         self.ckpt_dir.mkdir(exist_ok=True)
         algo = algorithm_class(cfg.algorithm)
-        latest = self._latest() if self.resume else None
+        candidates = self._resume_candidates() if self.resume else []
+        if self.resume and not candidates:
+            self._say(f"{self.run}: no saved model to resume (killed during start-up?): starting afresh",
+                      err=True)
+            self.resume = False
+        latest = candidates[0] if candidates else None
         start = int(latest["steps"]) if latest else 0
         # a resumed session draws new episodes: seed + steps done
         seed = cfg.seed + start
-        env = make_train_env(cfg, seed)
+        try:
+            env = make_train_env(cfg, seed)
+        except (ValueError, TypeError) as e:
+            raise ConfigError(f"env {cfg.env.id} (env.kwargs of the config): {e}") from e
         raw = env
-        env = _normalize(env, cfg, self.run / latest["vecnormalize"] if latest and latest.get("vecnormalize") else None)
         if latest:
-            self.model = algo.load(str(self.run / latest["model"]), env=env, device="cpu")
+            env, self.model, latest = self._load_newest(candidates, raw, algo)
+        else:
+            env = _normalize(env, cfg)
+        if latest:
             if latest.get("replay_buffer") and hasattr(self.model, "load_replay_buffer"):
-                self.model.load_replay_buffer(str(self.run / latest["replay_buffer"]))
+                buf = self.run / latest["replay_buffer"]
+                guarded_load(buf, "replay buffer", self.model.load_replay_buffer, str(buf))
             set_random_seed(seed)
-            if (self.run / "evaluations.json").is_file():
-                self.evaluations = json.loads((self.run / "evaluations.json").read_text())
+            evals = self.run / "evaluations.json"
+            if evals.is_file():
+                self.evaluations = guarded_load(evals, "evaluation log", lambda: json.loads(evals.read_text()))
                 scores = [e["score"] for e in self.evaluations if e.get("score") is not None]
                 self.best_score = min(scores, default=float("inf"))
                 self.last_score = scores[-1] if scores else None
             self.wall_before = float(latest.get("wall_s", 0.0))
         else:
-            self.model = algo("MlpPolicy", env, seed=cfg.seed, verbose=0, device="cpu",
-                              policy_kwargs=_policy_kwargs(cfg), **_hyperparameters(cfg))
+            try:
+                self.model = algo("MlpPolicy", env, seed=cfg.seed, verbose=0, device="cpu",
+                                  policy_kwargs=_policy_kwargs(cfg), **_hyperparameters(cfg))
+            except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
+                raise ConfigError(f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
+                                  f"or policy_kwargs {cfg.policy_kwargs}: {e}") from e
         self.env = env
         self.vecnorm = env if cfg.normalize.enabled else None
         self.start_step = int(self.model.num_timesteps)
@@ -259,23 +396,66 @@ class Trainer:
         self.eval_id, self.eval_kwargs = _eval_env_spec(cfg)
         self._write_run_json(status="running")
 
-    def _latest(self) -> dict:
+    def _latest(self) -> dict | None:
+        """The newest resumable model of the run: the checkpoint index, else the final model, else
+        the best one (a run killed before its first checkpoint). ``None`` if it saved none."""
+        for cand in self._resume_candidates():
+            return cand
+        return None
+
+    def _load_newest(self, candidates: list[dict], raw_env, algo):
+        """Load the newest candidate that loads; a corrupted one is reported and skipped."""
+        errors = []
+        for cand in candidates:
+            norm = self.run / cand["vecnormalize"] if cand.get("vecnormalize") else None
+            model_path = self.run / cand["model"]
+            try:
+                env = guarded_load(norm, "observation normalizer", _normalize, raw_env, self.cfg, norm)
+                model = guarded_load(model_path, f"{self.cfg.algorithm} model", algo.load, str(model_path),
+                                     env=env, device="cpu")
+            except (ValueError, FileNotFoundError) as e:
+                errors.append(e)
+                self._say(f"cepam-gym train: {e}; trying an older model", err=True)
+                continue
+            if cand is not candidates[0]:
+                self._say(f"resuming from {cand['model']} (step {cand['steps']})", err=True)
+            return env, model, cand
+        raise errors[0]
+
+    def _resume_candidates(self) -> list[dict]:
+        """Resumable models, newest first (each a checkpoint-index dict with a ``source``)."""
+        out = []
         path = self.ckpt_dir / "latest.json"
-        if not path.is_file():
-            raise FileNotFoundError(f"--resume: no checkpoint in {self.run} (no checkpoints/latest.json)")
-        return json.loads(path.read_text())
+        if path.is_file():
+            meta = guarded_load(path, "checkpoint index", lambda: json.loads(path.read_text()))
+            out.append({**meta, "source": "checkpoint"})
+        for model, norm, info, key in (("model.zip", "vecnormalize.pkl", "summary.json", "steps"),
+                                       ("best_model.zip", "best_vecnormalize.pkl", "best.json", "step")):
+            if (self.run / model).is_file() and (self.run / info).is_file():
+                try:
+                    steps = int(json.loads((self.run / info).read_text())[key])
+                except (ValueError, KeyError, TypeError):
+                    continue
+                out.append({"steps": steps, "model": model, "replay_buffer": None, "source": model,
+                            "vecnormalize": norm if (self.run / norm).is_file() else None})
+        return sorted(out, key=lambda m: -int(m["steps"]))
 
     def _write_run_json(self, status: str, **extra) -> None:
         path = self.run / "run.json"
         data = json.loads(path.read_text()) if path.is_file() else {
             "seed": self.cfg.seed, "created": _now(), "versions": package_versions(), "git": git_state(),
             "sessions": []}
+        self._session_extra = {**getattr(self, "_session_extra", {}), **extra}
         session = {"started": getattr(self, "_started", None) or _now(), "argv": self.argv,
-                   "start_step": self.start_step, "status": status, "versions": package_versions(), **extra}
+                   "start_step": self.start_step, "status": status, "versions": package_versions(),
+                   **self._session_extra}
         self._started = session["started"]
         if data["sessions"] and data["sessions"][-1].get("started") == session["started"]:
             data["sessions"][-1] = session
         else:
+            last = data["sessions"][-1] if data["sessions"] else None
+            if last is not None and last.get("status") == "running":
+                last["status"] = "killed"  # we hold the run's lock: that session is gone (SIGKILL, crash)
             data["sessions"].append(session)
         data["status"] = status
         _write_json(path, data)
@@ -372,19 +552,32 @@ class Trainer:
                       "pass a larger --total-timesteps to train further")
             return 0
         cb = CallbackList([_make_callback_class()(self), *callbacks])
-        self._say(f"training {cfg.algorithm} on {cfg.env.id} x{cfg.env.num_envs} for {remaining} steps "
+        chunk = steps_per_collection(self.model)
+        planned = -(-remaining // chunk) * chunk
+        if planned != remaining:
+            self._say(f"note: {cfg.algorithm} collects {chunk} steps at a time ({_chunk_why(self.model)}): "
+                      f"training {planned} steps, not {remaining} (total {self.start_step + planned})", err=True)
+        self._write_run_json("running", requested_steps=remaining, planned_steps=planned)
+        self._say(f"training {cfg.algorithm} on {cfg.env.id} x{cfg.env.num_envs} for {planned} steps "
                   f"(from step {self.start_step}) -> {self.run}")
+        import signal
+
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
         try:
             self.model.learn(remaining, callback=cb, reset_num_timesteps=not self.resume or self.start_step == 0,
                              progress_bar=False)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as e:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the save
             n = int(self.model.num_timesteps)
             self._close_bar()
             path = self.save_checkpoint(n, interrupted=True)
-            self._write_run_json("interrupted", end_step=n, wall_s=round(self.wall(), 2), ended=_now())
-            self._say(f"interrupted at step {n}: saved {path}; continue with "
-                      f"cepam-gym train --out {self.run} --resume")
-            return EXIT_INTERRUPTED
+            how = "SIGTERM" if isinstance(e, _StopSignal) else "interrupted (SIGINT)"
+            self._write_run_json("interrupted", end_step=n, wall_s=round(self.wall(), 2), ended=_now(), signal=how)
+            self._say(f"{how} at step {n}: saved {path}; continue with "
+                      f"cepam-gym train --out {self.run} --resume", err=True)
+            return 128 + e.signum if isinstance(e, _StopSignal) else EXIT_INTERRUPTED
+        finally:
+            signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
         n = int(self.model.num_timesteps)
         self.evaluate(n)
         self.model.logger.dump(n)
@@ -397,9 +590,13 @@ class Trainer:
                    "best_score": self.best_score,
                    "final_score": self.last_score, "best": json.loads((self.run / "best.json").read_text())}
         _write_json(self.run / "summary.json", summary)
-        self._write_run_json("finished", end_step=n, wall_s=round(self.wall(), 2), ended=_now())
+        status = "stopped_by_time_limit" if self.stopped_by_time else "finished"
+        self._write_run_json(status, end_step=n, wall_s=round(self.wall(), 2), ended=_now(),
+                             total_timesteps=cfg.total_timesteps)
         if self.stopped_by_time:
-            self._say(f"time limit of {cfg.time_limit_minutes} min reached at step {n} (of {cfg.total_timesteps})")
+            self._say(f"STOPPED BY THE TIME LIMIT: {cfg.time_limit_minutes} min reached at step {n} of "
+                      f"{cfg.total_timesteps} ({100.0 * n / cfg.total_timesteps:.0f} %); the models are saved; "
+                      f"continue with cepam-gym train --out {self.run} --resume", err=True)
         self._say(f"done: {n} steps in {self.wall():.0f} s; final eval score {self.last_score:.3f}, best "
                   f"{self.best_score:.3f} (step {summary['best']['step']}); models in {self.run}")
         return 0
@@ -409,13 +606,35 @@ class Trainer:
             self.bar.close()
             self.bar = None
 
-    def _say(self, msg: str) -> None:
-        if not self.quiet:
+    def _say(self, msg: str, err: bool = False) -> None:
+        if err:  # warnings and stops: shown even with --quiet
+            print(msg, file=sys.stderr, flush=True)
+        elif not self.quiet:
             print(msg, flush=True)
 
     def close(self) -> None:
         self._close_bar()
         self.env.close()
+
+
+def steps_per_collection(model) -> int:
+    """Steps the algorithm's ``learn`` advances by at a time: ``n_steps x n_envs`` for on-policy
+    algorithms (PPO, A2C), ``train_freq x n_envs`` (steps) or ``n_envs`` for off-policy ones."""
+    n_envs = int(getattr(model, "n_envs", 1) or 1)
+    n_steps = getattr(model, "n_steps", None)
+    if isinstance(n_steps, int) and hasattr(model, "rollout_buffer"):
+        return n_steps * n_envs
+    tf = getattr(model, "train_freq", None)
+    if tf is not None and getattr(getattr(tf, "unit", None), "value", "") == "step":
+        return int(tf.frequency) * n_envs
+    return n_envs
+
+
+def _chunk_why(model) -> str:
+    n_envs = int(getattr(model, "n_envs", 1) or 1)
+    if hasattr(model, "rollout_buffer"):
+        return f"n_steps {model.n_steps} x {n_envs} envs"
+    return f"{n_envs} envs per step"
 
 
 def _reward_terms():
@@ -428,20 +647,29 @@ def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, callbacks
           argv: list[str] | None = None) -> int:
     """Train (or resume) one run; returns the exit code (0, or 130 after Ctrl-C)."""
     run = Path(run_dir)
-    if not resume:
-        if (run / "config.yaml").exists():
-            raise FileExistsError(f"run directory {run} already holds a run: pass --resume to continue it "
-                                  "or --out for a new directory")
-        run.mkdir(parents=True, exist_ok=True)
-        dump_config(cfg, run / "config.yaml")
-    else:
-        dump_config(cfg, run / "config.yaml")  # total_timesteps may have been raised
-    t = Trainer(cfg, run, resume=resume, quiet=quiet, argv=argv)
-    t.setup()
+    lock = RunLock(run)
+    lock.acquire()  # before anything is written: a concurrent session is refused by name
     try:
-        return t.learn(callbacks)
+        if not resume:
+            if (run / "config.yaml").exists():
+                probe = Trainer(cfg, run, quiet=True)
+                if probe._resume_candidates():
+                    raise FileExistsError(f"run directory {run} already holds a run: pass --resume to continue "
+                                          "it or --out for a new directory")
+                print(f"cepam-gym train: {run} holds a run that saved no model (killed during start-up?): "
+                      "starting it afresh", file=sys.stderr)
+            run.mkdir(parents=True, exist_ok=True)
+            dump_config(cfg, run / "config.yaml")
+        else:
+            dump_config(cfg, run / "config.yaml")  # total_timesteps may have been raised
+        t = Trainer(cfg, run, resume=resume, quiet=quiet, argv=argv)
+        t.setup()
+        try:
+            return t.learn(callbacks)
+        finally:
+            t.close()
     finally:
-        t.close()
+        lock.release()
 
 
 # --------------------------------------------------------------------------- command line
@@ -487,9 +715,14 @@ def main(argv: list[str] | None = None) -> int:
         if args.total_timesteps is not None:
             cfg = cfg.replace(total_timesteps=args.total_timesteps)
         return train(cfg, run, resume=args.resume, quiet=args.quiet, argv=["train", *argv])
-    except (ConfigError, FileExistsError, FileNotFoundError) as e:
-        print(f"cepam-gym train: error: {e}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:  # during start-up (learn() handles its own): nothing to save yet
+        print("cepam-gym train: interrupted before training started; nothing saved (the same command "
+              "starts the run afresh)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except user_error_types() as e:  # bad config, env kwargs, hyperparameters, missing or corrupted files
+        if debug_on():
+            raise
+        return report("cepam-gym train", e)
 
 
 if __name__ == "__main__":

@@ -133,7 +133,8 @@ def make_env(args):
             raise SystemExit(f"--suite: unknown suite {args.suite!r}; available: {sorted(SUITES)}")
         kwargs.update(SUITES[args.suite].env_kwargs)
     kwargs.update(args.env_kwargs)
-    return gym.make_vec(args.env_id, num_envs=args.num_envs, max_episode_steps=args.max_episode_steps, **kwargs)
+    return gym.make_vec(args.env_id, num_envs=args.num_envs, max_episode_steps=args.max_episode_steps,
+                        autoreset_mode="same_step", **kwargs)
 
 
 def main(argv=None):

@@ -31,13 +31,13 @@ def test_vector_env_autoreset_contract_used_by_the_loop():
     """The loop bootstraps truncated episodes from infos['final_obs'] and treats the returned
     observation as the next episode's first: check both against single envs seeded alike."""
     n, horizon, seed = 3, 4, 10
-    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon)
-    singles = [gym.make("cepam_gym/CEPAM-v0", max_episode_steps=horizon) for _ in range(n)]
+    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon, autoreset_mode="same_step")
+    singles = [gym.make("cepam_gym/CEPAM-v0", max_episode_steps=horizon, stream=i) for i in range(n)]
     try:
         assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
         venv.reset(seed=seed)
         for i, e in enumerate(singles):
-            e.reset(seed=seed + i)
+            e.reset(seed=seed)
         act = np.tile(np.array([0.5, -0.3], np.float32), (n, 1))
         for t in range(horizon):
             obs, _, term, trunc, infos = venv.step(act)

@@ -146,7 +146,7 @@ def test_joint_env_passes_gymnasium_check_env(mujoco):
     obs, r, term, trunc, info = env.step(env.action_space.sample())
     terms = [v for k, v in info.items() if k.startswith("reward_")]
     assert len(terms) == 5 and r == pytest.approx(sum(terms))
-    assert info["termination_reason"] == ""
+    assert info["termination_reason"] == 0 and env.unwrapped.metadata["termination_reasons"][0] == "none"
     with pytest.raises(ValueError, match="NaN"):
         env.step(np.array([np.nan, 0.0]))
     with pytest.raises(ValueError, match="unknown keys"):

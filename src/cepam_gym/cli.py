@@ -24,12 +24,10 @@ def _run(argv: list[str]) -> int:
     table, then train an agent on the shipped ``quick`` config (a few minutes on 2 cores) and score it
     beside the inverse-model baseline on the ``nominal`` and ``randomized`` suites. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
-    ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs) and ``agent/eval/``
-    (table.txt, results.json, plots)."""
+    ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs), ``agent/eval/``
+    (table.txt, results.json, plots) and ``summary.md`` (what ran, versions, where everything is,
+    the scores)."""
     from pathlib import Path
-
-    from . import demo
-    from .validation.cli import validate_main
 
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
     ap.add_argument("--out-dir", default="runs/main")
@@ -40,14 +38,42 @@ def _run(argv: list[str]) -> int:
     args = ap.parse_args(argv)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"[1/3] plant step response: {demo.step_response(out_dir=out)}", flush=True)
+    from datetime import datetime, timezone
+
+    from .run_summary import write_summary
+
+    started, steps = datetime.now(timezone.utc), []
+    where = {"run_dir": None, "table": None}
+    try:
+        return _run_steps(args, out, steps, where)
+    finally:
+        path = write_summary(out, argv, started, steps, where["run_dir"], where["table"])
+        print(f"summary: {path}", flush=True)
+
+
+def _run_steps(args, out, steps: list, where: dict) -> int:
+    """The steps of :func:`_run`, each recorded in ``steps`` for the summary."""
+    from pathlib import Path
+
+    from . import demo
+    from .validation.cli import validate_main
+
+    steps.append(["plant step response", "failed", None])
+    steps[-1][1:] = ["done", demo.step_response(out_dir=out)]
+    print(f"[1/3] plant step response: {steps[-1][2]}", flush=True)
     print("[2/3] the paper's reported numbers beside the model's", flush=True)
+    steps.append(["the paper's numbers beside the model's", "failed", out / "validate"])
     validate_main(["--out-dir", str(out / "validate")])
+    steps[-1][1] = "done"
     if args.no_train:
         from .bench import cli as bench_cli
 
-        return bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
+        steps.append(["baseline on the nominal and randomized suites", "failed", out / "bench"])
+        code = bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
                                "--episodes", str(args.episodes), "--out-dir", str(out / "bench")])
+        steps[-1][1] = "done" if not code else f"exit code {code}"
+        where["table"] = out / "bench" / "table.txt"
+        return code
     try:
         train, evaluate = _plugin_command("train"), _plugin_command("eval")
     except ImportError as e:
@@ -56,11 +82,18 @@ def _run(argv: list[str]) -> int:
         return 2
     print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
     run_dir = fresh_dir(out / "agent")
+    where["run_dir"] = run_dir
+    steps.append([f"train an agent ({args.config})", "failed", run_dir])
     code = train(["--config", args.config, "--out", str(run_dir)])
+    steps[-1][1] = "done" if not code else f"exit code {code}"
     if code:
         return code
-    return evaluate(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
+    steps.append(["score the agent beside the baseline (nominal, randomized)", "failed", run_dir / "eval"])
+    code = evaluate(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
                      "--episodes", str(args.episodes)])
+    steps[-1][1] = "done" if not code else f"exit code {code}"
+    where["table"] = run_dir / "eval" / "table.txt"
+    return code
 
 
 PLUGIN_GROUP = "cepam_gym.commands"  # commands of other packages: the training package's train, eval
@@ -116,15 +149,36 @@ def _rollout(argv: list[str]) -> int:
     return 0
 
 
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("cepam-gym")
+    except metadata.PackageNotFoundError:  # a source tree on PYTHONPATH, not installed
+        return "unknown (not installed)"
+
+
 def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    from ._cli_errors import debug_requested, run_guarded
+
+    debug, argv = debug_requested(list(sys.argv[1:] if argv is None else argv))
+    if argv[:1] == ["--version"]:
+        print(f"cepam-gym {_version()}")
+        return 0
+    if argv and argv[0] not in ("-h", "--help"):
+        return run_guarded(f"cepam-gym {argv[0]}", _dispatch, argv, debug)
+    return _dispatch(argv)
+
+
+def _dispatch(argv: list[str]) -> int:
     commands = {"run": _run, "rollout": _rollout}
     lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation.cli:validate_main",
             "bench": "cepam_gym.bench.cli", "video": "cepam_gym.mujoco.video",
             "calibrate": "cepam_gym.validation.cli:calibrate_main"}
     plugins = ("train", "eval")
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: cepam-gym {run,bench,train,eval,demo,validate,calibrate,rollout,video} [options]\n"
+        print("usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,rollout,video} "
+              "[options] [--debug]\n"
               "  bench     score controllers on the benchmark suites\n"
               "  train     train an agent from a YAML config (--config quick, or a file)\n"
               "  eval      score a trained agent beside the baseline (--run DIR)\n"
@@ -133,7 +187,9 @@ def main(argv: list[str] | None = None) -> int:
               "  validate  the paper's reported numbers beside the model's\n"
               "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
               "  rollout   random-action episodes of every registered id\n"
-              "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)")
+              "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)\n"
+              "A user error (bad config, missing or corrupted file) is one line on stderr and exit code 2;\n"
+              "--debug (or CEPAM_GYM_DEBUG=1) shows its traceback.")
         return 0
     cmd, rest = argv[0], argv[1:]
     if cmd in commands:

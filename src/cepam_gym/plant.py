@@ -418,12 +418,21 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
 
 
 def stability_number(params, dt: float) -> np.ndarray:
-    """``dt * lambda_max`` of the explicit pressure integration, per parameter row.
+    """``dt * lambda_max`` of the explicit chamber-air integration, per parameter row.
 
-    The stiffest mode is a chamber at its smallest volume, fed through a fully open valve in the
-    linearised (laminar) region near equal pressures: ``lambda = gamma R T / V * dmdot/dp`` with
-    ``dmdot/dp = C rho0 sqrt(T0/T) sqrt(1 - x^2) / (1 - r_lam)``, ``x = (r_lam - b) / (1 - b)``.
-    Explicit Euler is stable below 2 and free of overshoot below 1.
+    Two stiff modes act on a chamber's air, both largest at its smallest volume ``V``:
+
+    * the valve flow: a chamber fed through a fully open valve in the linearised (laminar)
+      region near equal pressures, ``lambda_v = gamma R T / V * dmdot/dp`` with
+      ``dmdot/dp = C rho0 sqrt(T0/T) sqrt(1 - x^2) / (1 - r_lam)``, ``x = (r_lam - b) / (1 - b)``;
+    * the wall heat transfer: ``dU/dt = hA (T_amb - T)`` with ``U = m cv T`` relaxes the air
+      temperature at ``lambda_h = hA / (m cv)``. The least air a chamber holds is at atmospheric
+      pressure (it exhausts to the atmosphere): ``m = p_atm V / (R T)``, so with
+      ``cv = R / (gamma - 1)``: ``lambda_h = hA (gamma - 1) T / (p_atm V)``.
+
+    Both modes damp the same state (mass and energy of one chamber), so their sum bounds the
+    largest eigenvalue (Gershgorin). Explicit Euler is stable below 2 and free of overshoot
+    below 1. ``T`` is the hotter of supply and ambient air (least mass, fastest flow).
     """
     p = np.atleast_2d(params)
     c = np.maximum(p[:, ix.C_PROP], p[:, ix.C_ONOFF]) + p[:, ix.C_LEAK]
@@ -436,18 +445,22 @@ def stability_number(params, dt: float) -> np.ndarray:
     for L in np.linspace(p[:, ix.L_MIN], p[:, ix.L_MAX], 16):
         vc, ve, _, _ = api.chamber_volumes(L, p)
         v_min = np.minimum(v_min, np.minimum(vc, ve))
-    return dt * ix.GAMMA * ix.R_AIR * t / v_min * slope
+    lam_valve = ix.GAMMA * ix.R_AIR * t / v_min * slope
+    lam_heat = p[:, ix.HA] * (ix.GAMMA - 1.0) * t / (p[:, ix.P_ATM] * v_min)
+    return dt * (lam_valve + lam_heat)
 
 
 def check_stability(params, dt: float, limit: float = 1.2) -> None:
-    """Raise ``ValueError`` when the sub-step ``dt`` is too long for these valves and volumes."""
+    """Raise ``ValueError`` when the sub-step ``dt`` is too long for these valves, heat transfer
+    and volumes (:func:`stability_number` above ``limit``)."""
     s = stability_number(params, dt)
     if np.any(s > limit):
         worst = float(s.max())
         raise ValueError(
-            f"sub-step {dt * 1e3:.3g} ms is too long for the valve conductance and chamber volume "
-            f"(stability number {worst:.2f} > {limit}): use sub_dt <= {dt * limit / worst * 1e3:.3g} ms, "
-            "a smaller valve_conductance, or a larger dead volume")
+            f"sub-step {dt * 1e3:.3g} ms is too long for the valve conductance, heat transfer and "
+            f"chamber volume (stability number {worst:.2f} > {limit}): use sub_dt <= "
+            f"{dt * limit / worst * 1e3:.3g} ms, a smaller valve_conductance or heat_transfer, "
+            "or a larger dead volume")
 
 
 def measure(state, params):

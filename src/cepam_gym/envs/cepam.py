@@ -44,12 +44,17 @@ def _info_single(core: CEPAMBatch, scored: bool) -> dict[str, Any]:
     info["target_stiffness"] = float(core.target_k[0, k])
     if scored:
         info.update(zip(_TERM_KEYS, core.terms[0].tolist()))
+    info["redraws"] = int(core.redraws[0])
     return info
 
 
 _AUX_COLS = np.array(list(_AUX_INFO.values()))
 _STATE_COLS = np.array([pl.S_L, pl.S_V])
-_REASON_NAMES = np.array(tk.TERMINATION_REASONS, dtype=object)
+# names of the integer ``info["termination_reason"]`` codes (index = code; tasks.kernel's order)
+TERMINATION_NAMES = ("none", "burst", "non_finite_state")
+assert len(TERMINATION_NAMES) == len(tk.TERMINATION_REASONS)
+# info keys only a stepped env has (a reset env's info lacks them)
+_SCORED_KEYS = (*_TERM_KEYS, "termination_reason")
 
 
 def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
@@ -64,6 +69,7 @@ def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
     out["target_stiffness"] = core.target_k[r, k]
     if scored:
         out.update(zip(_TERM_KEYS, np.ascontiguousarray(core.terms.T)))
+    out["redraws"] = core.redraws.copy()
     return out
 
 
@@ -164,7 +170,8 @@ _DOC = """
     Starts at rest at a reachable (length, stiffness) different from the first target. Control
     period ``control_dt`` (default 0.02 s, 50 Hz) with plant sub-steps ``sub_dt`` (0.5 ms; must
     divide it). Truncated after ``max_episode_steps`` (500 = 10 s). Terminated only on physical
-    failure: ``info["termination_reason"]`` is ``"burst"`` or ``"non_finite_state"``.
+    failure: ``info["termination_reason"]`` is an integer code (0 while running), named by
+    ``env.metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
 
     ## Arguments
 
@@ -175,26 +182,42 @@ _DOC = """
     | ``control_dt``, ``sub_dt`` | 0.02, 5e-4 | seconds |
     | ``episode_seconds`` | 10.0 | length of the target and load schedule (beyond it the last targets hold); the episode itself is truncated by ``max_episode_steps`` (500 from the registration: pass both to change the episode length) |
     | ``reward_weights`` | ``{}`` | override any of the weights above |
-    | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, sampled per episode |
+    | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, sampled per episode; checked when the env is built (each key's ends, corners, a sample: a valid plant, stable integration, reachable targets; the error names the key); a draw that still fails is redrawn, counted in ``info["redraws"]`` |
     | ``sensor_noise`` | ``None`` | ``{"length_mm", "velocity_mm_s", "pressure_kpa"}`` standard deviations |
     | ``action_latency_steps`` | 0 | actions reach the valves this many steps late |
     | ``supply_drift_kpa`` | 0.0 | random-walk intensity of the supply pressure, kPa/sqrt(s), clipped to +-20 % |
+    | ``stream`` | 0 | index of the env's random stream (see Seeding) |
+    | ``num_threads`` | ``None`` | threads of the batched kernel (vector env, 256 envs or more): ``None`` every core, 1 serial; see ``benchmarks/throughput.py --busy-core`` |
     | ``task_options`` | ``{}`` | override TaskSpec fields: ``length_range`` [m], ``load_range`` [kg], ``load_kinds``, ``segment_duration`` [s], ``stiffness_range`` [N/m], ``pressure_margin`` |
     | ``render_mode`` | ``None`` | ``"rgb_array"`` or ``"human"`` |
     | ``renderer`` | ``"numpy"`` | ``"numpy"`` (2-D drawing) or ``"mujoco"`` (3-D rig, ``pip install 'cepam-gym[mujoco]'``, headless with ``MUJOCO_GL=egl``) |
 
     ``reset(options={"target_length": m, "target_stiffness": N/m, "load_mass": kg})`` pins any of
-    them for the episode (evaluation at chosen operating points; no reachability check).
+    them for the episode (evaluation at chosen operating points; checked: length within the end
+    stops, stiffness > 0, 0 <= load <= 20 kg; no reachability check). A supply above the burst
+    pressure gives a warning.
+
+    ## Seeding
+
+    ``reset(seed=s)`` seeds per-env streams spawned from ``numpy.random.SeedSequence(s)``: env i
+    of a vector env owns the spawned child ``i`` (``SeedSequence(s, spawn_key=(i,))``), which
+    feeds its parameter draws, schedules, sensor noise and supply drift. A single env owns child
+    ``stream`` (kwarg, default 0). So vector element i seeded ``s`` equals, bit for bit, a single
+    env made with ``stream=i`` and seeded ``s``, noise and drift included; different seeds give
+    independent streams.
 
     ## Version history
 
-    * v0: initial release.
+    * v0: initial release. Later v0 changes: per-env seed streams spawned from a SeedSequence
+      (``stream`` kwarg); ``info["termination_reason"]`` an integer code (was a string);
+      ``info["redraws"]``; the vector env's ``autoreset_mode`` (default ``"next_step"``, was
+      same-step only) and info masks.
 """
 
 
 class CEPAMEnv(gym.Env, EzPickle):
     __doc__ = "CE-PAM length and stiffness regulation under changing loads (single env)." + _DOC
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50, "termination_reasons": TERMINATION_NAMES}
 
     def __init__(self, task: str = "cepam", render_mode: str | None = None, renderer: str = "numpy",
                  **kwargs: Any):
@@ -234,11 +257,12 @@ class CEPAMEnv(gym.Env, EzPickle):
                 raise ValueError(f"action contains NaN or inf: {action!r}")
             reward, reason = core.step_single(x0, x1)
             info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
+            info["redraws"] = int(core.redraws[0])
         else:
             core.step(core.check_actions(action))
             reward, reason = float(core.rewards[0]), int(core.reasons[0])
             info = _info_single(core, scored=True)
-        info["termination_reason"] = tk.TERMINATION_REASONS[reason]
+        info["termination_reason"] = int(reason)
         if self.render_mode == "human":
             self.render()
         return self._obs_row.copy(), reward, reason != 0, False, info
@@ -273,23 +297,73 @@ class CEPAMEnv(gym.Env, EzPickle):
             self._mujoco = None
 
 
+_AUTORESET_MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
+
+
+def _autoreset_mode(mode) -> AutoresetMode:
+    if isinstance(mode, AutoresetMode) and mode in _AUTORESET_MODES.values():
+        return mode
+    if isinstance(mode, str) and mode.lower() in _AUTORESET_MODES:
+        return _AUTORESET_MODES[mode.lower()]
+    if isinstance(mode, str) and mode in [m.value for m in _AUTORESET_MODES.values()]:
+        return AutoresetMode(mode)  # "NextStep", "SameStep"
+    raise ValueError(f"autoreset_mode must be one of {list(_AUTORESET_MODES)} (or gymnasium's "
+                     f"AutoresetMode.NEXT_STEP / SAME_STEP), got {mode!r}")
+
+
+def _with_masks(info: dict[str, Any], present: np.ndarray, absent_keys=()) -> dict[str, Any]:
+    """Gymnasium's vector-info convention: each array ``k`` gets a boolean mask ``_k`` of the envs
+    whose info holds it (``absent_keys``: only the envs of ``present``; the others: all). The
+    masks are rows of one array (one allocation per step; each row its own memory)."""
+    masks = np.ones((len(info), len(present)), dtype=bool)
+    out = {}
+    for j, (k, v) in enumerate(info.items()):
+        out[k] = v
+        if k in absent_keys:
+            masks[j] = present
+        out["_" + k] = masks[j]
+    return out
+
+
 class CEPAMVectorEnv(VectorEnv, EzPickle):
     __doc__ = ("N CE-PAM envs stepped by one compiled kernel (``gym.make_vec(id, num_envs=N)``). "
-               "Same spaces, rewards and kwargs as the single env; env i seeded with ``seed + i`` "
-               "follows exactly the single env seeded with ``seed + i``. Autoreset: same step "
-               "(the returned observation of a finished env is the first of its next episode; the "
-               "last one is in ``infos['final_obs']``, its info in ``infos['final_info']``)." + _DOC)
-    metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.SAME_STEP, "render_fps": 50}
+               "Same spaces, rewards and kwargs as the single env; env i of a vector env seeded "
+               "``s`` follows exactly the single env made with ``stream=i`` and seeded ``s`` "
+               "(a vector env's ``stream`` kwarg offsets its envs' streams)." + """
+
+    ## Vector conventions (Gymnasium 1.x)
+
+    * ``autoreset_mode`` (kwarg, attribute and ``metadata["autoreset_mode"]``):
+      ``"next_step"`` (default, as Gymnasium's): the step that ends an episode returns its last
+      observation; the next ``step`` resets that env (its action is ignored) and returns the new
+      episode's first observation, reward 0, ``terminated = truncated = False`` and the reset
+      info. ``"same_step"``: the step that ends an episode returns the new episode's first
+      observation and reset info; the last observation is in ``infos["final_obs"]`` and the last
+      step's info in ``infos["final_info"]`` (masks ``_final_obs``, ``_final_info``).
+    * Every info array ``k`` has a boolean mask ``infos["_k"]``; reward terms and
+      ``termination_reason`` are absent (mask False) for an env whose entry is a reset info.
+    * ``infos["termination_reason"]`` is an integer code, named by
+      ``metadata["termination_reasons"]`` (0 ``"none"``, 1 ``"burst"``, 2 ``"non_finite_state"``).
+    * ``call``, ``get_attr`` and ``set_attr``: the N envs share one Python object, so these act on
+      it and return its value once per env.
+    """ + _DOC)
+    metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP, "render_fps": 50,
+                "termination_reasons": TERMINATION_NAMES}
 
     def __init__(self, num_envs: int = 1, task: str = "cepam", max_episode_steps: int | None = 500,
-                 render_mode: str | None = None, renderer: str = "numpy", **kwargs: Any):
+                 render_mode: str | None = None, renderer: str = "numpy",
+                 autoreset_mode: str | AutoresetMode = "next_step", **kwargs: Any):
         EzPickle.__init__(self, num_envs=num_envs, task=task, max_episode_steps=max_episode_steps,
-                          render_mode=render_mode, renderer=renderer, **kwargs)
+                          render_mode=render_mode, renderer=renderer, autoreset_mode=autoreset_mode, **kwargs)
         _check_renderer(renderer)
+        self.autoreset_mode = _autoreset_mode(autoreset_mode)
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.renderer = renderer
         self._mujoco = None
         self.core = CEPAMBatch(num_envs, task=task, **kwargs)
         self.num_envs = self.core.num_envs
+        if max_episode_steps is not None and (int(max_episode_steps) != max_episode_steps or max_episode_steps < 1):
+            raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
         self.max_episode_steps = max_episode_steps
         self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.single_observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
@@ -299,6 +373,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             raise ValueError(f"the vector env renders only 'rgb_array', got {render_mode!r}")
         self.render_mode = render_mode
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)  # envs to reset at the next step
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -308,29 +383,83 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self.core.reset()
         _apply_options(self.core, options)
         self._elapsed[:] = 0
-        return self.core.obs.copy(), _info_arrays(self.core, scored=False)
+        self._autoreset[:] = False
+        everyone = np.ones(self.num_envs, dtype=bool)
+        return self.core.obs.copy(), _with_masks(_info_arrays(self.core, scored=False), everyone)
 
     def step(self, actions):
-        a = self.core.check_actions(actions)
-        self.core.step(a)
-        self._elapsed += 1
-        terminated = self.core.reasons != 0
-        truncated = (self._elapsed >= self.max_episode_steps) & ~terminated if self.max_episode_steps else \
-            np.zeros(self.num_envs, dtype=bool)
-        infos = _info_arrays(self.core, scored=True)
-        infos["termination_reason"] = _REASON_NAMES[self.core.reasons]
-        obs = self.core.obs.copy()
+        core = self.core
+        a = core.check_actions(actions)
+        next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
+        pending = np.flatnonzero(self._autoreset) if next_step else np.empty(0, dtype=np.int64)
+        if pending.size:
+            core.step(a, active=np.flatnonzero(~self._autoreset))
+            core.reset(pending)
+            core.rewards[pending] = 0.0
+            core.reasons[pending] = tk.TERMINATION_NONE
+            self._elapsed[pending] = 0
+            self._elapsed[~self._autoreset] += 1
+        else:
+            core.step(a)
+            self._elapsed += 1
+        terminated = core.reasons != 0
+        if self.max_episode_steps:
+            truncated = (self._elapsed >= self.max_episode_steps) & ~terminated
+        else:
+            truncated = np.zeros(self.num_envs, dtype=bool)
         done = terminated | truncated
+        stepped = ~self._autoreset if pending.size else np.ones(self.num_envs, dtype=bool)
+        infos = _info_arrays(core, scored=True)
+        infos["termination_reason"] = core.reasons.copy()
+        rewards = core.rewards.copy()
+        obs = core.obs.copy()
+        if next_step:
+            self._autoreset = done
+            for k in _TERM_KEYS:
+                infos[k][~stepped] = 0.0
+            return obs, rewards, terminated, truncated, _with_masks(infos, stepped, _SCORED_KEYS)
         if done.any():
             idx = np.flatnonzero(done)
+            final = _with_masks(infos, done, infos.keys())
+            core.reset(idx)
+            self._elapsed[idx] = 0
+            infos = _info_arrays(core, scored=True)  # the new episode's info for the reset envs
+            infos["termination_reason"] = core.reasons.copy()
+            infos["termination_reason"][idx] = tk.TERMINATION_NONE
+            for k in _TERM_KEYS:
+                infos[k][idx] = 0.0
+            infos = _with_masks(infos, ~done, _SCORED_KEYS)
             infos["final_obs"] = np.where(done[:, None], obs, 0.0).astype(np.float32)
             infos["_final_obs"] = done
-            infos["final_info"] = {k: v.copy() for k, v in infos.items() if not k.startswith("_") and k != "final_obs"}
-            infos["_final_info"] = done
-            self.core.reset(idx)
-            self._elapsed[idx] = 0
-            obs = self.core.obs.copy()
-        return obs, self.core.rewards.copy(), terminated, truncated, infos
+            infos["final_info"] = final
+            infos["_final_info"] = done.copy()
+            obs = core.obs.copy()
+            return obs, rewards, terminated, truncated, infos
+        return obs, rewards, terminated, truncated, _with_masks(infos, stepped)
+
+    # ------------------------------------------------- the sub-env API of Gymnasium's vector envs
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Call method ``name`` (or read attribute ``name``) of the shared env object; the result
+        once per env, as :meth:`gymnasium.vector.SyncVectorEnv.call` returns one per sub-env."""
+        attr = getattr(self, name)
+        value = attr(*args, **kwargs) if callable(attr) else attr
+        return tuple(value for _ in range(self.num_envs))
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Attribute ``name`` of the shared env object, once per env."""
+        return tuple(getattr(self, name) for _ in range(self.num_envs))
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set attribute ``name`` of the shared env object. A list or tuple must have one value
+        per env, all equal (the envs share the object)."""
+        if isinstance(values, (list, tuple)):
+            if len(values) != self.num_envs:
+                raise ValueError(f"set_attr: {len(values)} values for {self.num_envs} envs")
+            if any(v is not values[0] and v != values[0] for v in values[1:]):
+                raise ValueError(f"set_attr({name!r}): the envs of a native vector env share one "
+                                 "object, so per-env values must be equal")
+            values = values[0]
+        setattr(self, name, values)
 
     def render(self):
         if self.render_mode != "rgb_array":

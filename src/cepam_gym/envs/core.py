@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from typing import Any, Mapping
 
 import numpy as np
@@ -22,9 +23,15 @@ from ..tasks import kernel as tk
 from ..tasks.layout import rig_layout
 from ..tasks.references import planned_schedules
 from ..tasks.spec import check_kwargs
+from .randomization import MAX_REDRAWS, Randomizer
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
+# standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
+_N_NORMALS = 6
+_NORMAL_CHUNK = 32
+_MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
+_MAX_CONTROL_DT = 1.0  # s: larger values are milliseconds passed as seconds
 _NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
 
 
@@ -48,6 +55,9 @@ def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tu
     sub-step does not divide the control period or a duration is not positive."""
     if not (control_dt > 0 and sub_dt > 0):
         raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
+    if control_dt > _MAX_CONTROL_DT:
+        raise ValueError(f"control_dt is in seconds and at most {_MAX_CONTROL_DT:g} s, got {control_dt} "
+                         "(20 ms is 0.02)")
     n_sub = round(control_dt / sub_dt)
     if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
         raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
@@ -79,6 +89,22 @@ def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[floa
             raise ValueError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
         out[key] = (lo, hi)
     return out
+
+
+def _check_threads(num_threads) -> int | None:
+    """``num_threads`` of the batched kernel: ``None`` (numba's default, every core), or 1 ..
+    ``NUMBA_NUM_THREADS``. On a machine where another process keeps a core busy (training: the
+    learner), fewer threads than cores avoid waiting on a descheduled thread (benchmarks/throughput.py
+    ``--busy-core`` measures both)."""
+    if num_threads is None:
+        return None
+    import numba
+
+    top = numba.config.NUMBA_NUM_THREADS
+    if isinstance(num_threads, bool) or int(num_threads) != num_threads or not 1 <= num_threads <= top:
+        raise ValueError(f"num_threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS) or None, "
+                         f"got {num_threads!r}")
+    return int(num_threads)
 
 
 def sample_params(nominal: PlantParams, randomize: Mapping[str, tuple[float, float]],
@@ -127,7 +153,8 @@ class CEPAMBatch:
                  episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
                  randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
                  action_latency_steps: int = 0, supply_drift_kpa: float = 0.0,
-                 task_options: Mapping[str, Any] | None = None, preview_steps: int = 0):
+                 task_options: Mapping[str, Any] | None = None, stream: int = 0,
+                 num_threads: int | None = None, preview_steps: int = 0):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
@@ -149,11 +176,22 @@ class CEPAMBatch:
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
+        self._check_task_units()
+        if self.nominal.supply_pressure > self.nominal.burst_pressure:
+            warnings.warn(f"supply_pressure ({self.nominal.supply_pressure / 1e3:g} kPa) is above "
+                          f"burst_pressure ({self.nominal.burst_pressure / 1e3:g} kPa): a fully open supply "
+                          "valve bursts the bladder (the episode then terminates, reason 'burst')",
+                          stacklevel=3)
         self.randomize = check_randomize(randomize)
+        self.randomizer = Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
         self.latency = int(action_latency_steps)
+        if isinstance(stream, bool) or int(stream) != stream or stream < 0:
+            raise ValueError(f"stream must be an integer >= 0, got {stream!r}")
+        self.stream = int(stream)
+        self.num_threads = _check_threads(num_threads)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
@@ -166,7 +204,7 @@ class CEPAMBatch:
         self.obs_dim = self.obs_layout.size
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
-        self._stable_checked = False
+        self.redraws = np.zeros(n, dtype=np.int64)  # draws rejected at the current episode's reset
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call
         # (tasks.kernel.env_step_single) on two slabs its arrays are views of
@@ -196,8 +234,7 @@ class CEPAMBatch:
             self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
         self.queue = np.zeros((self.latency + 1, n, 2))
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
-        self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(n)]
-        self.noise_rng = np.random.default_rng()
+        self.seed(None)
         # prev_action doubles as the buffer of the action being applied (clipped in place by the
         # kernel), so after a step it holds a_{t-1}; the kernel's arguments are bound once
         self._single_action = self.prev_action
@@ -205,6 +242,16 @@ class CEPAMBatch:
                              self.n_sub, self.target_l, self.target_k, self.load, self.t_idx,
                              self.task_vec, self.noise, self.inputs, self.obs, self.rewards,
                              self.terms, self.aux, self.reasons)
+
+    def _check_task_units(self) -> None:
+        """Task ranges in SI against the plant: lengths [m] within the end stops."""
+        lo, hi = self.nominal.min_length, self.nominal.max_length
+        t = self.task
+        for name, vals in (("length_range", t.length_range),
+                           ("fixed_length", () if t.fixed_length is None else (t.fixed_length,))):
+            if any(not lo <= v <= hi for v in vals):
+                raise ValueError(f"task {name} is in metres and must lie within the end stops "
+                                 f"[{lo:g}, {hi:g}] m, got {vals}")
 
     def step_single(self, x0: float, x1: float) -> tuple[float, int]:
         """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
@@ -220,13 +267,41 @@ class CEPAMBatch:
 
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
-        """Env i draws from ``default_rng(seed + i)``, as if it were a single env seeded so."""
-        ss = [None if seed is None else seed + i for i in range(self.num_envs)]
-        self.rngs = [np.random.default_rng(s) for s in ss]
-        self.noise_rng = np.random.default_rng(None if seed is None else [seed, 0x5EED])
+        """Per-env random streams spawned from ``numpy.random.SeedSequence(seed)``.
 
-    def _sample_params(self, rng: np.random.Generator) -> np.ndarray:
-        return sample_params(self.nominal, self.randomize, rng, self._nominal_row)
+        Env i of the batch owns stream ``self.stream + i``: the seed sequence
+        ``SeedSequence(seed, spawn_key=(stream + i,))`` (``SeedSequence(seed).spawn(n)[i]`` for
+        ``stream == 0``), whose two children feed (0) parameter draws and schedules and (1) sensor
+        noise and supply drift. Streams of different seeds, and of different envs of one seed,
+        are independent (no ``seed + i`` overlaps); an env's draws never depend on the batch it is
+        in, so env i of a batch seeded ``s`` follows exactly a single env seeded ``s`` whose
+        ``stream`` kwarg is i. ``None``: fresh OS entropy."""
+        root = np.random.SeedSequence(seed)
+        self.rngs, self.noise_rngs = [], []
+        for i in range(self.num_envs):
+            env_ss = np.random.SeedSequence(root.entropy, spawn_key=(self.stream + i,))
+            main, noise = env_ss.spawn(2)
+            self.rngs.append(np.random.Generator(np.random.PCG64(main)))
+            self.noise_rngs.append(np.random.Generator(np.random.PCG64(noise)))
+        # buffered standard normals per env (columns: 5 sensor-noise channels, supply drift),
+        # refilled _NORMAL_CHUNK steps at a time from each env's own noise stream
+        draws = self.has_noise or bool(self.supply_drift)
+        self._normals = np.zeros((self.num_envs if draws else 0, _NORMAL_CHUNK, _N_NORMALS))
+        self._normal_pos = np.full(self.num_envs, _NORMAL_CHUNK, dtype=np.int64)
+
+    def _next_normals(self, idx: np.ndarray | None = None) -> np.ndarray:
+        """One row of standard normals per env of ``idx`` (all if None), each from its own stream."""
+        pos = self._normal_pos if idx is None else self._normal_pos[idx]
+        if (pos >= _NORMAL_CHUNK).any():
+            envs = np.arange(self.num_envs) if idx is None else np.asarray(idx)
+            for i in envs[pos >= _NORMAL_CHUNK]:
+                self._normals[i] = self.noise_rngs[i].standard_normal((_NORMAL_CHUNK, _N_NORMALS))
+                self._normal_pos[i] = 0
+            pos = self._normal_pos if idx is None else self._normal_pos[idx]
+        rows = np.arange(self.num_envs) if idx is None else idx
+        out = self._normals[rows, pos]
+        self._normal_pos[rows] += 1
+        return out
 
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
@@ -238,23 +313,40 @@ class CEPAMBatch:
                                (self.load, load_mass, "load_mass")):
             if val is None:
                 continue
-            v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
-            if not np.isfinite(v).all():
-                raise ValueError(f"{name} must be finite, got {val!r}")
+            try:
+                v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name} must be a number or one per env ({len(idx)}), got {val!r}") from None
+            self._check_pin(name, v)
             arr[idx] = v[:, None]
         tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
                    self.prev_action, self.task_vec, self.noise, self.obs)
 
+    def _check_pin(self, name: str, v: np.ndarray) -> None:
+        """Units and ranges of a pinned target (SI: m, N/m, kg), ``ValueError`` naming it."""
+        if not np.isfinite(v).all():
+            raise ValueError(f"{name} must be finite, got {v.tolist()}")
+        if name == "target_length":
+            lo, hi = self.nominal.min_length, self.nominal.max_length
+            if ((v < lo) | (v > hi)).any():
+                raise ValueError(f"target_length is in metres and must lie within the end stops "
+                                 f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)")
+        elif name == "target_stiffness":
+            if (v <= 0).any():
+                raise ValueError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
+        elif name == "load_mass":
+            if (v < 0).any():
+                raise ValueError(f"load_mass must be >= 0 kg, got {v.tolist()}")
+            if (v > _MAX_LOAD_KG).any():
+                raise ValueError(f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} "
+                                 "(200 g is 0.2)")
+
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
-        for i in idx:
-            self.params[i] = self._sample_params(self.rngs[i])
-        if self.randomize or not self._stable_checked:
-            pl.check_stability(self.params[idx], self.sub_dt)
-            self._stable_checked = True
-        tl, tkk, load, initial = planned_schedules([self.rngs[i] for i in idx], self.task,
-                                                   self.params[idx], self.n_steps, self.control_dt)
+        rngs = [self.rngs[i] for i in idx]
+        self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
+        tl, tkk, load, initial = self._schedules(idx, rngs)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
         p = self.params[idx]
         weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
@@ -264,15 +356,56 @@ class CEPAMBatch:
         self.t_idx[idx] = 0
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
-        self._draw_noise()
+        self._draw_noise(idx)
         tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
                    self.prev_action, self.task_vec, self.noise, self.obs)
 
+    def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
+        """:func:`~cepam_gym.tasks.references.planned_schedules` of the envs ``idx``. A plant for which the task finds no
+        reachable target (``RuntimeError``) is redrawn with its schedule, env by env from its own
+        stream (the generators are rewound first, so every env draws as it would alone)."""
+        states = [r.bit_generator.state for r in rngs]
+        try:
+            return planned_schedules(rngs, self.task, self.params[idx], self.n_steps, self.control_dt)
+        except RuntimeError:
+            pass
+        for r, st in zip(rngs, states):
+            r.bit_generator.state = st
+        out = [np.empty((len(idx), self.n_steps)) for _ in range(3)] + [np.empty((len(idx), 2))]
+        for j, (i, rng) in enumerate(zip(idx, rngs)):
+            for attempt in range(MAX_REDRAWS + 2):
+                try:
+                    one = planned_schedules([rng], self.task, self.params[i:i + 1], self.n_steps,
+                                            self.control_dt)
+                    break
+                except RuntimeError:
+                    if attempt == MAX_REDRAWS + 1:
+                        raise
+                    self.redraws[i] += 1
+                    if attempt >= MAX_REDRAWS:  # the nominal plant (checked at build), a new schedule
+                        self.params[i] = self.randomizer.fallback()
+                    else:
+                        rows, extra = self.randomizer.draw([rng])
+                        self.params[i], self.redraws[i] = rows[0], self.redraws[i] + extra[0]
+            for a, b in zip(out, one):
+                a[j] = b[0]
+        return tuple(out)
+
     # ------------------------------------------------------------------- step
-    def _draw_noise(self) -> None:
-        """Fresh sensor noise, written in place (the kernel's argument tuple holds this buffer)."""
-        if self.has_noise:
-            self.noise[:] = self.noise_rng.standard_normal((self.num_envs, tk.N_NOISE)) * self.noise_sd
+    def _draw_noise(self, idx: np.ndarray | None = None) -> np.ndarray | None:
+        """Fresh sensor noise of the envs ``idx`` (all if None), written in place (the kernel's
+        argument tuple holds this buffer). With supply drift on, the drift's normal comes from
+        the same row, so every step consumes one row of each env's stream. Returns the drift
+        normals (None when neither noise nor drift is on)."""
+        if self.has_noise or self.supply_drift:
+            z = self._next_normals(idx)
+            if self.has_noise:
+                if idx is None:
+                    self.noise[:] = z[:, :tk.N_NOISE] * self.noise_sd
+                else:
+                    self.noise[idx] = z[:, :tk.N_NOISE] * self.noise_sd
+            return z[:, tk.N_NOISE]
+        return None
 
     def check_actions(self, actions) -> np.ndarray:
         """A float64 (N, 2) copy of ``actions``; ``ValueError`` on a wrong shape, NaN or inf.
@@ -289,21 +422,30 @@ class CEPAMBatch:
         self.prev_action[:] = as_actions(actions, self.num_envs)
         return self.prev_action
 
-    def step(self, actions: np.ndarray) -> None:
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> None:
         """Advance all envs one control period; results in ``obs``, ``rewards``, ``terms``,
         ``reasons``, ``aux``. ``actions`` must be what :meth:`check_actions` returned (the
-        ``prev_action`` buffer, clipped in place by the kernel)."""
+        ``prev_action`` buffer, clipped in place by the kernel). ``active``: indices of the envs
+        whose step counts (the others are reset right after, by a next-step autoreset): only
+        they draw sensor noise and supply drift from their streams, as a single env would."""
         if self.latency:
             self.queue[:-1] = self.queue[1:]
             self.queue[-1] = actions
             self.prev_action[:] = self.queue[0]  # what reaches the valves now
+        z = self._draw_noise(active)
         if self.supply_drift:
             nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
-            walk = self.noise_rng.standard_normal(self.num_envs) * self.supply_drift * np.sqrt(self.control_dt)
-            self.params[:, ix.P_SUP] = np.clip(self.params[:, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
-        if self.has_noise:
-            self._draw_noise()
-        tk.env_step(*self._kernel_args)
+            rows = slice(None) if active is None else active
+            walk = z * self.supply_drift * np.sqrt(self.control_dt)
+            self.params[rows, ix.P_SUP] = np.clip(self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
+        if self.num_threads == 1:
+            tk._env_step_serial(*self._kernel_args)  # no parallel region at all
+        else:
+            if self.num_threads is not None:
+                import numba
+
+                numba.set_num_threads(self.num_threads)  # per calling thread: set before each call
+            tk.env_step(*self._kernel_args)
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""

@@ -75,7 +75,7 @@ def env_seed(base_seed: int | None, worker_index: int = 0, vector_index: int = 0
              instance: int = 0) -> int:
     """The seed of one env: base seed (``None``: fresh OS entropy) spawned by the indices.
 
-    63 bits, so ``CEPAMBatch``'s ``seed + i`` per batched env never overflows an int64."""
+    63 bits: a non-negative int64, as Gymnasium's and numpy's seeding take it."""
     for name, v in (("worker_index", worker_index), ("vector_index", vector_index), ("instance", instance)):
         if int(v) != v or v < 0:
             raise ValueError(f"{name} must be a non-negative integer, got {v!r}")

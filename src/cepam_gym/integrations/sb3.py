@@ -18,9 +18,17 @@ from ..envs.cepam import CEPAMVectorEnv
 
 
 class SB3VecEnv(VecEnv):
-    """Adapts :class:`CEPAMVectorEnv` (Gymnasium vector API, same-step autoreset) to SB3."""
+    """Adapts :class:`CEPAMVectorEnv` (Gymnasium vector API) to SB3. SB3 expects same-step
+    autoreset (the last observation in ``info["terminal_observation"]``), so the vector env must
+    be made with ``autoreset_mode="same_step"`` (:func:`make_sb3_vec_env` does). A finished env's
+    info dict is its last step's (``final_info``), with ``termination_reason`` an integer code."""
 
     def __init__(self, venv: CEPAMVectorEnv):
+        from gymnasium.vector import AutoresetMode
+
+        if getattr(venv, "autoreset_mode", None) != AutoresetMode.SAME_STEP:
+            raise ValueError("SB3VecEnv needs a vector env made with autoreset_mode='same_step', got "
+                             f"{getattr(venv, 'autoreset_mode', None)!r}")
         self.venv = venv
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions = None
@@ -39,15 +47,30 @@ class SB3VecEnv(VecEnv):
     def step_wait(self):
         obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
         dones = terminated | truncated
+        out = self._per_env(infos)
+        if dones.any():
+            final = self._per_env(infos["final_info"])
+            for i in np.flatnonzero(dones):
+                out[i] = final[i]
+                out[i]["terminal_observation"] = infos["final_obs"][i]
+                out[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        return obs, rewards.astype(np.float32), dones, out
+
+    @staticmethod
+    def _per_env(infos: dict) -> list[dict[str, Any]]:
+        """Gymnasium's dict of arrays as SB3's list of per-env dicts (masked-out keys dropped)."""
         keys = [k for k, v in infos.items() if not k.startswith("_") and isinstance(v, np.ndarray)
                 and v.dtype != object and k != "final_obs"]
-        cols = [infos[k].tolist() for k in keys]
-        out: list[dict[str, Any]] = [dict(zip(keys, vals)) for vals in zip(*cols)]
-        for i in np.flatnonzero(dones):
-            out[i]["terminal_observation"] = infos["final_obs"][i]
-            out[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
-            out[i]["termination_reason"] = infos["termination_reason"][i]
-        return obs, rewards.astype(np.float32), dones, out
+        full = [k for k in keys if "_" + k not in infos or infos["_" + k].all()]
+        cols = [infos[k].tolist() for k in full]
+        n = len(next(iter(infos.values()))) if infos else 0
+        out: list[dict[str, Any]] = [dict(zip(full, vals)) for vals in zip(*cols)] or [{} for _ in range(n)]
+        for k in keys:
+            if k not in full:
+                col = infos[k].tolist()
+                for i in np.flatnonzero(infos["_" + k]):
+                    out[i][k] = col[i]
+        return out
 
     def close(self) -> None:
         self.venv.close()
@@ -77,6 +100,7 @@ def make_sb3_vec_env(env_id: str = "cepam_gym/CEPAM-v0", num_envs: int = 8, seed
 
     import cepam_gym  # noqa: F401  (registers the ids)
 
+    kwargs.setdefault("autoreset_mode", "same_step")  # SB3's convention (terminal_observation)
     venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
     env = SB3VecEnv(venv.unwrapped if hasattr(venv, "unwrapped") else venv)
     if seed is not None:

@@ -109,7 +109,8 @@ _DOC = """
     ## Episode end
 
     Truncated after ``max_episode_steps`` (500 = 10 s at 50 Hz). Terminated only on physical
-    failure: ``info["termination_reason"]`` is ``"burst"`` or ``"non_finite_state"``.
+    failure: ``info["termination_reason"]`` is an integer code (0 while running) named by
+    ``metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
 
     ## Arguments
 
@@ -137,7 +138,8 @@ _DOC = """
 
 class CEPAMJointEnv(gym.Env, EzPickle):
     __doc__ = "A hinge driven by a CE-PAM: joint angle and joint stiffness under external torques." + _DOC
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50,
+                "termination_reasons": ("none", "burst", "non_finite_state")}
 
     def __init__(self, plant=None, action_mode: str = "valve", control_dt: float = 0.02,
                  sub_dt: float = 5e-4, episode_seconds: float = 10.0,
@@ -239,7 +241,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         reason = tk.termination(finite, burst)
         info = self._info(scored=True, k=k)
         info.update(zip(_TERM_KEYS, self.terms.tolist()))
-        info["termination_reason"] = TERMINATION_REASONS[reason]
+        info["termination_reason"] = int(reason)  # named by metadata["termination_reasons"]
         if self.render_mode == "human":
             self.render()
         return self._obs(), (0.0 if reason == TERMINATION_NONFINITE else reward), reason != 0, False, info

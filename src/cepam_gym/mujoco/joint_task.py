@@ -223,6 +223,11 @@ def apply_reset_options(options, schedules, initial, geom: JointGeometry, p):
             v = float(options[key])
             if not math.isfinite(v):
                 raise ValueError(f"reset option {key} must be finite, got {options[key]!r}")
+            if key == "target_stiffness" and not v > 0:  # the reward divides by it
+                raise ValueError(f"reset option target_stiffness must be > 0 N m/rad, got {v!r}")
+            if key == "target_angle" and not 0.0 <= v <= geom.max_angle(p):
+                raise ValueError(f"reset option target_angle is in radians and must lie within "
+                                 f"[0, {geom.max_angle(p):.3g}] rad, got {v!r}")
             arr[:] = v
     a0 = float(options.get("initial_angle", initial[0]))
     k0 = float(options.get("initial_stiffness", initial[1]))

@@ -174,7 +174,7 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
                 append(frame)
             if term or trunc:
                 print(f"cepam-gym video: episode ended at {(k + 1) * dt:.2f} s "
-                      f"({info.get('termination_reason') or 'time limit'})", file=sys.stderr)
+                      f"({_reason_name(env, info) or 'time limit'})", file=sys.stderr)
                 break
     finally:
         close()
@@ -224,3 +224,13 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def _reason_name(env, info) -> str:
+    """The termination reason of ``info`` as a name ("" while running): an integer code named by
+    the env's ``metadata["termination_reasons"]``, or already a string."""
+    reason = info.get("termination_reason")
+    names = env.unwrapped.metadata.get("termination_reasons")
+    if isinstance(reason, (int, np.integer)) and names is not None:
+        return "" if reason == 0 else names[int(reason)]
+    return reason or ""

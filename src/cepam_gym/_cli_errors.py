@@ -1,0 +1,89 @@
+"""User errors of the command line: one line on stderr naming the problem, exit code 2, no
+traceback (``--debug``, or ``CEPAM_GYM_DEBUG=1``, shows it).
+
+A user error is bad input: a config, env kwarg or hyperparameter that is refused (``ValueError``,
+the project's ``ConfigError`` among them), a missing or unreadable file (``OSError``), a corrupted
+one (a truncated or random zip, a garbage pickle, broken YAML or JSON). Anything else is a bug and
+keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import sys
+import zipfile
+
+EXIT_USER_ERROR = 2
+_debug = False  # set by run_guarded: commands that report their own errors re-raise instead
+
+
+def debug_on() -> bool:
+    return _debug or os.environ.get("CEPAM_GYM_DEBUG", "") not in ("", "0")
+
+
+def report(prog: str, e: BaseException) -> int:
+    """Print the one-line report of user error ``e`` for command ``prog``; the exit code."""
+    print(f"{prog}: error: {describe(e)} (--debug shows the traceback)", file=sys.stderr)
+    return EXIT_USER_ERROR
+
+
+def user_error_types() -> tuple[type[BaseException], ...]:
+    types: list[type[BaseException]] = [ValueError, OSError, EOFError, zipfile.BadZipFile,
+                                        pickle.UnpicklingError]
+    try:
+        import yaml
+
+        types.append(yaml.YAMLError)
+    except ImportError:  # pragma: no cover - pyyaml is a dependency
+        pass
+    return tuple(types)
+
+
+def describe(e: BaseException) -> str:
+    """One line naming the problem."""
+    if isinstance(e, OSError) and e.strerror and e.filename:
+        msg = f"{e.strerror}: {e.filename}"
+    else:
+        msg = str(e) or type(e).__name__
+        if not isinstance(e, (ValueError, OSError)):
+            msg = f"{type(e).__name__}: {msg}"
+    return " ".join(msg.split())
+
+
+def debug_requested(argv: list[str]) -> tuple[bool, list[str]]:
+    """``(debug?, argv without --debug)``."""
+    debug = "--debug" in argv or os.environ.get("CEPAM_GYM_DEBUG", "") not in ("", "0")
+    return debug, [a for a in argv if a != "--debug"]
+
+
+def run_guarded(prog: str, fn, argv: list[str], debug: bool) -> int:
+    """``fn(argv)``, with user errors reported as one line and exit code 2 (re-raised if debug)."""
+    global _debug
+    _debug = debug
+    try:
+        return fn(argv) or 0
+    except user_error_types() as e:
+        if debug:
+            raise
+        return report(prog, e)
+
+
+def load_error(path, e: BaseException, what: str = "file") -> ValueError:
+    """A ``ValueError`` naming a ``what`` at ``path`` that could not be loaded (corrupted, truncated,
+    or not what it should be), chained to the loader's exception."""
+    reason = " ".join((str(e) or type(e).__name__).split())
+    return ValueError(f"cannot load the {what} {path}: {type(e).__name__}: {reason} "
+                      "(corrupted or truncated? re-create it or point at another)")
+
+
+def guarded_load(path, what: str, loader, *args, **kwargs):
+    """``loader(*args, **kwargs)``; any failure but a missing file (a corrupted file can raise
+    nearly anything: BadZipFile, UnpicklingError, EOFError, KeyError, a torch RuntimeError...)
+    becomes a ``ValueError`` naming the ``what`` at ``path``."""
+    try:
+        return loader(*args, **kwargs)
+    except FileNotFoundError:
+        raise
+    except Exception as e:  # noqa: BLE001 - re-raised with the file named, chained
+        raise load_error(path, e, what) from e

@@ -1,0 +1,69 @@
+"""``runs/main/summary.md``: what ``cepam-gym run`` ran, with which versions, where every output
+is, and the scores, written at the end of the job (also when a step failed: what exists)."""
+
+from __future__ import annotations
+
+import json
+import platform
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+
+_PACKAGES = ("cepam-gym", "numpy", "numba", "scipy", "gymnasium", "stable-baselines3", "torch", "mujoco")
+
+
+def versions() -> dict[str, str]:
+    from importlib import metadata
+
+    out = {"python": platform.python_version()}
+    for name in _PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def _rel(path: Path, out: Path) -> str:
+    try:
+        return str(path.relative_to(out))
+    except ValueError:
+        return str(path)
+
+
+def write_summary(out: Path, argv: list[str], started: datetime, steps: list[tuple[str, str, Path | None]],
+                  run_dir: Path | None, table: Path | None) -> Path:
+    """``steps``: (what, status, output path) per step of the job, in order."""
+    out = Path(out)
+    ended = datetime.now(timezone.utc)
+    lines = ["# cepam-gym run: summary", "",
+             f"`cepam-gym run {' '.join(argv)}` ran from {started.isoformat(timespec='seconds')} to "
+             f"{ended.isoformat(timespec='seconds')} ({(ended - started).total_seconds():.0f} s), "
+             f"in `{Path.cwd()}` on {platform.node() or 'this machine'} ({platform.platform()}).", "",
+             "Versions: " + ", ".join(f"{k} {v}" for k, v in versions().items()) + ".", "",
+             "## What ran and where its output is", "", "| step | status | output |", "|---|---|---|"]
+    for what, status, path in steps:
+        where = "-" if path is None else f"`{_rel(path, out)}`"
+        lines.append(f"| {what} | {status} | {where} |")
+    if run_dir is not None and (run_dir / "run.json").is_file():
+        run = json.loads((run_dir / "run.json").read_text())
+        last = run.get("sessions", [{}])[-1]
+        lines += ["", "## Training", "",
+                  f"Status **{run.get('status')}** at step {last.get('end_step')} of "
+                  f"{last.get('total_timesteps', '?')} ({last.get('wall_s', '?')} s of training); "
+                  f"seed {run.get('seed')}. Run directory `{_rel(run_dir, out)}`: `config.yaml` (reproduces the "
+                  "run), `run.json`, `model.zip` (final), `best_model.zip` (best periodic evaluation), "
+                  "`checkpoints/`, `evaluations.json`, `tb/` and `logs/` (TensorBoard, CSV)."]
+        if run.get("status") == "stopped_by_time_limit":
+            lines.append("The time limit of the config stopped training early: the scores below are of a "
+                         f"shorter run; continue with `cepam-gym train --out {run_dir} --resume`.")
+    if table is not None and table.is_file():
+        lines += ["", "## Scores (lower is better)", "", f"From `{_rel(table, out)}`:", "", "```",
+                  table.read_text().rstrip(), "```"]
+    path = out / "summary.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(versions(), file=sys.stderr)

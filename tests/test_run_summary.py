@@ -1,0 +1,38 @@
+"""``cepam-gym run`` writes ``summary.md``: what ran, versions, where every output is, the scores."""
+
+from __future__ import annotations
+
+import json
+from datetime import datetime, timezone
+
+import pytest
+
+from cepam_gym.cli import main
+from cepam_gym.run_summary import write_summary
+
+
+@pytest.mark.slow
+def test_main_job_without_training_writes_the_summary(tmp_path, capsys):
+    out = tmp_path / "main"
+    assert main(["run", "--out-dir", str(out), "--no-train", "--episodes", "2"]) == 0
+    text = (out / "summary.md").read_text()
+    assert "cepam-gym run --out-dir" in text and "numba" in text and "gymnasium" in text
+    for what in ("`step_response.png`", "`validate`", "`bench`", "| done |"):
+        assert what in text, what
+    table = (out / "bench" / "table.txt").read_text().strip()
+    assert table in text and "baseline" in text
+    assert (out / "step_response.png").is_file()
+
+
+def test_summary_names_a_time_limit_stop_and_the_run_files(tmp_path):
+    run = tmp_path / "agent"
+    run.mkdir()
+    (run / "run.json").write_text(json.dumps({"seed": 3, "status": "stopped_by_time_limit", "sessions": [
+        {"end_step": 721_000, "total_timesteps": 1_000_000, "wall_s": 360.0}]}))
+    (tmp_path / "t.txt").write_text("suite controller score\nnominal agent 1.2\n")
+    path = write_summary(tmp_path, ["--config", "configs/quick.yaml"], datetime.now(timezone.utc),
+                         [("train an agent", "done", run), ("score", "exit code 2", None)], run, tmp_path / "t.txt")
+    text = path.read_text()
+    assert "**stopped_by_time_limit** at step 721000 of 1000000" in text
+    assert "time limit" in text and "--resume" in text and "`agent`" in text
+    assert "| score | exit code 2 | - |" in text and "nominal agent 1.2" in text
