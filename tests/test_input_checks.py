@@ -52,10 +52,10 @@ def test_env_kwargs_checked(kwargs, pattern):
 
 def test_supply_above_burst_warns():
     with pytest.warns(UserWarning, match=r"supply_pressure \(400 kPa\) is above burst_pressure \(300 kPa\)"):
-        gym.make("cepam_gym/CEPAM-v0", plant={"supply_pressure_kpa": 400})
+        gym.make("cepam_gym/CEPAM-v1", plant={"supply_pressure_kpa": 400})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        gym.make("cepam_gym/CEPAM-v0")  # the default plant: no warning
+        gym.make("cepam_gym/CEPAM-v1")  # the default plant: no warning (a v0 id warns that v1 exists)
 
 
 def test_joint_env_zero_stiffness_target_refused():

@@ -32,10 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.episodes is not None and args.episodes < 1:
         ap.error("--episodes must be >= 1")
     for c in controllers:
-        try:
-            check_controller_spec(c)
-        except ValueError as e:
-            ap.error(str(e))
+        check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
     rows, traces = [], {}
     for s in suites:
         for c in controllers:
