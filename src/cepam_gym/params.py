@@ -26,6 +26,8 @@ from .physics import layout as ix
 
 FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
+BRAID_TENSIONS = ("bidirectional", "tension_only")  # v0 | v1 (docs/physics.md, plant v1)
+BLADDER_MODELS = ("spring", "neo_hookean")  # v0 | v1
 
 
 def _f(default, unit: str, doc: str, calibrate: bool = False):
@@ -66,6 +68,15 @@ class PlantParams:
     elastic_stiffness: float = _f(166.121, "n_per_m", "bladder elasticity (not in the paper); fitted "
                                   "(+/- 73 N/m)", calibrate=True)
     elastic_rest_length: float = _f(0.15, "cm", "rest length of that elasticity")
+    # --- plant v1 statics (docs/physics.md, "Plant v1"); the values here are v0's ---
+    braid_tension: str = _f("bidirectional", "", "bidirectional (v0: the CPAM braid also pushes) | "
+                            "tension_only (v1: a slack braid adds no force)")
+    slack_width: float = _f(1e3, "kpa", "tension_only: pressure width of the CPAM braid's smooth slack switch")
+    bladder_model: str = _f("spring", "", "spring (v0: elastic_stiffness) | neo_hookean (v1: strain "
+                            "energy of each bladder wall, Klute and Hannaford 2000)")
+    bladder_shear_modulus: float = _f(0.0, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
+                                      "(wall thickness: bladder_thickness)", calibrate=True)
+    epam_bladder_length: float = _f(0.15, "cm", "EPAM bladder length, its stress-free length (section III)")
     # --- air supply, valves, chambers (model-notes sections 4-5) ---
     supply_pressure: float = _f(250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon")
     atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
@@ -107,17 +118,22 @@ class PlantParams:
             raise ValueError(f"force_model must be one of {FORCE_MODELS}, got {self.force_model!r}")
         if self.force_form not in FORCE_FORMS:
             raise ValueError(f"force_form must be one of {FORCE_FORMS}, got {self.force_form!r}")
+        if self.braid_tension not in BRAID_TENSIONS:
+            raise ValueError(f"braid_tension must be one of {BRAID_TENSIONS}, got {self.braid_tension!r}")
+        if self.bladder_model not in BLADDER_MODELS:
+            raise ValueError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
         if self.spool_order not in (1, 2):
             raise ValueError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
         positive = ("cpam_rest_length", "cpam_rest_diameter", "epam_sleeve_free_length",
                     "epam_sleeve_free_diameter", "min_length", "atmospheric_pressure",
                     "supply_temperature", "ambient_temperature", "spool_time_constant",
                     "onoff_switch_time", "pwm_frequency", "end_mass", "burst_pressure",
-                    "polytropic_exponent")
+                    "polytropic_exponent", "slack_width", "epam_bladder_length")
         nonneg = ("bladder_thickness", "sleeve_thickness", "kr_high", "kr_low", "elastic_stiffness",
                   "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
                   "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
-                  "coulomb_friction", "regulator_gain", "spool_damping")
+                  "coulomb_friction", "regulator_gain", "spool_damping",
+                  "bladder_shear_modulus")
         for name in positive:
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
@@ -190,7 +206,7 @@ class PlantParams:
         paper = self.force_form == "paper"
         p[ix.KAPPA] = self.paper_length_ratio if paper else 1.0
         p[ix.LAMBDA] = 1.0 if paper else 0.0
-        p[ix.K_EL] = self.elastic_stiffness
+        p[ix.K_EL] = self.elastic_stiffness if self.bladder_model == "spring" else 0.0  # v1: the walls' energy replaces it
         p[ix.L_EL0] = self.elastic_rest_length
         p[ix.L_MIN] = self.min_length
         p[ix.L_MAX] = self.max_length
@@ -218,6 +234,11 @@ class PlantParams:
         p[ix.F_COUL] = self.coulomb_friction
         p[ix.GRAV] = self.gravity
         p[ix.REG_GAIN] = self.regulator_gain
+        p[ix.SLACK_W] = self.slack_width if self.braid_tension == "tension_only" else 0.0
+        p[ix.MU_B] = self.bladder_shear_modulus if self.bladder_model == "neo_hookean" else 0.0
+        p[ix.TB_EL] = self.bladder_thickness
+        p[ix.LREF_C] = self.cpam_rest_length
+        p[ix.LREF_E] = self.epam_bladder_length
         fill_derived(p)
         return p
 
@@ -304,6 +325,12 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
         q[dk] = b / (math.pi * n)
         q[inv_pnb] = 1.0 / (math.pi * n * b)
     q[ix.PTA2] = math.pi * ta * ta
+    for lref, inv_l, inv_d, el, b_i, dk, d_o in ((ix.LREF_C, ix.INV_LREF_C, ix.INV_DREF_C, ix.EL_C, ix.BC, ix.DK_C, ix.DOC),
+                                                 (ix.LREF_E, ix.INV_LREF_E, ix.INV_DREF_E, ix.EL_E, ix.BE, ix.DK_E, ix.DOE)):
+        u = q[lref] / q[b_i]
+        q[inv_l] = 1.0 / q[lref]
+        q[inv_d] = 1.0 / (q[dk] * np.sqrt(1.0 - u * u))  # braid diameter at the bladder's rest length
+        q[el] = q[ix.MU_B] * math.pi * q[d_o] * q[ix.TB_EL] * q[lref]  # mu times rubber volume
     bc = q[ix.B_CRIT]
     q[ix.INV_1MB] = 1.0 / (1.0 - bc)
     x = (q[ix.R_LAM] - bc) / (1.0 - bc)

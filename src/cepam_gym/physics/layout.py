@@ -68,8 +68,21 @@ INV_1MB = 53  # 1 / (1 - b)
 LAM_K = 54  # sqrt(1 - x_lam^2) / (1 - r_lam), x_lam = (r_lam - b) / (1 - b): laminar slope factor
 K_SUP = 55  # sqrt(T0 / T_supply)
 K_AMB = 56  # sqrt(T0 / T_ambient)
+# --- plant v1 statics (docs/physics.md "Plant v1"); zero in a v0 row, which leaves v0 unchanged ---
+SLACK_W = 57  # tension-only braids: width [Pa] of the CPAM braid's slack switch; 0 = the braid also pushes (v0)
+MU_B = 58  # bladder shear modulus mu [Pa] of the neo-Hookean wall; 0 = no bladder energy (v0)
+TB_EL = 59  # bladder wall thickness of the strain energy [m] (t_b, Eq. 35)
+LREF_C = 60  # CPAM bladder's stress-free length [m] (its rest length, section II)
+LREF_E = 61  # EPAM bladder's stress-free length [m] (15 cm, section III)
+# derived by fill_derived
+EL_C = 62  # mu * rubber volume of the CPAM bladder [J] (pi D_oc t_b L_ref,c)
+EL_E = 63  # mu * rubber volume of the EPAM bladder [J]
+INV_LREF_C = 64  # 1 / L_ref,c
+INV_LREF_E = 65  # 1 / L_ref,e
+INV_DREF_C = 66  # 1 / braid diameter at L_ref,c
+INV_DREF_E = 67  # 1 / braid diameter at L_ref,e
 
-N_PARAMS = 57
+N_PARAMS = 68
 
 NAMES = tuple(
     name
