@@ -1,5 +1,5 @@
 """Tests of the static CE-PAM physics against analytic cases, limits, finite differences and the
-paper (/work/shared/seed: Eq. 1-45; summary in docs model-notes).
+paper (Eq. 1-45; summary in docs/model.md).
 
 Every reference value here is computed independently in the test (trigonometry from the braid angle,
 the paper's equations written out, central finite differences), never copied from the code.

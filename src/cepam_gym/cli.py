@@ -28,7 +28,8 @@ def _run(argv: list[str]) -> int:
     (table.txt, results.json, plots)."""
     from pathlib import Path
 
-    from . import demo, validation
+    from . import demo
+    from .validation.cli import validate_main
 
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
     ap.add_argument("--out-dir", default="runs/main")
@@ -40,7 +41,7 @@ def _run(argv: list[str]) -> int:
     out.mkdir(parents=True, exist_ok=True)
     print(f"[1/3] plant step response: {demo.step_response(out_dir=out)}", flush=True)
     print("[2/3] the paper's reported numbers beside the model's", flush=True)
-    validation.main(["--out-dir", str(out / "validate")])
+    validate_main(["--out-dir", str(out / "validate")])
     if args.no_train:
         from .bench import cli as bench_cli
 
@@ -105,9 +106,9 @@ def _rollout(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     commands = {"run": _run, "rollout": _rollout}
-    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation", "bench": "cepam_gym.bench.cli",
+    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation.cli:validate_main", "bench": "cepam_gym.bench.cli",
             "train": "agents.train", "eval": "agents.evaluate", "video": "cepam_gym.mujoco.video",
-            "calibrate": "cepam_gym.calibration"}
+            "calibrate": "cepam_gym.validation.cli:calibrate_main"}
     if not argv or argv[0] in ("-h", "--help"):
         print("usage: cepam-gym {run,bench,train,eval,demo,validate,calibrate,rollout,video} [options]\n"
               "  bench     score controllers on the benchmark suites\n"
@@ -126,7 +127,8 @@ def main(argv: list[str] | None = None) -> int:
     if cmd in lazy:
         import importlib
 
-        return importlib.import_module(lazy[cmd]).main(rest) or 0
+        module, _, func = lazy[cmd].partition(":")
+        return getattr(importlib.import_module(module), func or "main")(rest) or 0
     print(f"cepam-gym: unknown command {cmd!r}; try --help", file=sys.stderr)
     return 2
 

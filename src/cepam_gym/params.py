@@ -39,7 +39,7 @@ class PlantParams:
     """Physical parameters of one CE-PAM rig (SI units). Defaults: the paper's balloon CE-PAM,
     its unreported values calibrated to the paper's CE-PAM numbers (docs/calibration.md)."""
 
-    # --- muscle geometry (paper sections II, III, V, Table in model-notes section 1) ---
+    # --- muscle geometry (paper sections II, III, V; docs/model.md section 1) ---
     cpam_rest_length: float = _f(0.195, "cm", "CPAM length unpressurised (section II)")
     cpam_rest_diameter: float = _f(0.005, "mm", "CPAM braid diameter at rest (section II)")
     cpam_rest_angle: float = _f(
@@ -77,7 +77,7 @@ class PlantParams:
     bladder_shear_modulus: float = _f(0.0, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
                                       "(wall thickness: bladder_thickness)", calibrate=True)
     epam_bladder_length: float = _f(0.15, "cm", "EPAM bladder length, its stress-free length (section III)")
-    # --- air supply, valves, chambers (model-notes sections 4-5) ---
+    # --- air supply, valves, chambers (docs/model.md section 4) ---
     supply_pressure: float = _f(250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon")
     atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
     supply_temperature: float = _f(293.15, "k", "supply air temperature")

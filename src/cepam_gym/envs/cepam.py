@@ -97,7 +97,7 @@ _DOC = """
     ## Description
 
     A compound extensor pneumatic artificial muscle (CE-PAM: a contractor McKibben muscle inside an
-    extensor one, paper in ``shared/seed``) hangs vertically from a mounting plate with a load on
+    extensor one; docs/model.md summarises the paper) hangs vertically from a mounting plate with a load on
     its free end. Two valves feed the two chambers (the CPAM, pressure ``Pc``, and the annulus
     between the EPAM bladder and the CPAM, pressure ``Pe``). Because length and stiffness depend
     on both pressures differently, both can be set independently (paper section XII). The plant is

@@ -6,7 +6,7 @@ State per chamber: air mass ``m`` [kg] and internal energy ``U = m cv T`` [J]. T
     dm/dt = mdot_in - mdot_out
     dU/dt = mdot_in cp T_in - mdot_out cp T - p_abs dV/dt + hA (T_wall - T)
 
-(model-notes section 5). Mass is exactly conserved with closed valves because only the flows
+(docs/model.md section 4). Mass is exactly conserved with closed valves because only the flows
 change ``m``; the ``p dV`` term makes compression heat the air, so the closed-chamber stiffness
 of the plant is the adiabatic one on short time scales and the isothermal one on long ones.
 """

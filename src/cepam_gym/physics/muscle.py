@@ -147,7 +147,7 @@ def cepam_force(L, pc, pe, p):
     * paper form (``kappa = 1.3``, ``lambda = 1``): Eq. 41 for ``F_e`` minus Eq. 45 for ``F_c``
       (Eq. 25); with ``t_a = 0`` and ``P_r = 0`` it is Eq. 24 - Eq. 20, with ``P_r`` Eq. 30 - Eq. 33.
     * virtual-work form (``kappa = 1``, ``lambda = 0``): ``F dL = P_e dV_annulus + P_c dV_cpam``
-      with ``V_annulus = V_ae - V_c`` and ``V_cpam = V_ac`` (model-notes section 2).
+      with ``V_annulus = V_ae - V_c`` and ``V_cpam = V_ac`` (docs/model.md section 3).
 
     ``V_c`` is the CPAM's *outer* volume (what it displaces in the annulus, Eq. 21 and 38), ``V_ac``
     its air volume, ``V_ae`` the EPAM's air volume. ``pc``, ``pe`` are gauge pressures [Pa].

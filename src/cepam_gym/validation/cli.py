@@ -1,0 +1,108 @@
+"""``cepam-gym validate`` and ``cepam-gym calibrate``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..params import PlantParams, preset
+from .experiments import load_experiments
+from .fit import DEFAULT_FIT, FIT_PARAMS, fit, fitted_yaml, format_report, minimax
+from .measurements import read_csv, write_paper_csvs
+from .plots import plot_fit, write_plots
+from .table import base_params, format_table, json_rows, validation_rows
+
+
+def validate_main(argv: list[str] | None = None) -> int:
+    """``cepam-gym validate``: the table, its JSON and the plots."""
+    ap = argparse.ArgumentParser(prog="cepam-gym validate",
+                                 description="the paper's reported numbers beside the model's (computed, never stored)")
+    ap.add_argument("--json", action="store_true", help="print the rows as a JSON list (no plots)")
+    ap.add_argument("--preset", default=None, help="plant preset to validate (default: the dataclass defaults = balloon)")
+    ap.add_argument("--params", default=None, help="plant parameter YAML to validate (overrides --preset)")
+    ap.add_argument("--out-dir", default="runs/validate", help="where the plots and the table go")
+    args = ap.parse_args(argv)
+    params = base_params(args.preset, args.params)
+    experiments = load_experiments()
+    rows = validation_rows(params, experiments=experiments)
+    if args.json:
+        print(json.dumps(json_rows(rows), indent=1))
+        return 0
+    what = (args.params or f"preset {args.preset}") if (args.params or args.preset) else "default plant (balloon)"
+    table = format_table(rows, title=f"reproduction table: {what}")
+    print(table)
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "validate.txt").write_text(table + "\n")
+    (out / "validate.json").write_text(json.dumps(json_rows(rows), indent=1))
+    for path in write_plots(params, experiments, rows, out):
+        print(f"plot: {path}")
+    print(f"table: {out / 'validate.txt'}, {out / 'validate.json'}")
+    return 0
+
+
+def calibrate_main(argv: list[str] | None = None) -> int:
+    """``cepam-gym calibrate``: fit, report, fitted YAML and residual plot."""
+    ap = argparse.ArgumentParser(
+        prog="cepam-gym calibrate",
+        description="fit unknown plant parameters to measured static data (format: docs/calibration.md)")
+    ap.add_argument("--data", action="append",
+                    help="measurement CSV; repeat to fit several files jointly (the paper's numbers: "
+                         "cepam_gym/data/paper_cepam.csv and paper_single_muscles.csv)")
+    ap.add_argument("--out", help="fitted parameter YAML to write (loadable by PlantParams.from_yaml)")
+    ap.add_argument("--preset", default="balloon", help="base preset: the start and every unfitted value")
+    ap.add_argument("--fit", default=",".join(DEFAULT_FIT),
+                    help=f"comma-separated parameters to fit; one of {sorted(FIT_PARAMS)}")
+    ap.add_argument("--bounds", default="", help="override bounds: name=lo:hi,... (edge units)")
+    ap.add_argument("--starts", type=int, default=1, help="starting points (1 = the preset; more: seeded random)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--plot", default=None, help="residual plot (default: next to --out, .png)")
+    ap.add_argument("--minimax", action="store_true",
+                    help="also search (differential evolution, about a minute) for the smallest "
+                         "largest error the fit parameters can reach inside their bounds")
+    ap.add_argument("--write-paper-csv", metavar="DIR", default=None,
+                    help="write the paper's numbers (data/reported.yaml) as paper_cepam.csv and "
+                         "paper_single_muscles.csv into DIR and exit")
+    args = ap.parse_args(argv)
+    if args.write_paper_csv:
+        for path in write_paper_csvs(args.write_paper_csv):
+            print(f"wrote {path}")
+        return 0
+    if not args.data or not args.out:
+        ap.error("--data and --out are required")
+    names = tuple(s.strip() for s in args.fit.split(",") if s.strip())
+    bounds = {}
+    for item in filter(None, (s.strip() for s in args.bounds.split(","))):
+        try:
+            k, rng = item.split("=")
+            a, b = rng.split(":")
+            bounds[k.strip()] = (float(a), float(b))
+        except ValueError:
+            ap.error(f"--bounds: cannot read {item!r}; expected name=lo:hi")
+    base = preset(args.preset)
+    experiments = [m.experiment for path in args.data for m in read_csv(path)]
+    res = fit(experiments, base, names, starts=args.starts, seed=args.seed, bounds=bounds)
+    report = format_report(res, experiments)
+    print(f"calibration of preset {args.preset!r} ({base.force_model}/{base.force_form}) to {', '.join(args.data)}: "
+          f"{len(experiments)} measurements, {len(names)} parameters")
+    print(report)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    data = " ".join(f"--data {d}" for d in args.data)
+    header = (f"fitted by `cepam-gym calibrate {data} --preset {args.preset} --fit {','.join(names)}`\n"
+              f"mean |relative error| {100 * np.abs(res.residuals).mean():.2f}% over {len(experiments)} "
+              f"measurements; the full report is printed by the command")
+    out.write_text(fitted_yaml(res, args.preset, header))
+    PlantParams.from_yaml(out)  # round trip: the file loads
+    plot = plot_fit(res, experiments, args.plot or out.with_suffix(".png"))
+    print(f"wrote {out} and {plot}")
+    if args.minimax:
+        worst, x = minimax(experiments, base, names, bounds=bounds, seed=args.seed)
+        pars = ", ".join(f"{n} = {v:.4g}" for n, v in zip(names, x))
+        print(f"minimax check: the smallest largest |error| inside the bounds is {100 * worst:.2f}% ({pars})")
+    return 0
+
+

@@ -1,0 +1,319 @@
+"""Fit the unknown plant parameters to measured static data (``cepam-gym calibrate``).
+
+Input: a CSV with one measurement per row (format in docs/calibration.md; the paper's own numbers
+ship as ``cepam_gym/data/paper_cepam.csv``, generated from ``data/reported.yaml``). Each row is
+simulated exactly as :func:`cepam_gym.validation.equilibrium.simulate` simulates the paper's experiments (pressures
+held, the free end hanging; stiffness by hanging weights or at a held length; force at a held
+length), with the plant's own force model and form (``balloon``: enhanced, virtual work).
+
+Fit: bounded least squares (``scipy.optimize.least_squares``, trust-region reflective) on the
+relative residuals ``(model - measured) / measured`` over the chosen parameters, each scaled to
+``[0, 1]`` inside its physical bounds (:data:`FIT_PARAMS`). Uncertainty from the Jacobian at the
+optimum: ``cov = s^2 (J^T J)^-1`` with ``s^2 = sum(r^2) / (m - p)`` (pseudo-inverse when ``J``
+is rank deficient; such directions are reported as not identifiable). The result is written as a
+YAML that :meth:`PlantParams.from_yaml` loads: ``preset: <base>`` plus the fitted keys in edge
+units (``PlantParams.to_dict`` names).
+
+Parameters that only enter through a combination cannot be told apart: the bladder and sleeve
+thicknesses enter only as ``t_a = t_s + t_b`` (Eq. 35), so the default set fits ``wall_thickness``
+(``t_a``, keeping the base ratio ``t_b : t_s``); ``kr_scale`` scales both ``K_r`` of Eq. 27.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..params import PlantParams
+from ..units import from_si, to_si
+from .equilibrium import simulate
+from .experiments import Experiment
+
+# ------------------------------------------------------------------ the parameters that can be fitted
+KR_HIGH_PAPER = 2.0e6  # Pa/m, Eq. 27
+KR_LOW_PAPER = 5.0e5
+
+
+@dataclass(frozen=True)
+class FitParam:
+    """A fittable quantity in edge units, its physical bounds and how it maps onto PlantParams."""
+
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    why: str
+    get: Callable[[PlantParams], float]
+    set: Callable[[PlantParams, float], dict]
+    fields: tuple[str, ...]  # PlantParams fields it writes
+
+
+def _field(name: str) -> tuple[Callable[[PlantParams], float], Callable[[PlantParams, float], dict]]:
+    """Getter and setter of a PlantParams field in its edge unit (the field's own unit)."""
+    unit = PlantParams.__dataclass_fields__[name].metadata["unit"]
+    return (lambda p: from_si(getattr(p, name), unit)), (lambda p, v: {name: to_si(v, unit)})
+
+
+def _split_wall(p: PlantParams, ta_mm: float) -> dict:
+    ta = to_si(ta_mm, "mm")
+    total = p.bladder_thickness + p.sleeve_thickness
+    frac = p.bladder_thickness / total if total > 0 else 0.5
+    return {"bladder_thickness": ta * frac, "sleeve_thickness": ta * (1.0 - frac)}
+
+
+FIT_PARAMS: dict[str, FitParam] = {fp.name: fp for fp in (
+    FitParam("cpam_rest_angle", "deg", 5.0, 50.0,
+             "braid angle of the CPAM at rest: a contractor's braid is below 54.7 deg; commercial "
+             "sleeves are woven at about 15-45 deg",
+             *_field("cpam_rest_angle"), ("cpam_rest_angle",)),
+    FitParam("epam_sleeve_free_angle", "deg", 5.0, 50.0,
+             "braid angle of the EPAM sleeve before it is compressed (the same kind of sleeve)",
+             *_field("epam_sleeve_free_angle"), ("epam_sleeve_free_angle",)),
+    FitParam("wall_thickness", "mm", 0.1, 1.5,
+             "t_a = t_s + t_b (Eq. 35): a balloon wall of a few tenths of a mm (< 1 mm, sections "
+             "I-II) plus a braid of nylon threads; a wall cannot be thinner than 0.1 mm; the base "
+             "ratio t_b : t_s is kept",
+             lambda p: from_si(p.bladder_thickness + p.sleeve_thickness, "mm"), _split_wall,
+             ("bladder_thickness", "sleeve_thickness")),
+    FitParam("bladder_thickness", "mm", 0.0, 1.0, "t_b (Eq. 35): the balloon is thinner than the 1 mm tube",
+             *_field("bladder_thickness"), ("bladder_thickness",)),
+    FitParam("sleeve_thickness", "mm", 0.0, 1.0, "t_s (Eq. 35): a braid of nylon threads",
+             *_field("sleeve_thickness"), ("sleeve_thickness",)),
+    FitParam("kr_scale", "", 0.0, 4.0,
+             "factor on both K_r of Eq. 27 (2000 and 500 kPa/m, measured by Tsagarakis and "
+             "Caldwell on another muscle); 4 lets a balloon lose up to 80 kPa to inflation",
+             lambda p: p.kr_high / KR_HIGH_PAPER,
+             lambda p, v: {"kr_high": v * KR_HIGH_PAPER, "kr_low": v * KR_LOW_PAPER}, ("kr_high", "kr_low")),
+    FitParam("elastic_stiffness", "n_per_m", 0.0, 400.0,
+             "axial stiffness of the two bladders (not in the paper): latex E of 1-2 MPa, wall "
+             "<= 1 mm, 5 and 10 mm diameter, 15-20 cm long gives at most a few hundred N/m",
+             *_field("elastic_stiffness"), ("elastic_stiffness",)),
+    FitParam("elastic_rest_length", "cm", 15.0, 19.5,
+             "rest length of that elasticity: between the EPAM bladder (15 cm) and the CPAM (19.5 cm)",
+             *_field("elastic_rest_length"), ("elastic_rest_length",)),
+    FitParam("end_mass", "g", 5.0, 100.0, "the hanging end cap (3D printed)",
+             *_field("end_mass"), ("end_mass",)),
+)}
+DEFAULT_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "kr_scale", "elastic_stiffness")
+
+
+def apply(base: PlantParams, names: tuple[str, ...], values: np.ndarray) -> PlantParams:
+    """``base`` with the fit parameters ``names`` set to ``values`` (edge units); validated."""
+    p = base
+    for name, v in zip(names, values):
+        p = p.replace(**FIT_PARAMS[name].set(p, float(v)))
+    return p
+
+
+# ------------------------------------------------------------------ the fit
+@dataclass
+class FitResult:
+    names: tuple[str, ...]
+    start: np.ndarray  # edge units
+    values: np.ndarray
+    std: np.ndarray  # nan where not identifiable / undefined
+    cov: np.ndarray
+    at_bound: np.ndarray  # bool
+    identifiable: np.ndarray  # bool
+    params: PlantParams
+    residuals: np.ndarray  # relative, at the optimum
+    residuals_start: np.ndarray
+    model: np.ndarray
+    model_start: np.ndarray
+    cost: float
+    success: bool
+    message: str
+    starts_tried: int = 1
+    notes: list[str] = field(default_factory=list)
+
+
+def model_values(experiments: list[Experiment], params: PlantParams) -> np.ndarray:
+    return np.array([simulate(e, params).value for e in experiments])
+
+
+def relative_errors(model: np.ndarray, experiments: list[Experiment]) -> np.ndarray:
+    meas = np.array([e.value for e in experiments])
+    r = (model - meas) / np.abs(meas)
+    return np.where(np.isfinite(r), r, 1.0)  # a model that gives no value is 100 % off
+
+
+def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...] = DEFAULT_FIT,
+        starts: int = 1, seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None) -> FitResult:
+    """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
+
+    ``starts > 1`` adds ``starts - 1`` random starting points inside the bounds (seeded); the
+    lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units).
+    """
+    from scipy.optimize import least_squares
+
+    names = tuple(names)
+    for n in names:
+        if n not in FIT_PARAMS:
+            raise ValueError(f"unknown fit parameter {n!r}; one of {sorted(FIT_PARAMS)}")
+    written = [f for n in names for f in FIT_PARAMS[n].fields]
+    if len(set(written)) != len(written):
+        raise ValueError(f"fit parameters {list(names)} write the same field twice (e.g. wall_thickness "
+                         "and bladder_thickness); choose one")
+    lo = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[0] for n in names])
+    hi = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[1] for n in names])
+    span = hi - lo
+    x_start = np.array([FIT_PARAMS[n].get(base) for n in names])
+    model_start = model_values(experiments, base)
+
+    def to_edge(z: np.ndarray) -> np.ndarray:
+        return lo + z * span
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        try:
+            p = apply(base, names, to_edge(z))
+        except ValueError:
+            return np.full(len(experiments), 1.0)  # impossible geometry: 100 % off everywhere
+        return relative_errors(model_values(experiments, p), experiments)
+
+    rng = np.random.default_rng(seed)
+    z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
+    best = None
+    for z0 in z0s:
+        try:
+            sol = least_squares(residuals, z0, bounds=(0.0, 1.0), method="trf", diff_step=1e-4,
+                                x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200 * len(names))
+        except ValueError:
+            continue
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None:
+        raise RuntimeError("no start gave a valid parameter set")
+    values = to_edge(best.x)
+    params = apply(base, names, values)
+    model = model_values(experiments, params)
+    r = relative_errors(model, experiments)
+    m, k = len(experiments), len(names)
+    Jz = _jacobian(residuals, best.x, r)  # d r / d z, own finite differences (see _jacobian)
+    J = Jz / span  # d r / d (edge value)
+    notes: list[str] = []
+    identifiable = np.ones(k, bool)
+    if m > k:
+        s2 = float(r @ r) / (m - k)
+        JtJ = J.T @ J
+        cov = s2 * np.linalg.pinv(JtJ, rcond=1e-10)
+        # a parameter is not identifiable if the data do not move it: its column is (near) zero or it
+        # lies in the null space of J
+        _, s, vt = np.linalg.svd(Jz, full_matrices=False)
+        tiny = s < 1e-8 * max(s.max(), 1e-300)
+        for j in range(k):
+            if np.any(tiny & (np.abs(vt[:, j]) > 1e-3)):
+                identifiable[j] = False
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        std[~identifiable] = np.nan
+    else:
+        cov = np.full((k, k), np.nan)
+        std = np.full(k, np.nan)
+        notes.append(f"{m} measurements for {k} parameters: no residual degrees of freedom, no uncertainty")
+    at_bound = best.active_mask != 0
+    if np.any(at_bound):
+        notes.append("at a bound (the uncertainty of a bounded parameter is not a confidence interval): "
+                     + ", ".join(n for n, b in zip(names, at_bound) if b))
+    if np.any(~identifiable):
+        notes.append("not identifiable from these data (the Jacobian has no component along them): "
+                     + ", ".join(n for n, i in zip(names, identifiable) if not i))
+    return FitResult(names, x_start, values, std, cov, at_bound, identifiable, params, r,
+                     relative_errors(model_start, experiments), model, model_start, float(best.cost),
+                     bool(best.success), str(best.message), len(z0s), notes)
+
+
+def _jacobian(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.ndarray,
+              h: float = 1e-4) -> np.ndarray:
+    """Finite-difference Jacobian of the residuals in the scaled variables ``z`` in [0, 1]:
+    central differences inside, one-sided at a bound (so a parameter that sits on its bound still
+    shows how the data pull on it)."""
+    J = np.empty((r0.size, z.size))
+    for j in range(z.size):
+        up, dn = z.copy(), z.copy()
+        up[j], dn[j] = min(z[j] + h, 1.0), max(z[j] - h, 0.0)
+        fu = fun(up) if up[j] != z[j] else r0
+        fd = fun(dn) if dn[j] != z[j] else r0
+        J[:, j] = (fu - fd) / (up[j] - dn[j])
+    return J
+
+
+def minimax(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...] = DEFAULT_FIT,
+            bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0,
+            maxiter: int = 200) -> tuple[float, np.ndarray]:
+    """The smallest largest relative error the parameters ``names`` can reach inside their bounds
+    (``scipy.optimize.differential_evolution`` on ``max |r|``): a check of whether a goal such as
+    "every number within 5 %" is reachable at all, not a fit. Returns ``(max |r|, values)``."""
+    from scipy.optimize import differential_evolution
+
+    names = tuple(names)
+    lims = [(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi)) for n in names]
+
+    def worst(x: np.ndarray) -> float:
+        try:
+            p = apply(base, names, x)
+        except ValueError:
+            return 10.0
+        return float(np.max(np.abs(relative_errors(model_values(experiments, p), experiments))))
+
+    res = differential_evolution(worst, lims, seed=seed, maxiter=maxiter, popsize=15, tol=1e-9, polish=True)
+    return float(res.fun), np.asarray(res.x)
+
+
+# ------------------------------------------------------------------ reporting
+def format_report(res: FitResult, experiments: list[Experiment]) -> str:
+    lines = ["parameters (edge units):",
+             f"  {'name':<24} {'start':>10} {'fitted':>10} {'+/- 1 sd':>10} {'unit':>8}  bounds"]
+    for j, n in enumerate(res.names):
+        fp = FIT_PARAMS[n]
+        sd = "n/a" if not math.isfinite(res.std[j]) else f"{res.std[j]:.3g}"
+        flag = " (at bound)" if res.at_bound[j] else ""
+        lines.append(f"  {n:<24} {res.start[j]:>10.4g} {res.values[j]:>10.4g} {sd:>10} {fp.unit:>8}  "
+                     f"[{fp.lo:g}, {fp.hi:g}]{flag}")
+    lines.append("")
+    lines.append("residuals per measurement (relative, model vs measured):")
+    w = max(len(e.name) for e in experiments)
+    lines.append(f"  {'measurement':<{w}} {'measured':>10} {'unit':>4} {'before':>10} {'err':>7} {'after':>10} {'err':>7}")
+    for i, e in enumerate(experiments):
+        lines.append(f"  {e.name:<{w}} {e.value:>10.5g} {e.unit:>4} {res.model_start[i]:>10.5g} "
+                     f"{100 * res.residuals_start[i]:>+6.1f}% {res.model[i]:>10.5g} {100 * res.residuals[i]:>+6.1f}%")
+    rs, r = np.abs(res.residuals_start), np.abs(res.residuals)
+    lines.append(f"  mean |error| {100 * rs.mean():.2f}% -> {100 * r.mean():.2f}%, max {100 * rs.max():.1f}% -> "
+                 f"{100 * r.max():.1f}%, within 5%: {int((rs <= 0.05).sum())} -> {int((r <= 0.05).sum())} of {len(r)}")
+    lines.append(f"  optimizer: {res.message} (success={res.success}, cost={res.cost:.4g}, starts={res.starts_tried})")
+    for n in res.notes:
+        lines.append(f"  note: {n}")
+    for (a, b), rho in correlations(res).items():
+        lines.append(f"  note: {a} and {b} are strongly correlated (rho = {rho:+.2f}): the data fix a "
+                     "combination of them better than either")
+    return "\n".join(lines)
+
+
+def correlations(res: FitResult, threshold: float = 0.9) -> dict[tuple[str, str], float]:
+    """Pairs of fitted parameters whose estimates correlate beyond ``threshold`` (from ``cov``)."""
+    out = {}
+    sd = np.sqrt(np.clip(np.diag(res.cov), 0.0, None)) if np.all(np.isfinite(res.cov)) else None
+    if sd is None:
+        return out
+    for i in range(len(res.names)):
+        for j in range(i + 1, len(res.names)):
+            if sd[i] > 0 and sd[j] > 0 and not (res.at_bound[i] or res.at_bound[j]):
+                rho = res.cov[i, j] / (sd[i] * sd[j])
+                if abs(rho) > threshold:
+                    out[(res.names[i], res.names[j])] = float(rho)
+    return out
+
+
+def fitted_yaml(res: FitResult, base_preset: str, header: str = "") -> str:
+    """``preset: <base>`` plus the fitted fields, unit-named (the keys of ``PlantParams.to_dict``)."""
+    edge = res.params.to_dict()
+    keys = PlantParams.edge_keys()
+    fields = [f for n in res.names for f in FIT_PARAMS[n].fields]
+    lines = [f"# {ln}" if ln else "#" for ln in header.splitlines()]
+    lines.append(f"preset: {base_preset}")
+    for key, name in keys.items():
+        if name in fields:
+            lines.append(f"{key}: {edge[key]:.6g}")
+    return "\n".join(lines) + "\n"
+

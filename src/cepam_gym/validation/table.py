@@ -1,0 +1,135 @@
+"""The reproduction table: the model beside each reported number, per force-model level
+(``basic`` Eq. 20-25, ``radial`` Eq. 26-33, ``enhanced`` Eq. 34-45) and force form (``paper``:
+Eq. 22 and 15 literally; ``virtual_work``: energy-consistent), with relative errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..params import FORCE_FORMS, FORCE_MODELS, PlantParams, preset
+from .equilibrium import simulate
+from .experiments import Experiment, load_experiments
+
+LEVELS = tuple(f"{fm}/{ff}" for fm in FORCE_MODELS for ff in FORCE_FORMS)
+
+
+def base_params(preset_name: str | None = None, params_file: str | Path | None = None) -> PlantParams:
+    if params_file is not None:
+        return PlantParams.from_yaml(params_file)
+    return preset(preset_name) if preset_name else PlantParams()
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if x is not None and math.isfinite(x) else None
+
+
+def validation_rows(params: PlantParams | None = None, levels: tuple[str, ...] = LEVELS,
+                    experiments: list[Experiment] | None = None) -> list[dict]:
+    """One row per computable experiment and force-model level (``force_model/force_form``), one
+    row per non-computable experiment (``model_level = "n/a"``, ``model = rel_error = None``).
+
+    Keys: ``name, unit, reported, model, rel_error, model_level`` and ``id, source, force_model,
+    force_form, method, note, derived_from``.
+    """
+    params = params if params is not None else PlantParams()
+    experiments = experiments if experiments is not None else load_experiments()
+    rows = []
+    for exp in experiments:
+        if not exp.computable:
+            rows.append({"name": exp.name, "unit": exp.unit, "reported": exp.value, "model": None,
+                         "rel_error": None, "model_level": "n/a", "id": exp.id, "source": exp.source,
+                         "force_model": exp.model_level, "force_form": None, "method": "not computable",
+                         "note": "the measured force curves are only plotted in the paper",
+                         "derived_from": exp.derived_from})
+            continue
+        for level in levels:
+            fm, ff = level.split("/")
+            out = simulate(exp, params.replace(force_model=fm, force_form=ff))
+            model = _finite(out.value)
+            rows.append({
+                "name": exp.name, "unit": exp.unit, "reported": exp.value, "model": model,
+                "rel_error": None if model is None else (model - exp.value) / exp.value,
+                "model_level": level, "id": exp.id, "source": exp.source, "force_model": fm,
+                "force_form": ff, "method": out.method, "note": out.note,
+                "derived_from": exp.derived_from,
+            })
+    return rows
+
+
+def summary(rows: list[dict]) -> dict[str, dict]:
+    """Per level: mean |rel error|, count within 5 %, count of rows (derived ratios excluded)."""
+    out = {}
+    for level in dict.fromkeys(r["model_level"] for r in rows if r["model_level"] != "n/a"):
+        errs = [abs(r["rel_error"]) if r["rel_error"] is not None else math.inf
+                for r in rows if r["model_level"] == level and not r["derived_from"]]
+        finite = [e for e in errs if math.isfinite(e)]
+        out[level] = {"mean_abs_rel_error": float(np.mean(finite)) if finite else math.nan,
+                      "within_5pct": sum(e <= 0.05 for e in errs), "rows": len(errs)}
+    return out
+
+
+_SHORT = {"basic": "bas", "radial": "rad", "enhanced": "enh", "paper": "pap", "virtual_work": "vw"}
+
+
+def _short(level: str) -> str:
+    fm, ff = level.split("/")
+    return f"{_SHORT[fm]}/{_SHORT[ff]}"
+
+
+def format_table(rows: list[dict], title: str = "") -> str:
+    """Text table: one line per reported number, model value (relative error) per level; then the
+    non-computable numbers, a summary and the notes."""
+    levels = list(dict.fromkeys(r["model_level"] for r in rows if r["model_level"] != "n/a"))
+    by = {(r["id"], r["model_level"]): r for r in rows}
+    ids = list(dict.fromkeys(r["id"] for r in rows if r["model_level"] != "n/a"))
+    names = {r["id"]: r["name"] for r in rows}
+    w_name = max([len(names[i]) for i in ids] + [20])
+    head = f"{'reported number':<{w_name}} {'unit':>4} {'reported':>9}" + "".join(f" {_short(lv):>17}" for lv in levels)
+    lines = [title] if title else []
+    lines += [head, "-" * len(head)]
+    for i in ids:
+        r0 = by[(i, levels[0])]
+        line = f"{names[i]:<{w_name}} {r0['unit']:>4} {r0['reported']:>9.5g}"
+        for lv in levels:
+            r = by[(i, lv)]
+            mark = "*" if r["method"].startswith("local") and "held" not in r["method"] else " "
+            if r["model"] is None:
+                line += f" {'n/a':>17}"
+            else:
+                line += f" {r['model']:>8.4g}{mark}({100 * r['rel_error']:+5.0f}%)"
+        lines.append(line)
+    lines.append("")
+    lines.append("columns: model value (relative error) per force_model/force_form: bas = basic (Eq. 20-25), "
+                 "rad = +P_r (Eq. 26-33), enh = +t_a (Eq. 34-45); pap = paper form (Eq. 22, 15), "
+                 "vw = virtual work. * = no free equilibrium to hang weights from: local -dF/dL. "
+                 "Single-muscle rows do not depend on the form (no annulus).")
+    stats = summary(rows)
+    lines.append("mean |error| (derived ratios excluded):" + "".join(
+        f"  {_short(lv)} {100 * s['mean_abs_rel_error']:.1f}% ({s['within_5pct']}/{s['rows']} within 5%)"
+        for lv, s in stats.items()))
+    nc = [r for r in rows if r["model_level"] == "n/a"]
+    if nc:
+        lines.append("")
+        lines.append("reported, not computable (the measured force curves are only plotted):")
+        for r in nc:
+            lines.append(f"  {r['name']}: {r['reported']:g} {r['unit']} ({r['source']})")
+    lines.append("")
+    lines.append("notes:")
+    for i in ids:
+        groups: dict[str, list[str]] = {}
+        for lv in levels:
+            note = by[(i, lv)]["note"]
+            if note:
+                groups.setdefault(note, []).append(_short(lv))
+        for note, lvs in groups.items():
+            lines.append(f"  {names[i]} [{', '.join(lvs)}]: {note}")
+    return "\n".join(lines)
+
+
+
+def json_rows(rows: list[dict]) -> list[dict]:
+    return [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()} for r in rows]
+
