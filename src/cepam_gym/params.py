@@ -77,6 +77,9 @@ class PlantParams:
     bladder_shear_modulus: float = _f(0.0, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
                                       "(wall thickness: bladder_thickness)", calibrate=True)
     epam_bladder_length: float = _f(0.15, "cm", "EPAM bladder length, its stress-free length (section III)")
+    tube_shear_modulus: float = _f(0.0, "kpa", "neo_hookean: shear modulus of the rubber-tube bladders of "
+                                   "sections II, III, X (the reproduction's tube rows; preset rubber_tube)",
+                                   calibrate=True)
     # --- air supply, valves, chambers (docs/model.md section 4) ---
     supply_pressure: float = _f(250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon")
     atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
@@ -133,7 +136,7 @@ class PlantParams:
                   "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
                   "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
                   "coulomb_friction", "regulator_gain", "spool_damping",
-                  "bladder_shear_modulus")
+                  "bladder_shear_modulus", "tube_shear_modulus")
         for name in positive:
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
@@ -330,7 +333,8 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
         u = q[lref] / q[b_i]
         q[inv_l] = 1.0 / q[lref]
         q[inv_d] = 1.0 / (q[dk] * np.sqrt(1.0 - u * u))  # braid diameter at the bladder's rest length
-        q[el] = q[ix.MU_B] * math.pi * q[d_o] * q[ix.TB_EL] * q[lref]  # mu times rubber volume
+        # mu times the rubber volume of a tube of outer diameter D_o and wall t_b, pi (D_o - t_b) t_b L
+        q[el] = q[ix.MU_B] * math.pi * (q[d_o] - q[ix.TB_EL]) * q[ix.TB_EL] * q[lref]
     bc = q[ix.B_CRIT]
     q[ix.INV_1MB] = 1.0 / (1.0 - bc)
     x = (q[ix.R_LAM] - bc) / (1.0 - bc)

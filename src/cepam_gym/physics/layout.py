@@ -75,7 +75,7 @@ TB_EL = 59  # bladder wall thickness of the strain energy [m] (t_b, Eq. 35)
 LREF_C = 60  # CPAM bladder's stress-free length [m] (its rest length, section II)
 LREF_E = 61  # EPAM bladder's stress-free length [m] (15 cm, section III)
 # derived by fill_derived
-EL_C = 62  # mu * rubber volume of the CPAM bladder [J] (pi D_oc t_b L_ref,c)
+EL_C = 62  # mu * rubber volume of the CPAM bladder [J] (pi (D_oc - t_b) t_b L_ref,c)
 EL_E = 63  # mu * rubber volume of the EPAM bladder [J]
 INV_LREF_C = 64  # 1 / L_ref,c
 INV_LREF_E = 65  # 1 / L_ref,e

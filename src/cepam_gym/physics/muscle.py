@@ -167,7 +167,8 @@ def bladder_energy_k(L, inv_b, dk, scale, inv_lref, inv_dref):
     ``U = mu V_r (lam1^2 + lam2^2 + (lam1 lam2)^-2 - 3) / 2`` with the axial stretch
     ``lam1 = L / L_ref`` (the bladder is glued to both end caps) and the hoop stretch
     ``lam2 = D(L) / D(L_ref)`` (the bladder follows the braid, Eq. 2; stress-free in the muscle's
-    unpressurised rest configuration). ``scale = mu V_r`` (rubber volume ``pi D_o t_b L_ref``);
+    unpressurised rest configuration). ``scale = mu V_r`` (rubber volume ``pi (D_o - t_b) t_b L_ref``
+    of a tube of outer diameter ``D_o``);
     ``scale = 0`` gives exact zeros. The derivatives are exact (``K = -dF/dL`` needs the second).
     """
     u = L * inv_b

@@ -94,6 +94,13 @@ FIT_PARAMS: dict[str, FitParam] = {fp.name: fp for fp in (
     FitParam("elastic_rest_length", "cm", 15.0, 19.5,
              "rest length of that elasticity: between the EPAM bladder (15 cm) and the CPAM (19.5 cm)",
              *_field("elastic_rest_length"), ("elastic_rest_length",)),
+    FitParam("bladder_shear_modulus", "kpa", 50.0, 3000.0,
+             "neo-Hookean shear modulus of the balloon rubber (natural latex: about 0.3-0.6 MPa "
+             "in small strain; wide bounds because only mu t_b is seen by most data)",
+             *_field("bladder_shear_modulus"), ("bladder_shear_modulus",)),
+    FitParam("tube_shear_modulus", "kpa", 50.0, 3000.0,
+             "neo-Hookean shear modulus of the rubber-tube bladders (natural or silicone rubber: "
+             "about 0.2-1 MPa)", *_field("tube_shear_modulus"), ("tube_shear_modulus",)),
     FitParam("end_mass", "g", 5.0, 100.0, "the hanging end cap (3D printed)",
              *_field("end_mass"), ("end_mass",)),
 )}
@@ -141,11 +148,14 @@ def relative_errors(model: np.ndarray, experiments: list[Experiment]) -> np.ndar
 
 
 def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...] = DEFAULT_FIT,
-        starts: int = 1, seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None) -> FitResult:
+        starts: int = 1, seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None,
+        max_nfev: int | None = None, tol: float = 1e-10, x0s: list[np.ndarray] | None = None) -> FitResult:
     """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
 
     ``starts > 1`` adds ``starts - 1`` random starting points inside the bounds (seeded); the
-    lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units).
+    lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units). ``x0s`` adds
+    given starting points (edge units); ``max_nfev`` (default ``200 * len(names)``) and ``tol``
+    (xtol, ftol, gtol) bound the work of each start.
     """
     from scipy.optimize import least_squares
 
@@ -175,11 +185,13 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
 
     rng = np.random.default_rng(seed)
     z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
+    z0s += [np.clip((np.asarray(x, float) - lo) / span, 0.0, 1.0) for x in (x0s or [])]
     best = None
     for z0 in z0s:
         try:
             sol = least_squares(residuals, z0, bounds=(0.0, 1.0), method="trf", diff_step=1e-4,
-                                x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200 * len(names))
+                                x_scale=1.0, xtol=tol, ftol=tol, gtol=tol,
+                                max_nfev=max_nfev or 200 * len(names))
         except ValueError:
             continue
         if best is None or sol.cost < best.cost:

@@ -1,0 +1,208 @@
+"""Plant v1 statics: tension-only CPAM braid and neo-Hookean bladder walls (docs/physics.md,
+"Plant v1"). Reference values are computed here independently (the neo-Hookean energy written
+out from the stretches, central finite differences), never copied from the code."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cepam_gym import plant
+from cepam_gym.params import FORCE_FORMS, FORCE_MODELS, PlantParams
+from cepam_gym.physics import api
+from cepam_gym.physics import layout as ix
+
+# a v1 parameter set written out here (independent of the shipped presets' fitted values)
+V1 = PlantParams().replace(
+    braid_tension="tension_only", bladder_model="neo_hookean", bladder_shear_modulus=600e3,
+    tube_shear_modulus=400e3, bladder_thickness=0.2e-3, sleeve_thickness=0.1e-3, elastic_stiffness=0.0,
+    cpam_rest_angle=math.radians(26.0), epam_sleeve_free_angle=math.radians(40.0))
+V0_LIKE = V1.replace(braid_tension="bidirectional", bladder_model="spring", elastic_stiffness=0.0)
+LENGTHS = np.linspace(0.151, 0.194, 9)
+
+
+def fd(fun, x, h):
+    return (fun(x + h) - fun(x - h)) / (2.0 * h)
+
+
+def neo_hookean_energy(L, p: PlantParams):
+    """Both walls' energy from the stretches (thin-wall incompressible neo-Hookean cylinders):
+    lam1 = L / L_ref, lam2 = D(L) / D(L_ref), U = mu V_r (lam1^2 + lam2^2 + (lam1 lam2)^-2 - 3) / 2."""
+    total = 0.0
+    for b_n, l_ref, d_o in ((p.cpam_braid(), p.cpam_rest_length, p.cpam_bladder_diameter),
+                            (p.epam_braid(), p.epam_bladder_length, p.epam_bladder_diameter)):
+        b, n = b_n
+
+        def diameter(x):
+            return b * math.sin(math.acos(x / b)) / (n * math.pi)
+
+        l1 = L / l_ref
+        l2 = diameter(L) / diameter(l_ref)
+        v_rubber = math.pi * (d_o - p.bladder_thickness) * p.bladder_thickness * l_ref
+        total += p.bladder_shear_modulus * v_rubber * 0.5 * (l1 ** 2 + l2 ** 2 + (l1 * l2) ** -2 - 3.0)
+    return total
+
+
+def test_bladder_energy_matches_the_stretches_and_its_derivatives():
+    for L in LENGTHS:
+        u, du, d2u = (float(v) for v in api.bladder_energy(L, V1))
+        assert u == pytest.approx(neo_hookean_energy(L, V1), rel=1e-10)
+        assert du == pytest.approx(fd(lambda x: neo_hookean_energy(x, V1), L, 1e-6), rel=1e-6, abs=1e-9)
+        assert d2u == pytest.approx(fd(lambda x: float(api.bladder_energy(x, V1)[1]), L, 1e-6), rel=1e-6, abs=1e-6)
+    # stress free at each bladder's rest configuration, positive elsewhere
+    assert neo_hookean_energy(V1.cpam_rest_length, V1.replace(bladder_shear_modulus=0.0)) == 0.0
+    assert float(api.bladder_energy(0.17, V1)[0]) > 0.0
+
+
+def test_v0_rows_store_no_bladder_energy():
+    u, du, d2u = api.bladder_energy(LENGTHS, V0_LIKE)
+    assert np.all(u == 0.0) and np.all(du == 0.0) and np.all(d2u == 0.0)
+
+
+def test_slack_cpam_adds_no_force():
+    """Pe >= Pc: the CPAM is squeezed from outside, its braid slack. The CE-PAM then makes exactly
+    the force of the EPAM alone, P_e dV_ae/dL - dU_e/dL (no CPAM braid term, no CPAM wall)."""
+    row = V1.to_array()
+    alone = row.copy()  # the EPAM alone: no CPAM term, no CPAM wall
+    alone[ix.KAPPA] = alone[ix.LAMBDA] = 0.0
+    alone[ix.EL_C] = 0.0
+    for pc, pe in ((0.0, 100e3), (50e3, 100e3), (120e3, 120e3), (0.0, 250e3)):
+        f = api.force(LENGTHS, pc, pe, row)
+        f_epam = api.force(LENGTHS, 0.0, pe, alone)
+        np.testing.assert_allclose(f, f_epam, rtol=1e-12, atol=1e-12)
+    # the bidirectional (v0) braid pushes there: the difference is the push the braid cannot make
+    f_v0 = api.force(LENGTHS, 0.0, 250e3, V1.replace(braid_tension="bidirectional"))
+    assert np.all(f_v0 > api.force(LENGTHS, 0.0, 250e3, V1) + 1.0)
+
+
+def test_taut_cpam_is_unchanged_by_the_switch():
+    """Well in tension (Pc >> Pe) the tension-only braid is the bidirectional one."""
+    for pc, pe in ((200e3, 50e3), (250e3, 125e3)):
+        f1 = api.force(LENGTHS, pc, pe, V1)
+        f2 = api.force(LENGTHS, pc, pe, V1.replace(braid_tension="bidirectional"))
+        np.testing.assert_allclose(f1, f2, rtol=1e-12)
+
+
+@pytest.mark.parametrize("L", [0.16, 0.175, 0.19])
+def test_force_and_stiffness_continuous_at_the_switch(L):
+    """Sweep Pc through the slack-taut transition at fixed Pe: neighbouring samples of force and
+    stiffness differ in proportion to the sample spacing (halving the spacing halves the largest
+    step), i.e. neither jumps; a jump of the braid term would be ~0.06 N (w |dV_c/dL|)."""
+    pe = 80e3
+    f_coarse = api.force(np.full(31, L), np.linspace(0.0, 300e3, 31), pe, V1)
+    assert np.ptp(f_coarse) > 0.5  # the CPAM takes hold inside the sweep
+    slack = np.abs(f_coarse - f_coarse[0]) < 1e-9
+    i = int(np.argmin(slack))  # first taut sample
+    lo, hi = (i - 1) * 10e3, (i + 1) * 10e3
+
+    def steps(n):
+        pcs = np.linspace(lo, hi, n)
+        f, k, _, _ = api.force_terms(np.full(n, L), pcs, pe, V1)
+        return np.abs(np.diff(f)).max(), np.abs(np.diff(k)).max(), f
+
+    sf1, sk1, f = steps(20001)  # 1 Pa
+    sf2, sk2, _ = steps(40001)  # 0.5 Pa
+    assert np.ptp(f) > 0.1
+    assert sf1 < 1e-3 and sf2 < 0.6 * sf1
+    assert sk2 < 0.6 * sk1
+
+
+@pytest.mark.parametrize("pc,pe", [(0.0, 150e3), (75e3, 50e3), (81e3, 80e3), (80.5e3, 80e3), (250e3, 125e3),
+                                   (175e3, 100e3)])
+def test_stiffness_and_pressure_sensitivities_are_exact_derivatives(pc, pe):
+    """K = -dF/dL at constant pressures and dF/dP by central differences, the switch included
+    (80.5 and 81 kPa against 80: inside the 1 kPa switch at some lengths)."""
+    for L in LENGTHS:
+        f, k, dpc, dpe = (float(v) for v in api.force_terms(L, pc, pe, V1))
+        num_k = -fd(lambda x: float(api.force(x, pc, pe, V1)), L, 1e-7)
+        assert k == pytest.approx(num_k, rel=2e-5, abs=2e-3)
+        assert dpc == pytest.approx(fd(lambda x: float(api.force(L, x, pe, V1)), pc, 0.5), rel=1e-4, abs=1e-9)
+        assert dpe == pytest.approx(fd(lambda x: float(api.force(L, pc, x, V1)), pe, 0.5), rel=1e-4, abs=1e-9)
+
+
+def test_paper_levels_unchanged_by_the_v1_fields():
+    """The reproduction table's named levels (basic Eq. 25, radial Eq. 30-33, enhanced Eq. 41/45,
+    paper and virtual-work forms) evaluate the same with the v1 fields at their v0 values, whatever
+    v1 values the plant carries otherwise (bladder modulus, tube modulus, slack width)."""
+    other = V0_LIKE.replace(bladder_shear_modulus=900e3, tube_shear_modulus=50e3, slack_width=5e3)
+    for fm in FORCE_MODELS:
+        for ff in FORCE_FORMS:
+            a = V0_LIKE.replace(force_model=fm, force_form=ff)
+            b = other.replace(force_model=fm, force_form=ff)
+            for pc, pe in ((0.0, 150e3), (175e3, 100e3)):
+                np.testing.assert_array_equal(api.force_terms(LENGTHS, pc, pe, a), api.force_terms(LENGTHS, pc, pe, b))
+
+
+def test_thicker_walls_contract_less():
+    """Section X: the same CPAM with a thicker tube wall contracts less at the same pressure."""
+    from cepam_gym.validation import Experiment, simulate
+
+    out = []
+    for t_mm in (1.0, 1.5, 2.0):
+        e = Experiment("c", "c", "contraction", "%", 1.0, device="cpam", bladder="tube",
+                       bladder_thickness_mm=t_mm, pc_kpa=500.0)
+        out.append(simulate(e, V1).value)
+    assert out[0] > out[1] > out[2]
+
+
+def test_single_muscle_free_length_depends_on_pressure():
+    """With elastic walls a lone CPAM shortens and a lone EPAM lengthens as the pressure rises
+    (a bare braid is force free at one length whatever the pressure)."""
+    from cepam_gym.validation import Experiment, simulate
+
+    def length(device, kpa):
+        e = Experiment("l", "l", "length", "cm", 1.0, device=device, pc_kpa=kpa, pe_kpa=kpa)
+        return simulate(e, V1).value
+
+    c = [length("cpam", k) for k in (100.0, 175.0, 250.0)]
+    e = [length("epam", k) for k in (50.0, 150.0, 300.0)]
+    assert c[0] > c[1] > c[2]
+    assert e[0] < e[1] < e[2]
+
+
+def test_inverse_statics_includes_the_walls():
+    """The 2x2 inverse (physics.statics) holds length and stiffness on the v1 plant (CPAM taut)."""
+    w = (V1.end_mass + 0.1) * V1.gravity
+    for L, K in ((0.165, 900.0), (0.18, 1200.0)):
+        pc, pe, ok = api.static_pressures(L, K, w, V1)
+        assert ok and pc > pe + 5e3
+        f, k, _, _ = api.force_terms(L, pc, pe, V1)
+        assert float(f) + w == pytest.approx(0.0, abs=1e-8)
+        assert float(k) == pytest.approx(K, rel=1e-9)
+
+
+def test_sealed_v1_plant_conserves_energy_with_the_walls():
+    """Sealed chambers, no heat, no damping, no radial loss, CPAM taut all the way: air + load +
+    atmosphere + wall strain energy is conserved up to the integration error, which halves with
+    the sub-step (the walls are a conservative force)."""
+    def drift(dt, n_sub=10, t_end=0.2):
+        p = V1.replace(heat_transfer=0.0, leak_conductance=0.0, damping=0.0, kr_high=0.0, kr_low=0.0)
+        P = p.to_array()[None]
+        load = 0.1
+        M, patm = p.end_mass + load, p.atmospheric_pressure
+
+        def energy(x, a):
+            return (x[0, plant.S_UC] + x[0, plant.S_UE] + 0.5 * M * x[0, plant.S_V] ** 2
+                    - M * p.gravity * x[0, plant.S_L] + patm * (a[plant.A_VC] + a[plant.A_VE])
+                    + float(api.bladder_energy(x[0, plant.S_L], p)[0]))
+
+        x = plant.initial_state(P, 0.17, 200e3, 60e3)
+        a = plant.measure(x, P)[0]
+        e0 = energy(x, a)
+        dE, Ls = [], []
+        for _ in range(int(round(t_end / dt / n_sub))):
+            x, aux = plant.step(x, np.array([[0.0, 0.0, load, 0.0]]), P, dt=dt, n_sub=n_sub)
+            dE.append(energy(x, aux[0]) - e0)
+            Ls.append(x[0, plant.S_L])
+            assert aux[0, plant.A_PC] > aux[0, plant.A_PE] + 20e3  # taut throughout
+        return np.abs(dE).max(), np.ptp(Ls)
+
+    e1, travel = drift(1e-4)
+    e2, _ = drift(5e-5)
+    u_wall = float(api.bladder_energy(0.17, V1)[0])
+    assert travel > 5e-4
+    assert u_wall > 1e-3  # the walls hold energy comparable to the oscillation's
+    assert e1 < 5e-4
+    assert e2 < 0.6 * e1
