@@ -4,11 +4,12 @@ Every field is SI (m, Pa, kg, s, K). In YAML each key carries the unit it is wri
 (``supply_kpa: 300``), converted by :mod:`cepam_gym.units`; unknown keys and wrong units are
 rejected with the key's name. Pressures called ``*_kpa`` are gauge; ``*_kpa_abs`` absolute.
 
-Values marked ``calibrate=True`` are not reported by the paper. Their defaults are the fit of the
-paper's 13 CE-PAM numbers (``cepam-gym calibrate --data data/paper_cepam.csv``, docs/calibration.md
-section 4): the default plant reproduces them with a mean error of 4.1 %. The pre-calibration
-guesses (equal 18 deg braids, 0.3 + 0.2 mm walls, no elasticity) are the ``balloon_uncalibrated``
-preset.
+The defaults are plant v1 (docs/physics.md, "Plant v1"): tension-only braids and a neo-Hookean
+wall per bladder. Values marked ``calibrate=True`` are not reported by the paper; their defaults
+are one bounded least-squares fit of every computable reported number (CE-PAM, single CPAM and
+EPAM, the tube-thickness rows; ``cepam-gym calibrate --v1``, docs/calibration.md, "Plant v1"). The
+v0 plant (braids that also push, one linear spring, fitted to the 13 CE-PAM numbers) is the preset
+``balloon_v0``; the pre-calibration guesses on it are ``balloon_uncalibrated``.
 """
 
 from __future__ import annotations
@@ -43,20 +44,22 @@ class PlantParams:
     cpam_rest_length: float = _f(0.195, "cm", "CPAM length unpressurised (section II)")
     cpam_rest_diameter: float = _f(0.005, "mm", "CPAM braid diameter at rest (section II)")
     cpam_rest_angle: float = _f(
-        math.radians(28.8797), "deg",
-        "CPAM braid angle at rest (only '< 54.7 deg' reported); fitted to the CE-PAM's lengths and "
-        "stiffnesses of sections V and XII (+/- 6.4 deg)", calibrate=True)
+        math.radians(20.3), "deg",
+        "CPAM braid angle at rest (only '< 54.7 deg' reported); fitted to every reported number "
+        "(plant v1, docs/calibration.md); on its lower bound, which keeps the CPAM within twice its "
+        "5 mm over the stroke", calibrate=True)
     epam_sleeve_free_length: float = _f(0.30, "cm", "EPAM sleeve length before compression (section III)")
     epam_sleeve_free_diameter: float = _f(0.010, "mm", "EPAM sleeve diameter before compression")
     epam_sleeve_free_angle: float = _f(
-        math.radians(19.173), "deg",
-        "EPAM free-sleeve braid angle (not reported); fitted like the CPAM's (+/- 3.2 deg). Unequal "
-        "angles: the paper's relations Eq. 6-7 then hold only approximately", calibrate=True)
+        math.radians(33.18), "deg",
+        "EPAM free-sleeve braid angle (not reported); fitted like the CPAM's (+/- 3.2 deg; >= 26.6 deg "
+        "keeps the sleeve within twice its 10 mm). Unequal angles: the paper's relations Eq. 6-7 "
+        "then hold only approximately", calibrate=True)
     cpam_bladder_diameter: float = _f(0.005, "mm", "D_oc of Eq. 32")
     epam_bladder_diameter: float = _f(0.010, "mm", "D_oe of Eq. 28")
-    bladder_thickness: float = _f(0.00006, "mm", "t_b of Eq. 35 (balloon: < 1 mm); fitted as t_a = t_s + t_b "
-                                  "= 0.1 mm, the fit's lower bound, split 3 : 2", calibrate=True)
-    sleeve_thickness: float = _f(0.00004, "mm", "t_s of Eq. 35 (not reported); see bladder_thickness",
+    bladder_thickness: float = _f(0.0001043, "mm", "t_b of Eq. 35 (balloon: < 1 mm) and the wall of the "
+                                  "strain energy; fitted (+/- 0.03 mm)", calibrate=True)
+    sleeve_thickness: float = _f(0.00005, "mm", "t_s of Eq. 35 (not reported); fitted, on its 0.05 mm lower bound",
                                  calibrate=True)
     kr_high: float = _f(2.0e6, "kpa_per_m", "K_r for D sin(theta) < D_o/2 (Eq. 27)")
     kr_low: float = _f(5.0e5, "kpa_per_m", "K_r for D sin(theta) > D_o/2 (Eq. 27)")
@@ -65,19 +68,19 @@ class PlantParams:
     force_form: str = _f("virtual_work", "", "virtual_work (energy-consistent) | paper (Eq. 22, 15)")
     min_length: float = _f(0.15, "cm", "lower end stop: the CE-PAM's nominal length (section VIII)")
     max_length: float = _f(0.195, "cm", "upper end stop: the CPAM's rest length (section V)")
-    elastic_stiffness: float = _f(166.121, "n_per_m", "bladder elasticity (not in the paper); fitted "
-                                  "(+/- 73 N/m)", calibrate=True)
+    elastic_stiffness: float = _f(0.0, "n_per_m", "v0 bladder spring (not in the paper; bladder_model = "
+                                  "spring only; v0 fitted 166 N/m, preset balloon_v0)", calibrate=True)
     elastic_rest_length: float = _f(0.15, "cm", "rest length of that elasticity")
-    # --- plant v1 statics (docs/physics.md, "Plant v1"); the values here are v0's ---
-    braid_tension: str = _f("bidirectional", "", "bidirectional (v0: the CPAM braid also pushes) | "
+    # --- plant v1 statics (docs/physics.md, "Plant v1"); preset balloon_v0 sets them to v0 ---
+    braid_tension: str = _f("tension_only", "", "bidirectional (v0: the CPAM braid also pushes) | "
                             "tension_only (v1: a slack braid adds no force)")
     slack_width: float = _f(1e3, "kpa", "tension_only: pressure width of the CPAM braid's smooth slack switch")
-    bladder_model: str = _f("spring", "", "spring (v0: elastic_stiffness) | neo_hookean (v1: strain "
+    bladder_model: str = _f("neo_hookean", "", "spring (v0: elastic_stiffness) | neo_hookean (v1: strain "
                             "energy of each bladder wall, Klute and Hannaford 2000)")
-    bladder_shear_modulus: float = _f(0.0, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
+    bladder_shear_modulus: float = _f(1000e3, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
                                       "(wall thickness: bladder_thickness)", calibrate=True)
     epam_bladder_length: float = _f(0.15, "cm", "EPAM bladder length, its stress-free length (section III)")
-    tube_shear_modulus: float = _f(0.0, "kpa", "neo_hookean: shear modulus of the rubber-tube bladders of "
+    tube_shear_modulus: float = _f(426.9e3, "kpa", "neo_hookean: shear modulus of the rubber-tube bladders of "
                                    "sections II, III, X (the reproduction's tube rows; preset rubber_tube)",
                                    calibrate=True)
     # --- air supply, valves, chambers (docs/model.md section 4) ---

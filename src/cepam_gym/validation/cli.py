@@ -13,7 +13,7 @@ from .experiments import load_experiments
 from .fit import DEFAULT_FIT, FIT_PARAMS, fit, fitted_yaml, format_report, minimax
 from .measurements import read_csv, write_paper_csvs
 from .plots import plot_fit, write_plots
-from .table import base_params, format_table, json_rows, validation_rows
+from .table import base_params, format_headline, format_table, geometry_lines, json_rows, validation_rows
 
 
 def validate_main(argv: list[str] | None = None) -> int:
@@ -32,7 +32,8 @@ def validate_main(argv: list[str] | None = None) -> int:
         print(json.dumps(json_rows(rows), indent=1))
         return 0
     what = (args.params or f"preset {args.preset}") if (args.params or args.preset) else "default plant (balloon)"
-    table = format_table(rows, title=f"reproduction table: {what}")
+    table = "\n".join([format_table(rows, title=f"reproduction table: {what}"), "",
+                       format_headline(rows), "", geometry_lines(params)])
     print(table)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)

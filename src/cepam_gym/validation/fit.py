@@ -106,6 +106,33 @@ FIT_PARAMS: dict[str, FitParam] = {fp.name: fp for fp in (
 )}
 DEFAULT_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "kr_scale", "elastic_stiffness")
 
+# ------------------------------------------------------------------ plant v1: one fit across all data
+# The braid angles' lower bounds keep each sleeve within twice its nominal diameter over the stroke
+# (docs/calibration.md, "Plant v1"): a braid of free length L_f, angle theta_0, pressed to L has
+# D / D_0 = sin(theta) / sin(theta_0) with cos(theta) = (L / L_f) cos(theta_0); D / D_0 <= 2 at the
+# shortest length (15 cm) needs theta_0 >= 20.3 deg (CPAM, L_f = 19.5 cm) and >= 26.6 deg (EPAM
+# sleeve, L_f = 30 cm). Moduli: rubber in small strain, 0.2-1 MPa (latex, natural and silicone
+# rubber); walls: a balloon of 0.05-0.5 mm, a braid of 0.05-0.5 mm.
+V1_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "bladder_thickness", "sleeve_thickness",
+          "bladder_shear_modulus", "tube_shear_modulus", "kr_scale")
+V1_BOUNDS = {"cpam_rest_angle": (20.3, 50.0), "epam_sleeve_free_angle": (26.6, 50.0),
+             "bladder_thickness": (0.05, 0.5), "sleeve_thickness": (0.05, 0.5),
+             "bladder_shear_modulus": (200.0, 1000.0), "tube_shear_modulus": (200.0, 1000.0),
+             "kr_scale": (0.0, 4.0)}
+V1_STARTS = ([20.3, 34.6, 0.125, 0.05, 1000.0, 430.0, 0.0], [22.0, 40.0, 0.3, 0.1, 300.0, 600.0, 1.0],
+             [30.0, 45.0, 0.1, 0.2, 800.0, 200.0, 2.0])  # edge units, in V1_FIT order
+
+
+def sleeve_diameter_ratio(length: float, free_length: float, free_angle: float) -> float:
+    """``D / D_0`` of a braid of free length and angle (rad) pressed or pulled to ``length``."""
+    c = length / free_length * math.cos(free_angle)
+    return math.sqrt(1.0 - c * c) / math.sin(free_angle)
+
+
+def experiment_group(exp: Experiment) -> str:
+    """The experiment group a row belongs to (device and bladder): cross-validation leaves one out."""
+    return exp.device if exp.device == "cepam" else f"{exp.device}_{exp.bladder}"
+
 
 def apply(base: PlantParams, names: tuple[str, ...], values: np.ndarray) -> PlantParams:
     """``base`` with the fit parameters ``names`` set to ``values`` (edge units); validated."""
@@ -329,3 +356,42 @@ def fitted_yaml(res: FitResult, base_preset: str, header: str = "") -> str:
             lines.append(f"{key}: {edge[key]:.6g}")
     return "\n".join(lines) + "\n"
 
+
+
+@dataclass
+class CrossValidation:
+    """Leave-one-group-out: per group, the errors of its rows predicted by a fit without them."""
+
+    groups: list[str]
+    predicted: dict[str, np.ndarray]  # group -> relative errors of its rows, out of sample
+    in_sample: dict[str, np.ndarray]  # group -> relative errors of the fit to all data
+    values: dict[str, np.ndarray]  # group -> parameters fitted without it
+
+
+def cross_validate(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...],
+                   bounds: dict[str, tuple[float, float]] | None = None, x0s=None, max_nfev: int | None = None,
+                   tol: float = 1e-7, full: FitResult | None = None) -> CrossValidation:
+    """Fit without each experiment group in turn (:func:`experiment_group`) and predict it."""
+    groups = list(dict.fromkeys(experiment_group(e) for e in experiments))
+    full = full or fit(experiments, base, names, bounds=bounds, x0s=x0s, max_nfev=max_nfev, tol=tol)
+    pred, ins, vals = {}, {}, {}
+    for g in groups:
+        keep = [e for e in experiments if experiment_group(e) != g]
+        out = [e for e in experiments if experiment_group(e) == g]
+        res = fit(keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol)
+        pred[g] = relative_errors(model_values(out, res.params), out)
+        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if experiment_group(e) == g])
+        vals[g] = res.values
+    return CrossValidation(groups, pred, ins, vals)
+
+
+def format_cross_validation(cv: CrossValidation) -> str:
+    lines = ["leave-one-group-out (fit without the group, predict it): mean |error| in sample -> out of sample",
+             f"  {'group':<16} {'rows':>4} {'in sample':>10} {'predicted':>10} {'worst pred.':>12}"]
+    for g in cv.groups:
+        i, p = np.abs(cv.in_sample[g]), np.abs(cv.predicted[g])
+        lines.append(f"  {g:<16} {len(p):>4} {100 * i.mean():>9.1f}% {100 * p.mean():>9.1f}% {100 * p.max():>11.1f}%")
+    alli = np.abs(np.concatenate([cv.in_sample[g] for g in cv.groups]))
+    allp = np.abs(np.concatenate([cv.predicted[g] for g in cv.groups]))
+    lines.append(f"  {'all':<16} {len(allp):>4} {100 * alli.mean():>9.1f}% {100 * allp.mean():>9.1f}% {100 * allp.max():>11.1f}%")
+    return "\n".join(lines)
