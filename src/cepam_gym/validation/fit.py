@@ -162,6 +162,7 @@ class FitResult:
     message: str
     starts_tried: int = 1
     notes: list[str] = field(default_factory=list)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)  # as used (edge units)
 
 
 def model_values(experiments: list[Experiment], params: PlantParams) -> np.ndarray:
@@ -251,7 +252,7 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
         cov = np.full((k, k), np.nan)
         std = np.full(k, np.nan)
         notes.append(f"{m} measurements for {k} parameters: no residual degrees of freedom, no uncertainty")
-    at_bound = best.active_mask != 0
+    at_bound = (best.active_mask != 0) | (best.x < 1e-6) | (best.x > 1.0 - 1e-6)
     if np.any(at_bound):
         notes.append("at a bound (the uncertainty of a bounded parameter is not a confidence interval): "
                      + ", ".join(n for n, b in zip(names, at_bound) if b))
@@ -260,7 +261,8 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
                      + ", ".join(n for n, i in zip(names, identifiable) if not i))
     return FitResult(names, x_start, values, std, cov, at_bound, identifiable, params, r,
                      relative_errors(model_start, experiments), model, model_start, float(best.cost),
-                     bool(best.success), str(best.message), len(z0s), notes)
+                     bool(best.success), str(best.message), len(z0s), notes,
+                     {n: (float(a), float(b)) for n, a, b in zip(names, lo, hi)})
 
 
 def _jacobian(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.ndarray,
@@ -306,10 +308,11 @@ def format_report(res: FitResult, experiments: list[Experiment]) -> str:
              f"  {'name':<24} {'start':>10} {'fitted':>10} {'+/- 1 sd':>10} {'unit':>8}  bounds"]
     for j, n in enumerate(res.names):
         fp = FIT_PARAMS[n]
+        lo, hi = res.bounds.get(n, (fp.lo, fp.hi))
         sd = "n/a" if not math.isfinite(res.std[j]) else f"{res.std[j]:.3g}"
         flag = " (at bound)" if res.at_bound[j] else ""
         lines.append(f"  {n:<24} {res.start[j]:>10.4g} {res.values[j]:>10.4g} {sd:>10} {fp.unit:>8}  "
-                     f"[{fp.lo:g}, {fp.hi:g}]{flag}")
+                     f"[{lo:g}, {hi:g}]{flag}")
     lines.append("")
     lines.append("residuals per measurement (relative, model vs measured):")
     w = max(len(e.name) for e in experiments)
