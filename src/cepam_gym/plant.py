@@ -133,13 +133,63 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
 
 @jit_inline
 def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
-    """Second half of a sub-step: flows and heat (explicit), then the compression work over the
-    volume change of the step, ``ratio = V_old / V_new`` (:func:`_isentropic_factor`)."""
+    """Post-mechanics half of a sub-step, once the new length is known: flows and heat
+    (explicit), then the compression work over the volume change of the step,
+    ``ratio = V_old / V_new`` (:func:`_isentropic_factor`)."""
     mc = fmax(mc + dt * dmc, _MIN_MASS)
     me = fmax(me + dt * dme, _MIN_MASS)
     uc = fmax((uc + dt * duc) * _isentropic_factor(ratio_c), _MIN_MASS)
     ue = fmax((ue + dt * due) * _isentropic_factor(ratio_e), _MIN_MASS)
     return mc, uc, me, ue
+
+
+# ------------------------------------------------------- the one sub-step, in three pieces
+# Every caller runs a sub-step as
+#
+#   substep_forces (pre-mechanics half: pressures, spools, flows and push force at L)
+#   -> mechanics   (the plant's own load step, or MuJoCo: the new L, v)
+#   -> substep_air (post-mechanics half: flows and the work of the volume change V(L_old) -> V(L_new))
+#
+# with :func:`substep_account` keeping the control step's peak pressure and air use, and
+# :func:`end_of_step` writing ``aux`` once per control step. :func:`_lane_substep` (the plant's
+# block kernel) and :mod:`cepam_gym.mujoco.coupling` (mechanics in MuJoCo) are the two callers.
+# New physics of the air, valves or muscle force belongs in these pieces, so both get it.
+
+
+@jit_inline
+def substep_forces(mode, inp, p, t, dt, L, mc, uc, me, ue, inv_vol_c, inv_vol_e, dvc, dvac, dvae,
+                   sc, se, src, sre, valves):
+    """Pre-mechanics half of a sub-step at length ``L`` (``inv_vol`` = 1 / chamber volumes and
+    ``dvc, dvac, dvae`` the volume slopes at ``L``, from :func:`volumes_at`): pressures, spools,
+    valve flows (:func:`substep_rates`) and the push force at ``L``. Returns
+    ``(force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)``."""
+    pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
+        mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc, se, src, sre, valves)
+    force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
+    return force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup
+
+
+@jit_inline
+def substep_account(peak, air, pc, pe, supply_flow, dt):
+    """The control step's running peak gauge pressure [Pa] and supply air used [kg] after a
+    sub-step with gauge pressures ``pc, pe`` and supply mass flow ``supply_flow``."""
+    return fmax(fmax(peak, pc), pe), air + dt * supply_flow
+
+
+@jit
+def end_of_step(x, p, peak, air, mdot_c, mdot_e, stop, aux):
+    """``aux`` at the end of a control step: the static quantities of state row ``x``
+    (:func:`_measure`), then the step's bookkeeping: last sub-step's chamber mass flows, supply
+    air used, peak gauge pressure (sub-steps and end state) and the burst flag, and the end stop
+    the mechanics reported (-1 lower, +1 upper, 0 free)."""
+    _measure(x, p, aux)
+    pmax = fmax(fmax(peak, aux[A_PC]), aux[A_PE])
+    aux[A_MDOT_C] = mdot_c
+    aux[A_MDOT_E] = mdot_e
+    aux[A_AIR] = air
+    aux[A_PMAX] = pmax
+    aux[A_BURST] = 1.0 if pmax > p[ix.P_BURST] else 0.0
+    aux[A_STOP] = stop
 
 
 # ------------------------------------------------------- structure-of-arrays block kernel
@@ -184,12 +234,11 @@ def _lane_substep(W, i, mode, dt):
     vol_c = W[_w(_W_VC, i)]
     vol_e = W[_w(_W_VE, i)]
     mc, uc, me, ue = W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)]
-    pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
-        mode, inp, p, W[_w(S_T, i)], dt, mc, uc, me, ue, W[_w(_W_INVC, i)], W[_w(_W_INVE, i)],
+    force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_forces(
+        mode, inp, p, W[_w(S_T, i)], dt, L, mc, uc, me, ue, W[_w(_W_INVC, i)], W[_w(_W_INVE, i)],
+        W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)],
         W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves)
-    W[_w(_W_PMAX, i)] = fmax(fmax(W[_w(_W_PMAX, i)], pc), pe)
-    force, _k, _g, _h = force_from_slopes(L, pc, pe, p, W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)],
-                                          W[_w(_W_DVAE, i)], 0.0, 0.0, 0.0)
+    W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], pc, pe, sup, dt)
     L, v, stop = load_step_k(L, W[_w(S_V, i)], force + W[_w(_W_FEXT, i)], W[_w(_W_DTM, i)],
                              W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)], p[ix.L_MIN], p[ix.L_MAX], dt)
     vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)
@@ -202,7 +251,6 @@ def _lane_substep(W, i, mode, dt):
     W[_w(S_T, i)] += dt
     W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = vol_c_new, vol_e_new, inv_c, inv_e
     W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
-    W[_w(_W_AIR, i)] += dt * sup
     W[_w(_W_DMC, i)], W[_w(_W_DME, i)] = dmc, dme
 
 
@@ -264,14 +312,8 @@ def advance_block(state, inputs, params, lo, n, mode, dt, n_sub, out, aux, W):
         a = aux[r]
         for f in range(N_STATE):
             x[f] = W[_w(f, i)]
-        _measure(x, p, a)
-        pmax = fmax(fmax(W[_w(_W_PMAX, i)], a[A_PC]), a[A_PE])
-        a[A_MDOT_C] = W[_w(_W_DMC, i)]
-        a[A_MDOT_E] = W[_w(_W_DME, i)]
-        a[A_AIR] = W[_w(_W_AIR, i)]
-        a[A_PMAX] = pmax
-        a[A_BURST] = 1.0 if pmax > p[ix.P_BURST] else 0.0
-        a[A_STOP] = W[_w(_W_STOP, i)]
+        end_of_step(x, p, W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], W[_w(_W_DMC, i)], W[_w(_W_DME, i)],
+                    W[_w(_W_STOP, i)], a)
 
 
 @jit

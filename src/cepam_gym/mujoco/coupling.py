@@ -6,15 +6,20 @@ a hinge in :class:`~cepam_gym.mujoco.joint.CEPAMJointEnv`), every plant sub-step
 
 1. the muscle length ``L`` and its rate ``v`` are *imposed* from the MuJoCo state (through the
    geometry of the mechanism);
-2. the previous sub-step's air update is completed with the volume change to this ``L``
-   (:func:`cepam_gym.plant.substep_air`), then the plant's first half-step runs at ``L``
-   (:func:`cepam_gym.plant.substep_rates`: pressures, spools, valve flows) and the push force
-   ``F(L, Pc, Pe)`` comes from the same force kernel (:func:`~cepam_gym.physics.muscle.force_from_slopes`);
-3. the caller applies ``F`` to MuJoCo as a generalized force and calls ``mj_step``; the air
-   update of this sub-step waits for the next call (or ``finish``), when the new length is known.
+2. the previous sub-step's post-mechanics half is completed with the volume change to this ``L``
+   (:func:`cepam_gym.plant.substep_air`), then the plant's pre-mechanics half runs at ``L``
+   (:func:`cepam_gym.plant.substep_forces`: pressures, spools, valve flows and the push force
+   ``F(L, Pc, Pe)``), and :func:`cepam_gym.plant.substep_account` keeps the peak pressure and air use;
+3. the caller applies ``F`` to MuJoCo as a generalized force and calls ``mj_step`` (the
+   mechanics); the air update of this sub-step waits for the next call (or ``finish``), when the
+   new length is known. ``finish`` writes ``aux`` with the plant's :func:`cepam_gym.plant.end_of_step`.
 
-This is exactly the order of the plant's own sub-step (pressures at ``L`` -> spool -> flows with
-``v`` -> force at ``L`` -> mechanics -> air), so with the same semi-implicit Euler scheme (MuJoCo's
+The plant's work ratio ``V_old / V_new`` is ``V_old * (1 / V_new)`` (it keeps ``1 / V_new`` for the
+next sub-step's pressures); here it is a division. The two agree to round-off, and each is kept as
+recorded (``tests/test_golden_v0.py``).
+
+These are the pieces of the plant's own sub-step, in its order (pressures at ``L`` -> spool ->
+flows -> force at ``L`` -> mechanics -> air), so with the same semi-implicit Euler scheme (MuJoCo's
 ``Euler`` integrator, implicit in joint damping, is the plant's load step) a MuJoCo slider
 reproduces the plant's trajectories to round-off (``tests/test_mujoco.py``). The force equations
 exist only in :mod:`cepam_gym.physics.muscle`; nothing here recomputes them.
@@ -52,44 +57,46 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     force [N] at the start of the sub-step (what the mechanism feels during it).
 
     The previous sub-step's air update is completed first, with the volume change to ``length``;
-    this one's (flows, spools, time) is computed and left pending until the mechanism has moved.
-    ``acc`` accumulates supply air used [kg] and the peak gauge pressure [Pa] of the control step.
+    this one's pre-mechanics half (:func:`cepam_gym.plant.substep_forces`: pressures, spools,
+    flows, force) runs now and its air update is left pending until the mechanism has moved.
+    ``acc`` accumulates supply air used [kg] and the peak gauge pressure [Pa] of the control step
+    (:func:`cepam_gym.plant.substep_account`).
     """
     _settle(x, p, dt, length, acc)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
-    pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_rates(
-        mode, inp, p, x[pl.S_T], dt, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE], 1.0 / vol_c, 1.0 / vol_e,
-        x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE], pl.valve_setup(mode, p, dt))
+    force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_forces(
+        mode, inp, p, x[pl.S_T], dt, length, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE],
+        1.0 / vol_c, 1.0 / vol_e, dvc, dvac, dvae, x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE],
+        pl.valve_setup(mode, p, dt))
     x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE] = sc, se, src, sre
     x[pl.S_T] += dt
     acc[PEND], acc[PEND_DMC], acc[PEND_DUC], acc[PEND_DME], acc[PEND_DUE] = 1.0, dmc, duc, dme, due
     acc[PEND_VC], acc[PEND_VE] = vol_c, vol_e
-    acc[ACC_AIR] += dt * sup
-    acc[ACC_PMAX] = max(acc[ACC_PMAX], pc, pe)
-    force, _k, _g, _h = pl.force_from_slopes(length, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
+    acc[ACC_PMAX], acc[ACC_AIR] = pl.substep_account(acc[ACC_PMAX], acc[ACC_AIR], pc, pe, sup, dt)
     return force
 
 
 @jit
+def end_stop(length, p):
+    """The end stop a mechanism's muscle ``length`` sits at: -1 lower, +1 upper, 0 free."""
+    if length <= p[ix.L_MIN]:
+        return -1.0
+    if length >= p[ix.L_MAX]:
+        return 1.0
+    return 0.0
+
+
+@jit
 def finish_step(x, p, dt, length, velocity, acc, aux):
-    """``aux`` of the state at the end of a control step, with the step's air use and peak
-    pressure and the burst flag, like :func:`cepam_gym.plant.step` reports them."""
+    """``aux`` of the state at the end of a control step, with the step's bookkeeping, through
+    the plant's own :func:`cepam_gym.plant.end_of_step`."""
     _settle(x, p, dt, length, acc)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
-    pl._measure(x, p, aux)
-    pmax = max(acc[ACC_PMAX], aux[pl.A_PC], aux[pl.A_PE])
-    aux[pl.A_AIR] = acc[ACC_AIR]
-    aux[pl.A_PMAX] = pmax
-    aux[pl.A_BURST] = 1.0 if pmax > p[ix.P_BURST] else 0.0
-    stop = 0.0
-    if length <= p[ix.L_MIN]:
-        stop = -1.0
-    elif length >= p[ix.L_MAX]:
-        stop = 1.0
-    aux[pl.A_STOP] = stop
+    pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME],
+                   end_stop(length, p), aux)
 
 
 class PlantLink:
@@ -112,6 +119,8 @@ class PlantLink:
         self._acc[ACC_AIR] = 0.0
         self._acc[ACC_PMAX] = -np.inf
         self._acc[PEND] = 0.0
+        self._acc[PEND_DMC] = 0.0
+        self._acc[PEND_DME] = 0.0
 
     def force(self, length: float, velocity: float) -> float:
         return coupled_substep(self.x, self.inp, self.p, self.mode, self.dt, length, velocity, self._acc)
