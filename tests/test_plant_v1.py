@@ -178,7 +178,8 @@ def test_sealed_v1_plant_conserves_energy_with_the_walls():
     atmosphere + wall strain energy is conserved up to the integration error, which halves with
     the sub-step (the walls are a conservative force)."""
     def drift(dt, n_sub=10, t_end=0.2):
-        p = V1.replace(heat_transfer=0.0, leak_conductance=0.0, damping=0.0, kr_high=0.0, kr_low=0.0)
+        p = V1.replace(heat_transfer=0.0, heat_transfer_coefficient=0.0, leak_conductance=0.0, damping=0.0,
+                       kr_high=0.0, kr_low=0.0)
         P = p.to_array()[None]
         load = 0.1
         M, patm = p.end_mass + load, p.atmospheric_pressure
@@ -206,3 +207,61 @@ def test_sealed_v1_plant_conserves_energy_with_the_walls():
     assert u_wall > 1e-3  # the walls hold energy comparable to the oscillation's
     assert e1 < 5e-4
     assert e2 < 0.6 * e1
+
+
+# ------------------------------------------------------------------ air and valves of plant v1
+def test_each_chamber_exchanges_heat_through_its_own_wall_area():
+    """hA of each chamber = h times its wall area at mid-stroke (CPAM: its bladder's inside;
+    annulus: the EPAM bladder's inside and the CPAM's outside), written out here; a warm sealed
+    chamber then cools at hA (T_amb - T) / (m c_v)."""
+    p = V1.replace(heat_transfer_coefficient=10.0, leak_conductance=0.0)
+    row = p.to_array()
+    lm = 0.5 * (p.min_length + p.max_length)
+    (bc, nc), (be, ne) = p.cpam_braid(), p.epam_braid()
+    d_c = bc * math.sin(math.acos(lm / bc)) / (math.pi * nc)
+    d_e = be * math.sin(math.acos(lm / be)) / (math.pi * ne)
+    ta = p.wall_thickness()
+    ha_c = 10.0 * math.pi * (d_c - 2 * ta) * lm
+    ha_e = 10.0 * math.pi * (d_e - 2 * ta + d_c) * lm
+    assert row[ix.HA_C] == pytest.approx(ha_c, rel=1e-12) and row[ix.HA_E] == pytest.approx(ha_e, rel=1e-12)
+    assert ha_e > 2.5 * ha_c  # the annulus has the larger wall
+    v0 = V0_LIKE.replace(heat_transfer_coefficient=0.0).to_array()
+    assert v0[ix.HA_C] == v0[ix.HA_E] == V0_LIKE.heat_transfer
+
+    # the same run without wall heat cancels the compression's share of the temperature change
+    adiabatic = row.copy()
+    adiabatic[ix.HA_C] = adiabatic[ix.HA_E] = 0.0
+    inp = np.array([[0.0, 0.0, 0.2, 0.0]])
+    x = plant.initial_state(row[None], 0.17, 150e3, 60e3, temperature=313.15)
+    _, aux = plant.step(x, inp, row[None], dt=5e-5, n_sub=40)  # 2 ms
+    _, aux0 = plant.step(x, inp, adiabatic[None], dt=5e-5, n_sub=40)
+    cv = 287.0 / 0.4
+    for s_m, a_t, ha in ((plant.S_MC, plant.A_TC, ha_c), (plant.S_ME, plant.A_TE, ha_e)):
+        rate = (aux[0, a_t] - aux0[0, a_t]) / 2e-3
+        expected = ha * (p.ambient_temperature - 313.15) / (x[0, s_m] * cv)
+        assert rate == pytest.approx(expected, rel=0.05)
+
+
+def _pwm_mass_gain(p, duty, n_periods=3):
+    P = p.to_array()[None]
+    x = plant.initial_state(P, 0.17, 50e3, 50e3)
+    m0 = x[0, plant.S_MC]
+    n_sub = int(round(n_periods / p.pwm_frequency / 5e-5))
+    x, _ = plant.step(x, np.array([[duty, 0.0, 0.1, 0.0]]), P, mode=plant.ONOFF, dt=5e-5, n_sub=n_sub)
+    return x[0, plant.S_MC] - m0
+
+
+def test_onoff_dead_time_swallows_short_pulses():
+    """On/off valves open d_on after the PWM's rising edge and close d_off after its falling edge:
+    a pulse shorter than d_on - d_off (here 1 ms against 4 - 2 ms) passes no air; a v0 valve (no
+    dead time) passes it; a long pulse passes air either way."""
+    p = V1.replace(leak_conductance=0.0, onoff_open_delay=4e-3, onoff_close_delay=2e-3, pwm_frequency=50.0)
+    short = 1e-3 * p.pwm_frequency  # duty of a 1 ms pulse
+    assert _pwm_mass_gain(p, short) == 0.0
+    assert _pwm_mass_gain(p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), short) > 0.0
+    long_v1 = _pwm_mass_gain(p, 0.3)
+    long_v0 = _pwm_mass_gain(p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), 0.3)
+    # open 0.3 T - (d_on - d_off) = 4 ms instead of 6 ms per 20 ms period: about 2/3 of the air
+    assert 0.5 * long_v0 < long_v1 < 0.85 * long_v0
+    assert _pwm_mass_gain(p, 1.0) == pytest.approx(_pwm_mass_gain(
+        p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), 1.0), rel=1e-12)  # full duty: no switching

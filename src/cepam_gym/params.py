@@ -97,10 +97,18 @@ class PlantParams:
     spool_damping: float = _f(0.7, "", "spool damping ratio when spool_order = 2")
     onoff_conductance: float = _f(1e-9, "dm3_per_s_bar", "on/off solenoid valve sonic conductance")
     onoff_switch_time: float = _f(0.003, "ms", "on/off valve switching lag")
+    onoff_open_delay: float = _f(0.004, "ms", "v1: on/off valve dead time from the command's rising edge "
+                                 "to opening (solenoid pull-in); 0 = v0")
+    onoff_close_delay: float = _f(0.002, "ms", "v1: dead time from the falling edge to closing; a pulse "
+                                  "shorter than open - close delay passes no air. 0 = v0")
     pwm_frequency: float = _f(50.0, "hz", "PWM frequency of the on/off valves")
     dead_volume_cpam: float = _f(2e-6, "cm3", "port and tubing volume of the CPAM chamber")
     dead_volume_epam: float = _f(2e-6, "cm3", "port and tubing volume of the annulus")
-    heat_transfer: float = _f(0.02, "w_per_k", "wall heat transfer hA of each chamber")
+    heat_transfer: float = _f(0.02, "w_per_k", "v0: wall heat transfer hA of each chamber (used when "
+                              "heat_transfer_coefficient = 0)")
+    heat_transfer_coefficient: float = _f(
+        10.0, "w_per_m2_k", "v1: wall heat transfer coefficient h; each chamber's hA is h times its wall "
+        "area at mid-stroke (CPAM: its bladder; annulus: the EPAM bladder and the CPAM's outside). 0 = v0")
     burst_pressure: float = _f(300e3, "kpa", "balloon burst pressure (gauge), about 250-300 kPa")
     polytropic_exponent: float = _f(1.4, "", "exponent of the closed-chamber stiffness (1.4 adiabatic)")
     regulator_gain: float = _f(1.0 / 20e3, "per_kpa", "set-point mode: spool opening per kPa of pressure error")
@@ -139,7 +147,8 @@ class PlantParams:
                   "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
                   "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
                   "coulomb_friction", "regulator_gain", "spool_damping",
-                  "bladder_shear_modulus", "tube_shear_modulus")
+                  "bladder_shear_modulus", "tube_shear_modulus",
+                  "heat_transfer_coefficient", "onoff_open_delay", "onoff_close_delay")
         for name in positive:
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
@@ -245,6 +254,9 @@ class PlantParams:
         p[ix.TB_EL] = self.bladder_thickness
         p[ix.LREF_C] = self.cpam_rest_length
         p[ix.LREF_E] = self.epam_bladder_length
+        p[ix.H_WALL] = self.heat_transfer_coefficient
+        p[ix.D_ON] = self.onoff_open_delay
+        p[ix.D_OFF] = self.onoff_close_delay
         fill_derived(p)
         return p
 
@@ -338,6 +350,13 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
         q[inv_d] = 1.0 / (q[dk] * np.sqrt(1.0 - u * u))  # braid diameter at the bladder's rest length
         # mu times the rubber volume of a tube of outer diameter D_o and wall t_b, pi (D_o - t_b) t_b L
         q[el] = q[ix.MU_B] * math.pi * (q[d_o] - q[ix.TB_EL]) * q[ix.TB_EL] * q[lref]
+    # chamber wall areas at mid-stroke: CPAM bladder inside; annulus = EPAM bladder inside + CPAM outside
+    lm = 0.5 * (q[ix.L_MIN] + q[ix.L_MAX])
+    d_c = q[ix.DK_C] * np.sqrt(1.0 - (lm / q[ix.BC]) ** 2)
+    d_e = q[ix.DK_E] * np.sqrt(1.0 - (lm / q[ix.BE]) ** 2)
+    h = q[ix.H_WALL]
+    q[ix.HA_C] = np.where(h > 0.0, h * math.pi * (d_c - 2.0 * ta) * lm, q[ix.HA])
+    q[ix.HA_E] = np.where(h > 0.0, h * math.pi * (d_e - 2.0 * ta + d_c) * lm, q[ix.HA])
     bc = q[ix.B_CRIT]
     q[ix.INV_1MB] = 1.0 / (1.0 - bc)
     x = (q[ix.R_LAM] - bc) / (1.0 - bc)

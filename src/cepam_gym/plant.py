@@ -62,9 +62,19 @@ def _command(mode, u, pressure_gauge, t, p):
     """Spool command of one chamber's valve for this sub-step."""
     if mode == ONOFF:
         period = p[ix.PWM_PERIOD]
-        phase = (t - period * math.floor(t / period)) / period
+        d_on, d_off = p[ix.D_ON], p[ix.D_OFF]
         duty = abs(u)
-        if phase < duty:
+        if d_on == 0.0 and d_off == 0.0:  # v0: the valve follows the PWM edges (after its lag)
+            phase = (t - period * math.floor(t / period)) / period
+            if phase < duty:
+                return 1.0 if u > 0.0 else -1.0
+            return 0.0
+        # v1: dead times. The valve opens d_on after the rising edge and closes d_off after the
+        # falling one; a pulse shorter than d_on - d_off never opens it. Full duty never switches.
+        tp = t - period * math.floor(t / period)
+        close = duty * period + d_off
+        is_open = duty >= 1.0 or (close > d_on and ((d_on <= tp < close) or tp < close - period))
+        if is_open:
             return 1.0 if u > 0.0 else -1.0
         return 0.0
     if mode == PRESSURE:
@@ -124,10 +134,10 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     cleak = p[ix.C_LEAK]
     dmc, duc, supc = chamber_rates(pca, tc, sqrt(ix.T0 / tc), 0.0, cvalve * fmax(sc, 0.0),
                                    cvalve * fmax(-sc, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
-                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA])
+                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA_C])
     dme, due, supe = chamber_rates(pea, te, sqrt(ix.T0 / te), 0.0, cvalve * fmax(se, 0.0),
                                    cvalve * fmax(-se, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
-                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA])
+                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA_E])
     return pc, pe, sc, se, src, sre, dmc, duc, dme, due, fmax(supc, 0.0) + fmax(supe, 0.0)
 
 

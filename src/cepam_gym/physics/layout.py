@@ -81,8 +81,14 @@ INV_LREF_C = 64  # 1 / L_ref,c
 INV_LREF_E = 65  # 1 / L_ref,e
 INV_DREF_C = 66  # 1 / braid diameter at L_ref,c
 INV_DREF_E = 67  # 1 / braid diameter at L_ref,e
+# --- plant v1 air and valves; zero in a v0 row ---
+H_WALL = 68  # wall heat transfer coefficient h [W/(m^2 K)]; 0 = one hA for both chambers (v0, HA)
+D_ON = 69  # on/off valve opening dead time [s]
+D_OFF = 70  # on/off valve closing dead time [s]
+HA_C = 71  # hA of the CPAM chamber [W/K] (derived: HA in v0, h times its wall area in v1)
+HA_E = 72  # hA of the annulus [W/K] (derived)
 
-N_PARAMS = 68
+N_PARAMS = 73
 
 NAMES = tuple(
     name
