@@ -37,7 +37,8 @@ def plant_trajectories() -> dict[str, np.ndarray]:
                 inp[:, :2] = (u + 1) * 120e3 if mode == pl.PRESSURE else u
                 inp[:, pl.I_LOAD] = 0.1 + 0.05 * np.sin(0.1 * k + np.arange(n))
                 x, aux = pl.step(x, inp, p, mode)
-                rows.append(np.concatenate([x, aux], axis=1))
+                # the v0 state columns (plant v1 appended friction deflections, 0 without friction)
+                rows.append(np.concatenate([x[:, :pl.N_STATE_V0], aux], axis=1))
             out[f"plant/{name}/{mode_name}"] = np.stack(rows)
     return out
 

@@ -179,7 +179,7 @@ def test_sealed_v1_plant_conserves_energy_with_the_walls():
     the sub-step (the walls are a conservative force)."""
     def drift(dt, n_sub=10, t_end=0.2):
         p = V1.replace(heat_transfer=0.0, heat_transfer_coefficient=0.0, leak_conductance=0.0, damping=0.0,
-                       kr_high=0.0, kr_low=0.0)
+                       kr_high=0.0, kr_low=0.0, friction_coefficient=0.0)
         P = p.to_array()[None]
         load = 0.1
         M, patm = p.end_mass + load, p.atmospheric_pressure
@@ -265,3 +265,76 @@ def test_onoff_dead_time_swallows_short_pulses():
     assert 0.5 * long_v0 < long_v1 < 0.85 * long_v0
     assert _pwm_mass_gain(p, 1.0) == pytest.approx(_pwm_mass_gain(
         p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), 1.0), rel=1e-12)  # full duty: no switching
+
+
+
+# ------------------------------------------------------------------ friction (Maxwell-slip)
+def _friction_cycle(row, pc, pe, amplitude=2e-3, n=2000, cycles=2):
+    """Impose L = 0.17 + A sin(t) on the friction elements alone; return (L, F_friction)."""
+    from cepam_gym.physics.friction import friction_force, friction_slip
+
+    ls = 0.17 + amplitude * np.sin(np.linspace(0.0, 2 * np.pi * cycles, n * cycles + 1))
+    z = (0.0, 0.0, 0.0)
+    forces = [friction_force(row, pc, pe, *z)]
+    for k in range(1, ls.size):
+        z = friction_slip(row, ls[k] - ls[k - 1], *z)
+        forces.append(friction_force(row, pc, pe, *z))
+    return ls, np.array(forces)
+
+
+def test_friction_hysteresis_loop_area_is_the_slid_work_and_grows_with_pressure():
+    """One cycle of +-2 mm: element i slides 4 (A - delta_i) per cycle at its break-away force
+    w_i c (Pc + Pe), so the loop encloses sum 4 w_i F_b (A - delta_i) (the sticking part returns
+    what it stores); the friction force opposes the motion and never exceeds F_b."""
+    from cepam_gym.physics.friction import DELTA_FRACTIONS, WEIGHTS
+
+    p = V1.replace(friction_coefficient=2e-6, friction_presliding=0.5e-3)  # 0.002 N/kPa
+    row = p.to_array()
+    areas = []
+    for pc, pe in ((100e3, 50e3), (200e3, 100e3)):
+        L, F = _friction_cycle(row, pc, pe)
+        half = (L.size - 1) // 2  # the second cycle
+        work_on_load = float(np.sum(0.5 * (F[half + 1:] + F[half:-1]) * np.diff(L[half:])))
+        fb = p.friction_coefficient * (pc + pe)
+        expected = sum(4 * w * fb * (2e-3 - r * p.friction_presliding) for w, r in zip(WEIGHTS, DELTA_FRACTIONS))
+        assert -work_on_load == pytest.approx(expected, rel=2e-3)
+        assert np.abs(F).max() <= fb * (1 + 1e-12)
+        areas.append(-work_on_load)
+    assert areas[0] > 0.0 and areas[1] == pytest.approx(2.0 * areas[0], rel=1e-9)
+
+
+def test_no_friction_in_a_v0_row():
+    _, F = _friction_cycle(V0_LIKE.replace(friction_coefficient=0.0).to_array(), 200e3, 100e3)
+    assert np.all(F == 0.0)
+
+
+def test_friction_only_dissipates_in_the_plant():
+    """Sealed chambers, no heat, no damping: with friction the total energy (air, load, walls and
+    the elements' stored spring energy sum f_i z_i^2 / (2 delta_i)) never rises beyond the
+    integration error, and falls clearly: the oscillation decays."""
+    from cepam_gym.physics.friction import DELTA_FRACTIONS, WEIGHTS
+
+    p = V1.replace(heat_transfer=0.0, heat_transfer_coefficient=0.0, leak_conductance=0.0, damping=0.0,
+                   kr_high=0.0, kr_low=0.0, friction_coefficient=2e-6)  # 0.002 N/kPa
+    P = p.to_array()[None]
+    load = 0.1
+    M, patm = p.end_mass + load, p.atmospheric_pressure
+
+    def energy(x, a):
+        fb = p.friction_coefficient * (max(a[plant.A_PC], 0) + max(a[plant.A_PE], 0))
+        stored = sum(0.5 * w * fb * x[0, s] ** 2 / (r * p.friction_presliding)
+                     for w, r, s in zip(WEIGHTS, DELTA_FRACTIONS, (plant.S_Z1, plant.S_Z2, plant.S_Z3)))
+        return (x[0, plant.S_UC] + x[0, plant.S_UE] + 0.5 * M * x[0, plant.S_V] ** 2
+                - M * p.gravity * x[0, plant.S_L] + patm * (a[plant.A_VC] + a[plant.A_VE])
+                + float(api.bladder_energy(x[0, plant.S_L], p)[0]) + stored)
+
+    x = plant.initial_state(P, 0.17, 200e3, 60e3)
+    e0 = energy(x, plant.measure(x, P)[0])
+    dE = []
+    for _ in range(40):
+        x, aux = plant.step(x, np.array([[0.0, 0.0, load, 0.0]]), P, dt=5e-5, n_sub=100)
+        dE.append(energy(x, aux[0]) - e0)
+    dE = np.array(dE)
+    assert np.all(np.diff(dE) < 2e-4)  # no gain beyond the integration error (J)
+    assert dE[-1] < -2e-3  # the friction took a clear share of the energy exchanged
+    assert np.abs(x[0, plant.S_V]) < 1e-3  # and stopped the oscillation

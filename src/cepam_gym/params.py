@@ -97,6 +97,11 @@ class PlantParams:
     spool_damping: float = _f(0.7, "", "spool damping ratio when spool_order = 2")
     onoff_conductance: float = _f(1e-9, "dm3_per_s_bar", "on/off solenoid valve sonic conductance")
     onoff_switch_time: float = _f(0.003, "ms", "on/off valve switching lag")
+    friction_coefficient: float = _f(
+        2e-6, "n_per_kpa", "v1: braid-bladder dry friction, break-away force per kPa of Pc+ + Pe+ "
+        "(Maxwell-slip, Tondu and Lopez 2000; assumed, not identified); 0 = v0")
+    friction_presliding: float = _f(0.0005, "mm", "v1: presliding displacement of the slowest "
+                                    "Maxwell-slip element (the others: 0.1 and 0.4 of it)")
     onoff_open_delay: float = _f(0.004, "ms", "v1: on/off valve dead time from the command's rising edge "
                                  "to opening (solenoid pull-in); 0 = v0")
     onoff_close_delay: float = _f(0.002, "ms", "v1: dead time from the falling edge to closing; a pulse "
@@ -142,13 +147,14 @@ class PlantParams:
                     "epam_sleeve_free_diameter", "min_length", "atmospheric_pressure",
                     "supply_temperature", "ambient_temperature", "spool_time_constant",
                     "onoff_switch_time", "pwm_frequency", "end_mass", "burst_pressure",
-                    "polytropic_exponent", "slack_width", "epam_bladder_length")
+                    "polytropic_exponent", "slack_width", "epam_bladder_length", "friction_presliding")
         nonneg = ("bladder_thickness", "sleeve_thickness", "kr_high", "kr_low", "elastic_stiffness",
                   "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
                   "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
                   "coulomb_friction", "regulator_gain", "spool_damping",
                   "bladder_shear_modulus", "tube_shear_modulus",
-                  "heat_transfer_coefficient", "onoff_open_delay", "onoff_close_delay")
+                  "heat_transfer_coefficient", "onoff_open_delay", "onoff_close_delay",
+                  "friction_coefficient")
         for name in positive:
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
@@ -257,6 +263,8 @@ class PlantParams:
         p[ix.H_WALL] = self.heat_transfer_coefficient
         p[ix.D_ON] = self.onoff_open_delay
         p[ix.D_OFF] = self.onoff_close_delay
+        p[ix.FR_C] = self.friction_coefficient
+        p[ix.FR_D] = self.friction_presliding
         fill_derived(p)
         return p
 

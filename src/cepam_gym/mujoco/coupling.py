@@ -63,13 +63,16 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     (:func:`cepam_gym.plant.substep_account`).
     """
     _settle(x, p, dt, length, acc)
+    if p[ix.FR_C] > 0.0:  # the friction elements follow the imposed motion (plant v1)
+        x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3] = pl.friction_slip(p, length - x[pl.S_L], x[pl.S_Z1], x[pl.S_Z2],
+                                                            x[pl.S_Z3])
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_forces(
         mode, inp, p, x[pl.S_T], dt, length, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE],
         1.0 / vol_c, 1.0 / vol_e, dvc, dvac, dvae, x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE],
-        pl.valve_setup(mode, p, dt))
+        pl.valve_setup(mode, p, dt), x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3])
     x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE] = sc, se, src, sre
     x[pl.S_T] += dt
     acc[PEND], acc[PEND_DMC], acc[PEND_DUC], acc[PEND_DME], acc[PEND_DUE] = 1.0, dmc, duc, dme, due
@@ -93,6 +96,9 @@ def finish_step(x, p, dt, length, velocity, acc, aux):
     """``aux`` of the state at the end of a control step, with the step's bookkeeping, through
     the plant's own :func:`cepam_gym.plant.end_of_step`."""
     _settle(x, p, dt, length, acc)
+    if p[ix.FR_C] > 0.0:  # the friction elements follow the imposed motion (plant v1)
+        x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3] = pl.friction_slip(p, length - x[pl.S_L], x[pl.S_Z1], x[pl.S_Z2],
+                                                            x[pl.S_Z3])
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME],

@@ -87,8 +87,11 @@ D_ON = 69  # on/off valve opening dead time [s]
 D_OFF = 70  # on/off valve closing dead time [s]
 HA_C = 71  # hA of the CPAM chamber [W/K] (derived: HA in v0, h times its wall area in v1)
 HA_E = 72  # hA of the annulus [W/K] (derived)
+# --- plant v1 braid-bladder friction (Maxwell-slip); zero in a v0 row ---
+FR_C = 73  # break-away force per Pa of (Pc+ + Pe+) [N/Pa]; 0 = no friction (v0)
+FR_D = 74  # presliding displacement of the slowest element [m]
 
-N_PARAMS = 73
+N_PARAMS = 75
 
 NAMES = tuple(
     name
