@@ -330,11 +330,13 @@ def test_friction_only_dissipates_in_the_plant():
 
     x = plant.initial_state(P, 0.17, 200e3, 60e3)
     e0 = energy(x, plant.measure(x, P)[0])
-    dE = []
+    dE, Ls = [], []
     for _ in range(40):
         x, aux = plant.step(x, np.array([[0.0, 0.0, load, 0.0]]), P, dt=5e-5, n_sub=100)
         dE.append(energy(x, aux[0]) - e0)
+        Ls.append(x[0, plant.S_L])
     dE = np.array(dE)
     assert np.all(np.diff(dE) < 2e-4)  # no gain beyond the integration error (J)
     assert dE[-1] < -2e-3  # the friction took a clear share of the energy exchanged
-    assert np.abs(x[0, plant.S_V]) < 1e-3  # and stopped the oscillation
+    # the swing decays (what is left oscillates inside the presliding range, nearly elastic)
+    assert np.ptp(Ls[-10:]) < 0.3 * np.ptp(Ls[:10])
