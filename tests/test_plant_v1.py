@@ -340,3 +340,24 @@ def test_friction_only_dissipates_in_the_plant():
     assert dE[-1] < -2e-3  # the friction took a clear share of the energy exchanged
     # the swing decays (what is left oscillates inside the presliding range, nearly elastic)
     assert np.ptp(Ls[-10:]) < 0.3 * np.ptp(Ls[:10])
+
+
+# ------------------------------------------------------------------ versions
+def test_v0_ids_keep_the_v0_plant_and_an_explicit_plant_wins():
+    """PlantParams() is plant v1; the -v0 env ids default to the v0 plant (preset balloon_v0), so
+    their published results reproduce; a user's plant= replaces it."""
+    import gymnasium as gym
+
+    import cepam_gym  # noqa: F401
+    from cepam_gym.params import preset
+
+    v0 = preset("balloon_v0")
+    assert (v0.braid_tension, v0.bladder_model, v0.friction_coefficient) == ("bidirectional", "spring", 0.0)
+    assert PlantParams().braid_tension == "tension_only"
+    for env_id in ("cepam_gym/CEPAM-v0", "cepam_gym/CEPAMStiffness-v0"):
+        env = gym.make(env_id)
+        assert env.unwrapped.core.nominal == v0
+        env = gym.make(env_id, plant="balloon")
+        assert env.unwrapped.core.nominal == PlantParams()
+        venv = gym.make_vec(env_id, num_envs=2)
+        assert venv.unwrapped.core.nominal == v0  # the vector entry point gets the same default
