@@ -361,3 +361,27 @@ def test_v0_ids_keep_the_v0_plant_and_an_explicit_plant_wins():
         assert env.unwrapped.core.nominal == PlantParams()
         venv = gym.make_vec(env_id, num_envs=2)
         assert venv.unwrapped.core.nominal == v0  # the vector entry point gets the same default
+
+
+def test_a_layout_change_drops_the_numba_caches(tmp_path, monkeypatch):
+    """Kernels in other files inline the layouts' constants; numba's cache does not see a layout
+    change, so the package drops its cached kernels when the layouts' text changes."""
+    import shutil
+
+    from cepam_gym import _jit
+
+    pkg = tmp_path / "pkg"
+    (pkg / "physics").mkdir(parents=True)
+    (pkg / "__pycache__").mkdir()
+    shutil.copy(_jit._PKG / "plant.py", pkg / "plant.py")
+    shutil.copy(_jit._PKG / "physics" / "layout.py", pkg / "physics" / "layout.py")
+    monkeypatch.setattr(_jit, "_PKG", pkg)
+    _jit._drop_stale_caches()  # first stamp
+    cached = pkg / "__pycache__" / "kernel.f-1.py311.nbi"
+    cached.write_text("x")
+    _jit._drop_stale_caches()
+    assert cached.exists()  # same layouts: the cache stays
+    with (pkg / "physics" / "layout.py").open("a") as fh:
+        fh.write("\nNEW_COLUMN = 999\n")
+    _jit._drop_stale_caches()
+    assert not cached.exists()  # a new layout: cached kernels dropped
