@@ -17,7 +17,11 @@ per-core figures.
 On small VMs the OpenMP layer's thread wake-up alone can cost several ms per call; compare with
 ``NUMBA_THREADING_LAYER=workqueue``.
 
-Run: ``.venv/bin/python benchmarks/plant_throughput.py`` (options: ``--seconds``, ``--sizes``).
+``--versions`` times plant v1 (preset ``balloon``) against the v0 plant (``balloon_v0``) in
+the same run, interleaved in rounds (median per-call time each), and prints the ratio.
+
+Run: ``.venv/bin/python benchmarks/plant_throughput.py`` (options: ``--seconds``, ``--sizes``,
+``--versions``).
 """
 
 from __future__ import annotations
@@ -31,14 +35,14 @@ import numba
 import numpy as np
 
 from cepam_gym import plant
-from cepam_gym.params import PlantParams
+from cepam_gym.params import PlantParams, preset
 
 DT = 5e-4
 N_SUB = 40
 
 
-def _setup(n: int, seed: int = 0):
-    params = PlantParams().to_array()[None, :]
+def _setup(n: int, seed: int = 0, params: PlantParams | None = None):
+    params = (params or PlantParams()).to_array()[None, :]
     state = plant.initial_state(params, np.full(n, 0.17), 80e3, 60e3)
     rng = np.random.default_rng(seed)
     inputs = np.zeros((n, plant.N_INPUT))
@@ -77,14 +81,41 @@ def measure(n: int, seconds: float = 1.0) -> dict:
     }
 
 
+def versions(n: int, rounds: int = 15, seconds: float = 0.05) -> dict:
+    """Median us per ``plant.step`` call of plant v1 and of the v0 plant, ``n`` plants each,
+    interleaved in ``rounds`` rounds of about ``seconds`` each (the same run, the same load)."""
+    setups = {name: _setup(n, params=preset(name)) for name in ("balloon_v0", "balloon")}
+    times: dict[str, list[float]] = {name: [] for name in setups}
+    for state, inputs, params, aux in setups.values():
+        plant.step(state, inputs, params, plant.PROPORTIONAL, DT, N_SUB, out=state, aux=aux)  # warm-up
+    for _ in range(rounds):
+        for name, (state, inputs, params, aux) in setups.items():
+            t0, calls = time.perf_counter(), 0
+            while time.perf_counter() - t0 < seconds:
+                plant.step(state, inputs, params, plant.PROPORTIONAL, DT, N_SUB, out=state, aux=aux)
+                calls += 1
+            times[name].append((time.perf_counter() - t0) / calls)
+    med = {name: 1e6 * float(np.median(t)) for name, t in times.items()}
+    return {"n": n, "v0_us": med["balloon_v0"], "v1_us": med["balloon"], "ratio": med["balloon"] / med["balloon_v0"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=1.0, help="timed duration per batch size")
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024, 4096])
     ap.add_argument("--threads", type=int, default=None, help="numba threads for the parallel kernel")
+    ap.add_argument("--versions", action="store_true", help="plant v1 against the v0 plant, same run")
     args = ap.parse_args(argv)
     if args.threads:
         numba.set_num_threads(args.threads)
+    if args.versions:
+        print("# plant v1 (preset balloon) vs the v0 plant (balloon_v0): median us per plant.step call")
+        print(f"{'N':>6} {'v0 us':>10} {'v1 us':>10} {'v1 / v0':>8}")
+        for n in args.sizes:
+            r = versions(n)
+            print(f"{n:>6} {r['v0_us']:>10.1f} {r['v1_us']:>10.1f} {r['ratio']:>8.3f}")
+        print(f"# 1-min load average: {os.getloadavg()[0]:.2f}")
+        return 0
     load_before = os.getloadavg()[0]
     print(f"# plant.step throughput: proportional valves, dt = {DT * 1e3:g} ms, n_sub = {N_SUB} "
           f"({1 / (DT * N_SUB):g} Hz control)")

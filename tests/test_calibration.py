@@ -3,6 +3,8 @@ parameters from synthetic data made by the model, the uncertainty it reports, th
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,7 @@ from cepam_gym.params import PlantParams, preset
 from cepam_gym.validation import Experiment, load_experiments, simulate
 
 HEADER = "kind,muscle,pc_kpa,pe_kpa,length_cm,load_g,value,unit,name"
+V0 = preset("balloon_v0")  # these tests fit the v0 plant's parameters (the spring); plant v1 below
 TRUE_NAMES = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "elastic_stiffness")
 TRUE_VALUES = np.array([24.0, 22.0, 0.6, 120.0])  # deg, deg, mm, N/m; the start (balloon) is 18, 18, 0.5, 0
 
@@ -48,13 +51,13 @@ def _write(tmp_path: Path, lines: list[str], name: str = "data.csv") -> Path:
 
 @pytest.fixture(scope="module")
 def truth():
-    return cal.apply(PlantParams(), TRUE_NAMES, TRUE_VALUES)
+    return cal.apply(V0, TRUE_NAMES, TRUE_VALUES)
 
 
 def test_noise_free_synthetic_data_give_the_true_parameters_back(tmp_path, truth):
     path = _write(tmp_path, [HEADER] + _synthetic_rows(truth, 0.0, 0))
     exps = [m.experiment for m in cal.read_csv(path)]
-    res = cal.fit(exps, PlantParams(), TRUE_NAMES)
+    res = cal.fit(exps, V0, TRUE_NAMES)
     assert res.values == pytest.approx(TRUE_VALUES, rel=1e-4)
     assert np.abs(res.residuals).max() < 1e-6
     assert np.abs(res.residuals_start).max() > 0.05  # the start was genuinely off
@@ -67,7 +70,7 @@ def test_noisy_synthetic_data_recover_the_parameters_within_their_uncertainty(tm
     small in physical terms (else "within 3 sd" would say nothing)."""
     path = _write(tmp_path, [HEADER] + _synthetic_rows(truth, 0.01, 1))
     exps = [m.experiment for m in cal.read_csv(path)]
-    res = cal.fit(exps, PlantParams(), TRUE_NAMES)
+    res = cal.fit(exps, V0, TRUE_NAMES)
     z = (res.values - TRUE_VALUES) / res.std
     assert np.all(np.abs(z) < 3.0), dict(zip(TRUE_NAMES, z))
     assert np.all(res.std < [0.5, 0.5, 0.1, 10.0]), res.std
@@ -91,13 +94,13 @@ def test_cli_writes_a_yaml_that_plantparams_loads(tmp_path, truth, capsys):
     path = _write(tmp_path, [HEADER] + _synthetic_rows(truth, 0.0, 0))
     out = tmp_path / "fitted.yaml"
     assert calibrate_main(["--data", str(path), "--out", str(out), "--fit", "elastic_stiffness",
-                     "--preset", "balloon"]) == 0
+                     "--preset", "balloon_v0"]) == 0
     text = capsys.readouterr().out
     assert "residuals per measurement" in text and "+/- 1 sd" in text
     assert (tmp_path / "fitted.png").stat().st_size > 0
     loaded = PlantParams.from_yaml(out)
-    assert "preset: balloon" in out.read_text() and "elastic_stiffness_n_per_m" in out.read_text()
-    assert loaded.cpam_rest_angle == PlantParams().cpam_rest_angle  # unfitted: the preset's
+    assert "preset: balloon_v0" in out.read_text() and "elastic_stiffness_n_per_m" in out.read_text()
+    assert loaded.cpam_rest_angle == V0.cpam_rest_angle  # unfitted: the preset's
     assert loaded.elastic_stiffness > 0
 
 
@@ -153,15 +156,14 @@ def test_shipped_paper_csvs_are_the_reported_numbers():
         assert simulate(m.experiment, p).value == pytest.approx(simulate(e, p).value, rel=1e-12)
 
 
-def test_default_plant_is_the_calibration_to_the_papers_cepam_numbers():
-    """The default plant (= presets/balloon.yaml) is the fit of paper_cepam.csv started from
+def test_v0_plant_is_the_calibration_to_the_papers_cepam_numbers():
+    """The v0 plant (presets/balloon_v0.yaml) is the fit of paper_cepam.csv started from
     presets/balloon_uncalibrated.yaml: same static model, force model and form, only calibration
     targets changed; the CE-PAM numbers improve on average; and it is a least-squares optimum (a
-    fit started at the default stays there)."""
+    fit started at it stays there)."""
     text = (Path(cal.__file__).parent.parent / "presets" / "balloon_uncalibrated.yaml").read_text()
-    assert "preset: balloon" in text
-    p, b = PlantParams(), preset("balloon_uncalibrated")
-    assert preset("balloon") == p
+    assert "preset: balloon_v0" in text
+    p, b = V0, preset("balloon_uncalibrated")
     assert (p.force_model, p.force_form) == (b.force_model, b.force_form)
     flagged = {f for f, spec in PlantParams.__dataclass_fields__.items() if spec.metadata["calibrate"]}
     changed = {f for f in PlantParams.__dataclass_fields__ if getattr(p, f) != getattr(b, f)}
@@ -179,16 +181,65 @@ def test_default_plant_is_the_calibration_to_the_papers_cepam_numbers():
 
 def test_unknown_fit_parameter_is_named():
     with pytest.raises(ValueError, match="unknown fit parameter 'braid'"):
-        cal.fit([], PlantParams(), ("braid",))
+        cal.fit([], V0, ("braid",))
     with pytest.raises(ValueError, match="write the same field twice"):
-        cal.fit([], PlantParams(), ("wall_thickness", "bladder_thickness"))
+        cal.fit([], V0, ("wall_thickness", "bladder_thickness"))
 
 
 def test_minimax_check_finds_an_exact_parameter():
     """The reachability check: one parameter, data made by the model, so the best max error is ~0."""
-    truth = PlantParams().replace(elastic_stiffness=150.0)
+    truth = V0.replace(elastic_stiffness=150.0)
     exps = [Experiment("l", "l", "length", "cm", simulate(Experiment("l", "l", "length", "cm", 1.0, pc_kpa=pc,
                                                                      pe_kpa=pe), truth).value, pc_kpa=pc, pe_kpa=pe)
             for pe, pc in ((50, 0), (75, 125))]
-    worst, x = cal.minimax(exps, PlantParams(), ("elastic_stiffness",), maxiter=30)
+    worst, x = cal.minimax(exps, V0, ("elastic_stiffness",), maxiter=30)
     assert worst < 1e-4 and x[0] == pytest.approx(150.0, rel=1e-3)
+
+
+# ------------------------------------------------------------------ plant v1: one fit across all data
+def _paper_rows():
+    return [e for e in load_experiments() if e.computable and not e.derived_from]
+
+
+def test_v1_calibration_recovers_known_elasticity_from_noisy_synthetic_data():
+    """The single-muscle experiments of the paper (balloon and tube CPAM and EPAM, the thickness
+    rows), simulated by a v1 plant of known braid angles and balloon and tube moduli, 0.5 % noise:
+    the fit from the default plant gets the four back within 3 of its standard deviations, which
+    are small in physical terms. (The CE-PAM rows are left out here: their hanging-weight
+    stiffnesses drop a weight that reaches an end stop, which makes the residuals piecewise and
+    a one-start fit slow to converge; the shipped fit uses several starts.)"""
+    names = ("cpam_rest_angle", "epam_sleeve_free_angle", "bladder_shear_modulus", "tube_shear_modulus")
+    true = np.array([24.0, 36.0, 700.0, 550.0])
+    truth = cal.apply(PlantParams(), names, true)
+    rng = np.random.default_rng(3)
+    exps = [dataclasses.replace(e, value=simulate(e, truth).value * (1.0 + 0.005 * rng.standard_normal()))
+            for e in _paper_rows() if e.device != "cepam"]
+    res = cal.fit(exps, PlantParams(), names, bounds=cal.V1_BOUNDS, tol=1e-8)
+    assert np.abs(res.residuals_start).max() > 0.3  # the default is genuinely off this truth
+    z = (res.values - true) / res.std
+    assert np.all(np.abs(z) < 3.0), dict(zip(names, z))
+    assert np.all(res.std < [0.5, 0.5, 150.0, 10.0]), res.std
+    assert np.sqrt(np.mean(res.residuals ** 2)) < 0.01  # residuals at the noise level
+
+
+def test_default_plant_is_the_v1_fit_to_every_reported_number():
+    """PlantParams() (= presets/balloon.yaml) is plant v1 fitted to all computable reported numbers:
+    the mean error matches docs/calibration.md, the angles sit inside the sleeve bounds, and a fit
+    of the parameters that are not on a bound, started at the default, stays there."""
+    p = PlantParams()
+    assert preset("balloon") == p
+    assert (p.braid_tension, p.bladder_model) == ("tension_only", "neo_hookean")
+    exps = _paper_rows()
+    assert len(exps) == 24
+    err = np.abs(cal.relative_errors(cal.model_values(exps, p), exps))
+    assert err.mean() == pytest.approx(0.1212, abs=0.002)
+    for name in ("cpam_rest_angle", "epam_sleeve_free_angle"):
+        lo, hi = cal.V1_BOUNDS[name]
+        assert lo - 1e-9 <= math.degrees(getattr(p, name)) <= hi
+    assert cal.sleeve_diameter_ratio(p.min_length, p.cpam_rest_length, p.cpam_rest_angle) <= 2.0 + 1e-3
+    assert cal.sleeve_diameter_ratio(p.min_length, p.epam_sleeve_free_length, p.epam_sleeve_free_angle) <= 2.0
+    names = ("epam_sleeve_free_angle", "bladder_thickness", "tube_shear_modulus")
+    res = cal.fit(exps, p, names, bounds=cal.V1_BOUNDS, tol=1e-8)
+    # the optimum is flat along the EPAM angle: within a third of a standard deviation
+    assert np.all(np.abs(res.values - res.start) < 0.33 * res.std), (res.values, res.start, res.std)
+    assert res.cost > 0.999 * 0.5 * float(np.sum(cal.relative_errors(cal.model_values(exps, p), exps) ** 2))

@@ -184,7 +184,7 @@ def _sealed_energy(mujoco, env):
 def _sealed_oscillation(mujoco, sub_dt: float):
     """Worst energy error and the kinetic energies over 1 s (about 4 oscillations) after a kick."""
     env = CEPAMJointEnv(sub_dt=sub_dt,
-                        plant={"force_model": "basic", "heat_transfer_w_per_k": 0.0,
+                        plant={"preset": "balloon_v0", "force_model": "basic", "heat_transfer_w_per_k": 0.0,
                                "leak_conductance_dm3_per_s_bar": 0.0, "damping_ns_per_m": 0.0},
                         joint={"joint_damping": 0.0})
     env.reset(seed=0, options={"initial_angle": 0.9, "initial_stiffness": 0.5, "external_torque": 0.0,
@@ -219,7 +219,7 @@ def test_joint_coupling_conserves_energy_with_sealed_chambers(mujoco):
 def test_joint_static_stiffness_is_muscle_stiffness_times_arm_squared(mujoco):
     """Held pressures (set-point mode), a small external torque step: the angle moves by
     dtau / (K r^2 + m g l_c cos theta)."""
-    env = CEPAMJointEnv(action_mode="pressure")
+    env = CEPAMJointEnv(action_mode="pressure", plant="balloon_v0")  # the v0 id's plant
     opts = {"initial_angle": 0.9, "initial_stiffness": 0.5, "external_torque": 0.02,
             "target_angle": 0.9, "target_stiffness": 0.5}
     _, info = env.reset(seed=0, options=opts)

@@ -19,7 +19,7 @@ from cepam_gym.physics import api, load, muscle, valve
 # Eq. 24 hold exactly) and no bladder elasticity (the paper has none). The default plant differs in
 # both (calibrated: 28.9 / 19.2 deg, 166 N/m); DEFAULT-plant tests below say so.
 BASE = preset("balloon_uncalibrated")
-DEFAULT = PlantParams()
+DEFAULT = preset("balloon_v0")  # the calibrated v0 plant (plant v1: test_plant_v1.py)
 LENGTHS = np.linspace(0.151, 0.194, 7)  # inside the 15-19.5 cm operating range
 ALL_LEVELS = [(m, f) for m in FORCE_MODELS for f in FORCE_FORMS]
 

@@ -5,10 +5,42 @@ loop (the plant checks finiteness once per control step). ``cache=True`` keeps t
 machine code on disk beside the sources, so a second process starts in well under a second.
 """
 
+import hashlib
+import re
+from pathlib import Path
+
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+_PKG = Path(__file__).parent
+
+
+def _drop_stale_caches() -> None:
+    """Numba's on-disk cache is keyed by each function's own source file, not by the module
+    constants it inlined. The column layouts (``physics/layout.py``, the state columns of
+    ``plant.py``) are such constants, used by kernels in other files (``tasks/kernel.py``...): after
+    a layout change those would load machine code with the old indices. So the layouts' text is
+    stamped, and every cached kernel of the package is dropped when it changes (best effort: a
+    read-only install keeps its caches, which were built with its own layouts)."""
+    try:
+        plant_src = (_PKG / "plant.py").read_text()
+        text = (_PKG / "physics" / "layout.py").read_text() + "\n".join(
+            re.findall(r"^(?:STATE_FIELDS|S_L|N_STATE|AUX_FIELDS|N_AUX|INPUT_FIELDS|N_INPUT).*$",
+                       plant_src, re.M))
+        stamp = hashlib.sha1(text.encode()).hexdigest()
+        path = _PKG / "__pycache__" / "numba_layout.stamp"
+        if path.exists() and path.read_text() == stamp:
+            return
+        for f in list(_PKG.rglob("*.nbi")) + list(_PKG.rglob("*.nbc")):
+            f.unlink(missing_ok=True)
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(stamp)
+    except OSError:
+        pass
+
+
+_drop_stale_caches()
 jit = njit(cache=True, error_model="numpy")
 # for the functions of the sub-step loop: marked ``alwaysinline`` for LLVM, so the loop is one body
 # that keeps its values in registers and that LLVM can vectorise across plants. (Numba's own

@@ -4,11 +4,12 @@ Every field is SI (m, Pa, kg, s, K). In YAML each key carries the unit it is wri
 (``supply_kpa: 300``), converted by :mod:`cepam_gym.units`; unknown keys and wrong units are
 rejected with the key's name. Pressures called ``*_kpa`` are gauge; ``*_kpa_abs`` absolute.
 
-Values marked ``calibrate=True`` are not reported by the paper. Their defaults are the fit of the
-paper's 13 CE-PAM numbers (``cepam-gym calibrate --data data/paper_cepam.csv``, docs/calibration.md
-section 4): the default plant reproduces them with a mean error of 4.1 %. The pre-calibration
-guesses (equal 18 deg braids, 0.3 + 0.2 mm walls, no elasticity) are the ``balloon_uncalibrated``
-preset.
+The defaults are plant v1 (docs/physics.md, "Plant v1"): tension-only braids and a neo-Hookean
+wall per bladder. Values marked ``calibrate=True`` are not reported by the paper; their defaults
+are one bounded least-squares fit of every computable reported number (CE-PAM, single CPAM and
+EPAM, the tube-thickness rows; ``cepam-gym calibrate --v1``, docs/calibration.md, "Plant v1"). The
+v0 plant (braids that also push, one linear spring, fitted to the 13 CE-PAM numbers) is the preset
+``balloon_v0``; the pre-calibration guesses on it are ``balloon_uncalibrated``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ from .physics.muscle import braid_from_rest
 
 FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
+BRAID_TENSIONS = ("bidirectional", "tension_only")  # v0 | v1 (docs/physics.md, plant v1)
+BLADDER_MODELS = ("spring", "neo_hookean")  # v0 | v1
 
 
 def _f(default, unit: str, doc: str, calibrate: bool = False):
@@ -42,20 +45,22 @@ class PlantParams:
     cpam_rest_length: float = _f(0.195, "cm", "CPAM length unpressurised (section II)")
     cpam_rest_diameter: float = _f(0.005, "mm", "CPAM braid diameter at rest (section II)")
     cpam_rest_angle: float = _f(
-        math.radians(28.8797), "deg",
-        "CPAM braid angle at rest (only '< 54.7 deg' reported); fitted to the CE-PAM's lengths and "
-        "stiffnesses of sections V and XII (+/- 6.4 deg)", calibrate=True)
+        math.radians(20.3), "deg",
+        "CPAM braid angle at rest (only '< 54.7 deg' reported); fitted to every reported number "
+        "(plant v1, docs/calibration.md); on its lower bound, which keeps the CPAM within twice its "
+        "5 mm over the stroke", calibrate=True)
     epam_sleeve_free_length: float = _f(0.30, "cm", "EPAM sleeve length before compression (section III)")
     epam_sleeve_free_diameter: float = _f(0.010, "mm", "EPAM sleeve diameter before compression")
     epam_sleeve_free_angle: float = _f(
-        math.radians(19.173), "deg",
-        "EPAM free-sleeve braid angle (not reported); fitted like the CPAM's (+/- 3.2 deg). Unequal "
-        "angles: the paper's relations Eq. 6-7 then hold only approximately", calibrate=True)
+        math.radians(33.18), "deg",
+        "EPAM free-sleeve braid angle (not reported); fitted like the CPAM's (+/- 3.2 deg; >= 26.6 deg "
+        "keeps the sleeve within twice its 10 mm). Unequal angles: the paper's relations Eq. 6-7 "
+        "then hold only approximately", calibrate=True)
     cpam_bladder_diameter: float = _f(0.005, "mm", "D_oc of Eq. 32")
     epam_bladder_diameter: float = _f(0.010, "mm", "D_oe of Eq. 28")
-    bladder_thickness: float = _f(0.00006, "mm", "t_b of Eq. 35 (balloon: < 1 mm); fitted as t_a = t_s + t_b "
-                                  "= 0.1 mm, the fit's lower bound, split 3 : 2", calibrate=True)
-    sleeve_thickness: float = _f(0.00004, "mm", "t_s of Eq. 35 (not reported); see bladder_thickness",
+    bladder_thickness: float = _f(0.0001043, "mm", "t_b of Eq. 35 (balloon: < 1 mm) and the wall of the "
+                                  "strain energy; fitted (+/- 0.03 mm)", calibrate=True)
+    sleeve_thickness: float = _f(0.00005, "mm", "t_s of Eq. 35 (not reported); fitted, on its 0.05 mm lower bound",
                                  calibrate=True)
     kr_high: float = _f(2.0e6, "kpa_per_m", "K_r for D sin(theta) < D_o/2 (Eq. 27)")
     kr_low: float = _f(5.0e5, "kpa_per_m", "K_r for D sin(theta) > D_o/2 (Eq. 27)")
@@ -64,9 +69,21 @@ class PlantParams:
     force_form: str = _f("virtual_work", "", "virtual_work (energy-consistent) | paper (Eq. 22, 15)")
     min_length: float = _f(0.15, "cm", "lower end stop: the CE-PAM's nominal length (section VIII)")
     max_length: float = _f(0.195, "cm", "upper end stop: the CPAM's rest length (section V)")
-    elastic_stiffness: float = _f(166.121, "n_per_m", "bladder elasticity (not in the paper); fitted "
-                                  "(+/- 73 N/m)", calibrate=True)
+    elastic_stiffness: float = _f(0.0, "n_per_m", "v0 bladder spring (not in the paper; bladder_model = "
+                                  "spring only; v0 fitted 166 N/m, preset balloon_v0)", calibrate=True)
     elastic_rest_length: float = _f(0.15, "cm", "rest length of that elasticity")
+    # --- plant v1 statics (docs/physics.md, "Plant v1"); preset balloon_v0 sets them to v0 ---
+    braid_tension: str = _f("tension_only", "", "bidirectional (v0: the CPAM braid also pushes) | "
+                            "tension_only (v1: a slack braid adds no force)")
+    slack_width: float = _f(1e3, "kpa", "tension_only: pressure width of the CPAM braid's smooth slack switch")
+    bladder_model: str = _f("neo_hookean", "", "spring (v0: elastic_stiffness) | neo_hookean (v1: strain "
+                            "energy of each bladder wall, Klute and Hannaford 2000)")
+    bladder_shear_modulus: float = _f(1000e3, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
+                                      "(wall thickness: bladder_thickness)", calibrate=True)
+    epam_bladder_length: float = _f(0.15, "cm", "EPAM bladder length, its stress-free length (section III)")
+    tube_shear_modulus: float = _f(426.9e3, "kpa", "neo_hookean: shear modulus of the rubber-tube bladders of "
+                                   "sections II, III, X (the reproduction's tube rows; preset rubber_tube)",
+                                   calibrate=True)
     # --- air supply, valves, chambers (docs/model.md section 4) ---
     supply_pressure: float = _f(250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon")
     atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
@@ -81,10 +98,23 @@ class PlantParams:
     spool_damping: float = _f(0.7, "", "spool damping ratio when spool_order = 2")
     onoff_conductance: float = _f(1e-9, "dm3_per_s_bar", "on/off solenoid valve sonic conductance")
     onoff_switch_time: float = _f(0.003, "ms", "on/off valve switching lag")
+    friction_coefficient: float = _f(
+        2e-6, "n_per_kpa", "v1: braid-bladder dry friction, break-away force per kPa of Pc+ + Pe+ "
+        "(Maxwell-slip, Tondu and Lopez 2000; assumed, not identified); 0 = v0")
+    friction_presliding: float = _f(0.0005, "mm", "v1: presliding displacement of the slowest "
+                                    "Maxwell-slip element (the others: 0.1 and 0.4 of it)")
+    onoff_open_delay: float = _f(0.004, "ms", "v1: on/off valve dead time from the command's rising edge "
+                                 "to opening (solenoid pull-in); 0 = v0")
+    onoff_close_delay: float = _f(0.002, "ms", "v1: dead time from the falling edge to closing; a pulse "
+                                  "shorter than open - close delay passes no air. 0 = v0")
     pwm_frequency: float = _f(50.0, "hz", "PWM frequency of the on/off valves")
     dead_volume_cpam: float = _f(2e-6, "cm3", "port and tubing volume of the CPAM chamber")
     dead_volume_epam: float = _f(2e-6, "cm3", "port and tubing volume of the annulus")
-    heat_transfer: float = _f(0.02, "w_per_k", "wall heat transfer hA of each chamber")
+    heat_transfer: float = _f(0.02, "w_per_k", "v0: wall heat transfer hA of each chamber (used when "
+                              "heat_transfer_coefficient = 0)")
+    heat_transfer_coefficient: float = _f(
+        10.0, "w_per_m2_k", "v1: wall heat transfer coefficient h; each chamber's hA is h times its wall "
+        "area at mid-stroke (CPAM: its bladder; annulus: the EPAM bladder and the CPAM's outside). 0 = v0")
     burst_pressure: float = _f(300e3, "kpa", "balloon burst pressure (gauge), about 250-300 kPa")
     polytropic_exponent: float = _f(1.4, "", "exponent of the closed-chamber stiffness (1.4 adiabatic)")
     regulator_gain: float = _f(1.0 / 20e3, "per_kpa", "set-point mode: spool opening per kPa of pressure error")
@@ -108,17 +138,24 @@ class PlantParams:
             raise ValueError(f"force_model must be one of {FORCE_MODELS}, got {self.force_model!r}")
         if self.force_form not in FORCE_FORMS:
             raise ValueError(f"force_form must be one of {FORCE_FORMS}, got {self.force_form!r}")
+        if self.braid_tension not in BRAID_TENSIONS:
+            raise ValueError(f"braid_tension must be one of {BRAID_TENSIONS}, got {self.braid_tension!r}")
+        if self.bladder_model not in BLADDER_MODELS:
+            raise ValueError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
         if self.spool_order not in (1, 2):
             raise ValueError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
         positive = ("cpam_rest_length", "cpam_rest_diameter", "epam_sleeve_free_length",
                     "epam_sleeve_free_diameter", "min_length", "atmospheric_pressure",
                     "supply_temperature", "ambient_temperature", "spool_time_constant",
                     "onoff_switch_time", "pwm_frequency", "end_mass", "burst_pressure",
-                    "polytropic_exponent")
+                    "polytropic_exponent", "slack_width", "epam_bladder_length", "friction_presliding")
         nonneg = ("bladder_thickness", "sleeve_thickness", "kr_high", "kr_low", "elastic_stiffness",
                   "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
                   "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
-                  "coulomb_friction", "regulator_gain", "spool_damping")
+                  "coulomb_friction", "regulator_gain", "spool_damping",
+                  "bladder_shear_modulus", "tube_shear_modulus",
+                  "heat_transfer_coefficient", "onoff_open_delay", "onoff_close_delay",
+                  "friction_coefficient")
         for name in positive:
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
@@ -197,7 +234,7 @@ class PlantParams:
         paper = self.force_form == "paper"
         p[ix.KAPPA] = self.paper_length_ratio if paper else 1.0
         p[ix.LAMBDA] = 1.0 if paper else 0.0
-        p[ix.K_EL] = self.elastic_stiffness
+        p[ix.K_EL] = self.elastic_stiffness if self.bladder_model == "spring" else 0.0  # v1: the walls' energy replaces it
         p[ix.L_EL0] = self.elastic_rest_length
         p[ix.L_MIN] = self.min_length
         p[ix.L_MAX] = self.max_length
@@ -225,6 +262,16 @@ class PlantParams:
         p[ix.F_COUL] = self.coulomb_friction
         p[ix.GRAV] = self.gravity
         p[ix.REG_GAIN] = self.regulator_gain
+        p[ix.SLACK_W] = self.slack_width if self.braid_tension == "tension_only" else 0.0
+        p[ix.MU_B] = self.bladder_shear_modulus if self.bladder_model == "neo_hookean" else 0.0
+        p[ix.TB_EL] = self.bladder_thickness
+        p[ix.LREF_C] = self.cpam_rest_length
+        p[ix.LREF_E] = self.epam_bladder_length
+        p[ix.H_WALL] = self.heat_transfer_coefficient
+        p[ix.D_ON] = self.onoff_open_delay
+        p[ix.D_OFF] = self.onoff_close_delay
+        p[ix.FR_C] = self.friction_coefficient
+        p[ix.FR_D] = self.friction_presliding
         fill_derived(p)
         return p
 
@@ -318,6 +365,20 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
         q[dk] = b / (math.pi * n)
         q[inv_pnb] = 1.0 / (math.pi * n * b)
     q[ix.PTA2] = math.pi * ta * ta
+    for lref, inv_l, inv_d, el, b_i, dk, d_o in ((ix.LREF_C, ix.INV_LREF_C, ix.INV_DREF_C, ix.EL_C, ix.BC, ix.DK_C, ix.DOC),
+                                                 (ix.LREF_E, ix.INV_LREF_E, ix.INV_DREF_E, ix.EL_E, ix.BE, ix.DK_E, ix.DOE)):
+        u = q[lref] / q[b_i]
+        q[inv_l] = 1.0 / q[lref]
+        q[inv_d] = 1.0 / (q[dk] * np.sqrt(1.0 - u * u))  # braid diameter at the bladder's rest length
+        # mu times the rubber volume of a tube of outer diameter D_o and wall t_b, pi (D_o - t_b) t_b L
+        q[el] = q[ix.MU_B] * math.pi * (q[d_o] - q[ix.TB_EL]) * q[ix.TB_EL] * q[lref]
+    # chamber wall areas at mid-stroke: CPAM bladder inside; annulus = EPAM bladder inside + CPAM outside
+    lm = 0.5 * (q[ix.L_MIN] + q[ix.L_MAX])
+    d_c = q[ix.DK_C] * np.sqrt(1.0 - (lm / q[ix.BC]) ** 2)
+    d_e = q[ix.DK_E] * np.sqrt(1.0 - (lm / q[ix.BE]) ** 2)
+    h = q[ix.H_WALL]
+    q[ix.HA_C] = np.where(h > 0.0, h * math.pi * (d_c - 2.0 * ta) * lm, q[ix.HA])
+    q[ix.HA_E] = np.where(h > 0.0, h * math.pi * (d_e - 2.0 * ta + d_c) * lm, q[ix.HA])
     bc = q[ix.B_CRIT]
     q[ix.INV_1MB] = 1.0 / (1.0 - bc)
     x = (q[ix.R_LAM] - bc) / (1.0 - bc)

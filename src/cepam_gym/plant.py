@@ -29,15 +29,18 @@ from numba import njit, prange
 from ._jit import fmax, fmin, jit, jit_inline, sqrt, strided_tuple
 from .physics import layout as ix
 from .physics.air import chamber_rates, pressure_abs, pressure_abs_inv, state_from_pressure, temperature
+from .physics.friction import friction_force, friction_slip
 from .physics.load import load_constants, load_step_k
 from .physics.muscle import chamber_volumes, closed_chamber_stiffness, cpam_terms, epam_terms, force_from_slopes
 from .physics.valve import spool_step
 
 # ---------------------------------------------------------------- layouts
 STATE_FIELDS = ("length", "velocity", "mass_c", "energy_c", "mass_e", "energy_e",
-                "spool_c", "spool_e", "spool_rate_c", "spool_rate_e", "time")
-S_L, S_V, S_MC, S_UC, S_ME, S_UE, S_SC, S_SE, S_SRC, S_SRE, S_T = range(11)
-N_STATE = 11
+                "spool_c", "spool_e", "spool_rate_c", "spool_rate_e", "time",
+                "slip_1", "slip_2", "slip_3")
+S_L, S_V, S_MC, S_UC, S_ME, S_UE, S_SC, S_SE, S_SRC, S_SRE, S_T, S_Z1, S_Z2, S_Z3 = range(14)
+N_STATE = 14
+N_STATE_V0 = 11  # the v0 plant's columns (the slip deflections of plant v1 stay 0 without friction)
 
 INPUT_FIELDS = ("command_c", "command_e", "load_mass", "external_force")
 I_CMD_C, I_CMD_E, I_LOAD, I_FEXT = range(4)
@@ -62,9 +65,19 @@ def _command(mode, u, pressure_gauge, t, p):
     """Spool command of one chamber's valve for this sub-step."""
     if mode == ONOFF:
         period = p[ix.PWM_PERIOD]
-        phase = (t - period * math.floor(t / period)) / period
+        d_on, d_off = p[ix.D_ON], p[ix.D_OFF]
         duty = abs(u)
-        if phase < duty:
+        if d_on == 0.0 and d_off == 0.0:  # v0: the valve follows the PWM edges (after its lag)
+            phase = (t - period * math.floor(t / period)) / period
+            if phase < duty:
+                return 1.0 if u > 0.0 else -1.0
+            return 0.0
+        # v1: dead times. The valve opens d_on after the rising edge and closes d_off after the
+        # falling one; a pulse shorter than d_on - d_off never opens it. Full duty never switches.
+        tp = t - period * math.floor(t / period)
+        close = duty * period + d_off
+        is_open = duty >= 1.0 or (close > d_on and ((d_on <= tp < close) or tp < close - period))
+        if is_open:
             return 1.0 if u > 0.0 else -1.0
         return 0.0
     if mode == PRESSURE:
@@ -124,10 +137,10 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     cleak = p[ix.C_LEAK]
     dmc, duc, supc = chamber_rates(pca, tc, sqrt(ix.T0 / tc), 0.0, cvalve * fmax(sc, 0.0),
                                    cvalve * fmax(-sc, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
-                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA])
+                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA_C])
     dme, due, supe = chamber_rates(pea, te, sqrt(ix.T0 / te), 0.0, cvalve * fmax(se, 0.0),
                                    cvalve * fmax(-se, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
-                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA])
+                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA_E])
     return pc, pe, sc, se, src, sre, dmc, duc, dme, due, fmax(supc, 0.0) + fmax(supe, 0.0)
 
 
@@ -164,14 +177,16 @@ def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
 
 @jit_inline
 def substep_forces(mode, inp, p, t, dt, L, mc, uc, me, ue, inv_vol_c, inv_vol_e, dvc, dvac, dvae,
-                   sc, se, src, sre, valves):
+                   sc, se, src, sre, valves, z1, z2, z3):
     """Pre-mechanics half of a sub-step at length ``L`` (``inv_vol`` = 1 / chamber volumes and
     ``dvc, dvac, dvae`` the volume slopes at ``L``, from :func:`volumes_at`): pressures, spools,
-    valve flows (:func:`substep_rates`) and the push force at ``L``. Returns
+    valve flows (:func:`substep_rates`) and the push force at ``L``, the friction of the slip
+    deflections ``z1..z3`` included (:mod:`cepam_gym.physics.friction`; 0 in a v0 row). Returns
     ``(force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)``."""
     pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
         mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc, se, src, sre, valves)
     force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
+    force += friction_force(p, pc, pe, z1, z2, z3)
     return force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup
 
 
@@ -240,14 +255,18 @@ def _lane_substep(W, i, mode, dt):
     vol_c = W[_w(_W_VC, i)]
     vol_e = W[_w(_W_VE, i)]
     mc, uc, me, ue = W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)]
+    z1, z2, z3 = W[_w(S_Z1, i)], W[_w(S_Z2, i)], W[_w(S_Z3, i)]
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_forces(
         mode, inp, p, W[_w(S_T, i)], dt, L, mc, uc, me, ue, W[_w(_W_INVC, i)], W[_w(_W_INVE, i)],
         W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)],
-        W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves)
+        W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves, z1, z2, z3)
     W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)],
                                                           pc, pe, sup, dt)
+    L_old = L
     L, v, stop = load_step_k(L, W[_w(S_V, i)], force + W[_w(_W_FEXT, i)], W[_w(_W_DTM, i)],
                              W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)], p[ix.L_MIN], p[ix.L_MAX], dt)
+    if p[ix.FR_C] > 0.0:
+        W[_w(S_Z1, i)], W[_w(S_Z2, i)], W[_w(S_Z3, i)] = friction_slip(p, L - L_old, z1, z2, z3)
     vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)
     inv_c = 1.0 / vol_c_new  # one division serves the work ratio and the next pressures
     inv_e = 1.0 / vol_e_new

@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import gymnasium as gym
 
+# The v0 ids keep the v0 plant (preset balloon_v0), so every published v0 figure reproduces; a
+# user's own ``plant=`` still wins. The default plant of ``PlantParams()`` (and of the v1 ids) is
+# plant v1.
+V0_PLANT = "balloon_v0"
 # rig ids -> their default kwargs (a user's own kwargs win). v1: planned references announced
 # PREVIEW_STEPS control steps ahead (0.2 s at 50 Hz) in the observation.
 PREVIEW_STEPS = 10
 ENV_IDS: dict[str, dict] = {
-    "cepam_gym/CEPAM-v0": {"task": "cepam"},
-    "cepam_gym/CEPAMLength-v0": {"task": "length"},
-    "cepam_gym/CEPAMStiffness-v0": {"task": "stiffness"},
+    "cepam_gym/CEPAM-v0": {"task": "cepam", "plant": V0_PLANT},
+    "cepam_gym/CEPAMLength-v0": {"task": "length", "plant": V0_PLANT},
+    "cepam_gym/CEPAMStiffness-v0": {"task": "stiffness", "plant": V0_PLANT},
     "cepam_gym/CEPAM-v1": {"task": "cepam_v1", "preview_steps": PREVIEW_STEPS},
     "cepam_gym/CEPAMLength-v1": {"task": "length_v1", "preview_steps": PREVIEW_STEPS},
     "cepam_gym/CEPAMStiffness-v1": {"task": "stiffness_v1", "preview_steps": PREVIEW_STEPS},
@@ -34,4 +38,5 @@ def register_envs() -> None:
         )
     for env_id, entry_point in MUJOCO_ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS)
+            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS,
+                         kwargs={"plant": V0_PLANT})

@@ -31,6 +31,8 @@ EDGE_UNITS: dict[str, float] = {
     "n_per_m": 1.0,
     "ns_per_m": 1.0,
     "w_per_k": 1.0,
+    "w_per_m2_k": 1.0,
+    "n_per_kpa": 1e-3,
     "m_per_s2": 1.0,
     # ISO 6358 catalogues give sonic conductance in dm^3/(s bar) = 1e-8 m^3/(s Pa)
     "dm3_per_s_bar": 1e-8,

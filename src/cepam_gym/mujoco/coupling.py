@@ -52,6 +52,15 @@ def _settle(x, dt, vol_c, vol_e, acc):
 
 
 @jit
+def _slip(x, p, length):
+    """The braid-bladder friction elements follow the imposed motion from ``x[S_L]`` to
+    ``length`` (plant v1; nothing to do in v0 rows), as in the plant's own sub-step."""
+    if p[ix.FR_C] > 0.0:
+        x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3] = pl.friction_slip(p, length - x[pl.S_L], x[pl.S_Z1],
+                                                            x[pl.S_Z2], x[pl.S_Z3])
+
+
+@jit
 def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     """One plant sub-step at an imposed ``length`` [m] and ``velocity`` [m/s]; returns the push
     force [N] at the start of the sub-step (what the mechanism feels during it).
@@ -64,12 +73,13 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     """
     vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
     _settle(x, dt, vol_c, vol_e, acc)
+    _slip(x, p, length)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_forces(
         mode, inp, p, x[pl.S_T], dt, length, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE],
         1.0 / vol_c, 1.0 / vol_e, dvc, dvac, dvae, x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE],
-        pl.valve_setup(mode, p, dt))
+        pl.valve_setup(mode, p, dt), x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3])
     x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE] = sc, se, src, sre
     x[pl.S_T] += dt
     acc[PEND], acc[PEND_DMC], acc[PEND_DUC], acc[PEND_DME], acc[PEND_DUE] = 1.0, dmc, duc, dme, due
@@ -94,6 +104,7 @@ def finish_step(x, p, dt, length, velocity, acc, aux):
     the plant's own :func:`cepam_gym.plant.end_of_step`."""
     vol_c, vol_e, _dvc, _dvac, _dvae = pl.volumes_at(length, p)
     _settle(x, dt, vol_c, vol_e, acc)
+    _slip(x, p, length)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME],

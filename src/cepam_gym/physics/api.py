@@ -145,3 +145,14 @@ def _contact(L, p):
 def contact_pressures(length, params):
     """``(P_rc, P_re)`` [Pa]: pressure each bladder spends reaching its sleeve (Eq. 27-28, 32)."""
     return _call(_contact, 2, params, length)
+
+
+@njit
+def _energy(L, p):
+    return muscle.bladder_energies(L, p)
+
+
+def bladder_energy(length, params):
+    """``(U, dU/dL, d2U/dL2)`` [J, N, N/m]: strain energy stored in both bladder walls (plant v1,
+    neo-Hookean; zeros for a v0 plant) and its length derivatives. The walls push with ``-dU/dL``."""
+    return _call(_energy, 3, params, length)

@@ -68,8 +68,30 @@ INV_1MB = 53  # 1 / (1 - b)
 LAM_K = 54  # sqrt(1 - x_lam^2) / (1 - r_lam), x_lam = (r_lam - b) / (1 - b): laminar slope factor
 K_SUP = 55  # sqrt(T0 / T_supply)
 K_AMB = 56  # sqrt(T0 / T_ambient)
+# --- plant v1 statics (docs/physics.md "Plant v1"); zero in a v0 row, which leaves v0 unchanged ---
+SLACK_W = 57  # tension-only braids: width [Pa] of the CPAM braid's slack switch; 0 = the braid also pushes (v0)
+MU_B = 58  # bladder shear modulus mu [Pa] of the neo-Hookean wall; 0 = no bladder energy (v0)
+TB_EL = 59  # bladder wall thickness of the strain energy [m] (t_b, Eq. 35)
+LREF_C = 60  # CPAM bladder's stress-free length [m] (its rest length, section II)
+LREF_E = 61  # EPAM bladder's stress-free length [m] (15 cm, section III)
+# derived by fill_derived
+EL_C = 62  # mu * rubber volume of the CPAM bladder [J] (pi (D_oc - t_b) t_b L_ref,c)
+EL_E = 63  # mu * rubber volume of the EPAM bladder [J]
+INV_LREF_C = 64  # 1 / L_ref,c
+INV_LREF_E = 65  # 1 / L_ref,e
+INV_DREF_C = 66  # 1 / braid diameter at L_ref,c
+INV_DREF_E = 67  # 1 / braid diameter at L_ref,e
+# --- plant v1 air and valves; zero in a v0 row ---
+H_WALL = 68  # wall heat transfer coefficient h [W/(m^2 K)]; 0 = one hA for both chambers (v0, HA)
+D_ON = 69  # on/off valve opening dead time [s]
+D_OFF = 70  # on/off valve closing dead time [s]
+HA_C = 71  # hA of the CPAM chamber [W/K] (derived: HA in v0, h times its wall area in v1)
+HA_E = 72  # hA of the annulus [W/K] (derived)
+# --- plant v1 braid-bladder friction (Maxwell-slip); zero in a v0 row ---
+FR_C = 73  # break-away force per Pa of (Pc+ + Pe+) [N/Pa]; 0 = no friction (v0)
+FR_D = 74  # presliding displacement of the slowest element [m]
 
-N_PARAMS = 57
+N_PARAMS = 75
 
 NAMES = tuple(
     name

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import jit, jit_inline, sqrt
+from .._jit import fmax, jit, jit_inline, sqrt
 from . import layout as ix
 
 
@@ -159,8 +159,72 @@ def cepam_force(L, pc, pe, p):
 
 
 @jit_inline
+def bladder_energy_k(L, inv_b, dk, scale, inv_lref, inv_dref):
+    """Strain energy of one bladder wall and its first two length derivatives, ``(U, dU/dL, d2U/dL2)``.
+
+    Thin-wall incompressible neo-Hookean cylinder (the elastic energy of Klute and Hannaford 2000,
+    there with a Mooney-Rivlin law; neo-Hookean is its one-constant case):
+    ``U = mu V_r (lam1^2 + lam2^2 + (lam1 lam2)^-2 - 3) / 2`` with the axial stretch
+    ``lam1 = L / L_ref`` (the bladder is glued to both end caps) and the hoop stretch
+    ``lam2 = D(L) / D(L_ref)`` (the bladder follows the braid, Eq. 2; stress-free in the muscle's
+    unpressurised rest configuration). ``scale = mu V_r`` (rubber volume ``pi (D_o - t_b) t_b L_ref``
+    of a tube of outer diameter ``D_o``);
+    ``scale = 0`` gives exact zeros. The derivatives are exact (``K = -dF/dL`` needs the second).
+    """
+    u = L * inv_b
+    s2 = 1.0 - u * u
+    s = sqrt(s2)
+    inv_s = 1.0 / s
+    l1 = L * inv_lref
+    l1p = inv_lref
+    l2 = dk * s * inv_dref
+    l2p = -dk * u * inv_b * inv_s * inv_dref  # dD/dL = -dk L / (b^2 s)
+    l2pp = -dk * inv_b * inv_b * inv_s * inv_s * inv_s * inv_dref  # d2D/dL2 = -dk / (b^2 s^3)
+    j = l1 * l2
+    jp = l1p * l2 + l1 * l2p
+    jpp = 2.0 * l1p * l2p + l1 * l2pp
+    ij = 1.0 / j
+    ij2 = ij * ij
+    w = 0.5 * (l1 * l1 + l2 * l2 + ij2 - 3.0)
+    dw = l1 * l1p + l2 * l2p - jp * ij2 * ij
+    d2w = l1p * l1p + l2p * l2p + l2 * l2pp - jpp * ij2 * ij + 3.0 * jp * jp * ij2 * ij2
+    return scale * w, scale * dw, scale * d2w
+
+
+@jit_inline
+def bladder_energies(L, p):
+    """``(U, dU/dL, d2U/dL2)`` of both bladders of parameter row ``p`` (zeros in a v0 row)."""
+    uc, duc, d2uc = bladder_energy_k(L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C])
+    ue, due, d2ue = bladder_energy_k(L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E])
+    return uc + ue, duc + due, d2uc + d2ue
+
+
+@jit_inline
+def slack_gate(x):
+    """Smooth step ``x^2 (3 - 2 x)`` clipped to [0, 1] and its derivative: 0 for a slack braid
+    (``x <= 0``), 1 for a taut one (``x >= 1``), C1 in between."""
+    if x <= 0.0:
+        return 0.0, 0.0
+    if x >= 1.0:
+        return 1.0, 0.0
+    return x * x * (3.0 - 2.0 * x), 6.0 * x * (1.0 - x)
+
+
+@jit_inline
 def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
-    """:func:`cepam_force` from precomputed volume slopes (the plant computes them once per step)."""
+    """:func:`cepam_force` from precomputed volume slopes (the plant computes them once per step).
+
+    Plant v1 terms, both off (exact zeros) in a v0 parameter row:
+
+    * neo-Hookean bladder walls (:func:`bladder_energy_k`): ``F_el = -dU/dL`` per bladder.
+    * tension-only CPAM (``p[SLACK_W] > 0``): the CPAM's own push
+      ``c = (P_ac - lambda P_ae) dV_ac/dL - (1 - lambda) kappa P_ae dV_c/dL - dU_c/dL`` (its braid
+      term, Eq. 45 in the paper form or ``P_c dV_ac - P_e dV_c`` by virtual work, plus its wall)
+      is what the CPAM's braid threads carry: a pull (``c < 0``) while they are in tension. It is
+      multiplied by a smooth step of ``x = -c / (w |dV_c/dL|)`` (``w`` a pressure width, 1 kPa):
+      exactly 0 for a slack CPAM (``c >= 0``: squeezed from outside, or buckled because it is
+      shorter than its own free length), exactly 1 from a pull of ``w |dV_c/dL|`` on, C1 between.
+    """
     kappa = p[ix.KAPPA]
     lam = p[ix.LAMBDA]
     prc, dprc, pre, dpre = contact_pressures(L, p)
@@ -173,6 +237,32 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     dforce_dl = dpae * ge + pae * dge + dpac * dvac + pac * d2vac - k_el
     df_dpc = dvac if pac > 0.0 else 0.0
     df_dpe = ge if pae > 0.0 else 0.0
+    _uc, duc, d2uc = bladder_energy_k(L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C])
+    _ue, due, d2ue = bladder_energy_k(L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E])
+    force -= due
+    dforce_dl -= d2ue
+    width = p[ix.SLACK_W]
+    if width > 0.0:
+        # the CPAM's own push (braid term plus its bladder wall, see the docstring)
+        gc = lam * dvac + (1.0 - lam) * kappa * dvc  # what multiplies -P_ae in the braid term
+        c = pac * dvac - pae * gc - duc
+        dc = (dpac * dvac + pac * d2vac - dpae * gc - pae * (lam * d2vac + (1.0 - lam) * kappa * d2vc)
+              - d2uc)
+        a = fmax(-dvc, 1e-12)
+        da = -d2vc if -dvc > 1e-12 else 0.0
+        inv_wa = 1.0 / (width * a)
+        x = -c * inv_wa
+        dx = -(dc * a - c * da) * inv_wa / a
+        g, dg = slack_gate(x)
+        dc_dpc = dvac if pac > 0.0 else 0.0
+        dc_dpe = -gc if pae > 0.0 else 0.0
+        force += (g - 1.0) * c - duc  # the braid term and the wall, now both gated: g c
+        dforce_dl += (g - 1.0) * dc + dg * dx * c - d2uc
+        df_dpc += (g - 1.0) * dc_dpc - dg * dc_dpc * inv_wa * c
+        df_dpe += (g - 1.0) * dc_dpe - dg * dc_dpe * inv_wa * c
+    else:
+        force -= duc
+        dforce_dl -= d2uc
     return force, -dforce_dl, df_dpc, df_dpe
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .._jit import jit
 from . import layout as ix
-from .muscle import contact_pressures, cpam_terms, epam_terms
+from .muscle import bladder_energies, contact_pressures, cpam_terms, epam_terms
 
 
 @jit
@@ -20,6 +20,11 @@ def static_pressures(L, K, weight, p):
     Solves ``F(L, Pc, Pe) + weight = 0`` and ``-dF/dL = K``. Returns ``(Pc, Pe, ok)`` with
     ``ok = 1.0`` when both active pressures are positive (the solution is physical; whether it
     lies under the supply pressure is the caller's check), else ``0.0``.
+
+    Plant v1: the bladder walls' force ``-dU/dL`` and stiffness ``d2U/dL2`` do not depend on the
+    pressures and join the constant terms. A tension-only CPAM is assumed taut (the solution has
+    the CPAM pulling whenever it has ``P_ac`` well above ``P_ae``; a solution that needs a slack CPAM
+    is not found by this 2x2 solve).
     """
     _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
     _, _, _, dvae, _, d2vae = epam_terms(L, p)
@@ -27,11 +32,12 @@ def static_pressures(L, K, weight, p):
     ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
     dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
     k_el = p[ix.K_EL]
+    _u, du, d2u = bladder_energies(L, p)
     # unknowns x = P_ae, y = P_ac (active pressures, dP_a/dL = -dP_r/dL while active)
-    # force:     ge x + dvac y = -weight + k_el (L - L_el0)
-    # stiffness: -dge x - d2vac y = K - k_el - dpre ge - dprc dvac
-    r1 = -weight + k_el * (L - p[ix.L_EL0])
-    r2 = K - k_el - dpre * ge - dprc * dvac
+    # force:     ge x + dvac y = -weight + k_el (L - L_el0) + dU/dL
+    # stiffness: -dge x - d2vac y = K - k_el - d2U/dL2 - dpre ge - dprc dvac
+    r1 = -weight + k_el * (L - p[ix.L_EL0]) + du
+    r2 = K - k_el - d2u - dpre * ge - dprc * dvac
     det = -ge * d2vac + dvac * dge
     x = (r1 * (-d2vac) - dvac * r2) / det
     y = (ge * r2 + dge * r1) / det

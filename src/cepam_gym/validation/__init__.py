@@ -14,11 +14,17 @@ Nothing model-related is stored: every model value is computed from a
 
 from .equilibrium import Outcome, experiment_params, settle, simulate
 from .experiments import DEVICES, MEASURED_UNITS, REPORTED_PATH, Experiment, load_experiments
-from .fit import DEFAULT_FIT, FIT_PARAMS, FitResult, apply, fit, minimax, model_values, relative_errors
+from .fit import (DEFAULT_FIT, FIT_PARAMS, V1_BOUNDS, V1_FIT, V1_STARTS, CrossValidation, FitResult, apply,
+                  cross_validate, experiment_group, fit, format_cross_validation, minimax, model_values,
+                  relative_errors, sleeve_diameter_ratio)
 from .measurements import PAPER_CSV, PAPER_SINGLE_CSV, paper_csv_text, read_csv
-from .table import LEVELS, format_table, summary, validation_rows
+from .table import (DEFAULT_LEVELS, LEVELS, PLANT_LEVEL, device_headline, format_headline, format_table,
+                    geometry_lines, summary, validation_rows)
 
 __all__ = [
+    "CrossValidation", "DEFAULT_LEVELS", "PLANT_LEVEL", "V1_BOUNDS", "V1_FIT", "V1_STARTS",
+    "cross_validate", "device_headline", "experiment_group", "format_cross_validation",
+    "format_headline", "geometry_lines", "sleeve_diameter_ratio",
     "DEFAULT_FIT", "DEVICES", "Experiment", "FIT_PARAMS", "FitResult", "LEVELS", "MEASURED_UNITS",
     "Outcome", "PAPER_CSV", "PAPER_SINGLE_CSV", "REPORTED_PATH", "apply", "experiment_params",
     "fit", "format_table", "load_experiments", "minimax", "model_values", "paper_csv_text",

@@ -10,10 +10,11 @@ import numpy as np
 
 from ..params import PlantParams, preset
 from .experiments import load_experiments
-from .fit import DEFAULT_FIT, FIT_PARAMS, fit, fitted_yaml, format_report, minimax
+from .fit import (DEFAULT_FIT, FIT_PARAMS, V1_BOUNDS, V1_FIT, V1_STARTS, cross_validate, fit, fitted_yaml,
+                  format_cross_validation, format_report, minimax)
 from .measurements import read_csv, write_paper_csvs
 from .plots import plot_fit, write_plots
-from .table import base_params, format_table, json_rows, validation_rows
+from .table import base_params, format_headline, format_table, geometry_lines, json_rows, validation_rows
 
 
 def validate_main(argv: list[str] | None = None) -> int:
@@ -32,7 +33,8 @@ def validate_main(argv: list[str] | None = None) -> int:
         print(json.dumps(json_rows(rows), indent=1))
         return 0
     what = (args.params or f"preset {args.preset}") if (args.params or args.preset) else "default plant (balloon)"
-    table = format_table(rows, title=f"reproduction table: {what}")
+    table = "\n".join([format_table(rows, title=f"reproduction table: {what}"), "",
+                       format_headline(rows), "", geometry_lines(params)])
     print(table)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -63,6 +65,14 @@ def calibrate_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--minimax", action="store_true",
                     help="also search (differential evolution, about a minute) for the smallest "
                          "largest error the fit parameters can reach inside their bounds")
+    ap.add_argument("--v1", action="store_true",
+                    help="plant v1's calibration: every computable reported number of "
+                         "data/reported.yaml (CE-PAM, single CPAM and EPAM, tube rows) at once, "
+                         "parameters and bounds of docs/calibration.md ('Plant v1'), several starts; "
+                         "--data, --fit and --starts are then not used (about a minute)")
+    ap.add_argument("--cv", action="store_true",
+                    help="with --v1: also the leave-one-experiment-group-out cross-validation "
+                         "(five more fits, several minutes)")
     ap.add_argument("--write-paper-csv", metavar="DIR", default=None,
                     help="write the paper's numbers (data/reported.yaml) as paper_cepam.csv and "
                          "paper_single_muscles.csv into DIR and exit")
@@ -71,6 +81,8 @@ def calibrate_main(argv: list[str] | None = None) -> int:
         for path in write_paper_csvs(args.write_paper_csv):
             print(f"wrote {path}")
         return 0
+    if args.v1:
+        return _calibrate_v1(args)
     if not args.data or not args.out:
         ap.error("--data and --out are required")
     names = tuple(s.strip() for s in args.fit.split(",") if s.strip())
@@ -106,3 +118,28 @@ def calibrate_main(argv: list[str] | None = None) -> int:
     return 0
 
 
+
+
+def _calibrate_v1(args) -> int:
+    """``cepam-gym calibrate --v1``: plant v1 fitted to every computable reported number."""
+    if not args.out:
+        raise SystemExit("cepam-gym calibrate --v1: --out is required")
+    base = preset(args.preset)
+    experiments = [e for e in load_experiments() if e.computable and not e.derived_from]
+    starts = [list(x) for x in V1_STARTS]
+    res = fit(experiments, base, V1_FIT, bounds=V1_BOUNDS, x0s=starts, max_nfev=40 * len(V1_FIT), tol=1e-7)
+    print(f"plant v1 calibration of preset {args.preset!r} to the {len(experiments)} computable reported "
+          f"numbers (data/reported.yaml), {len(V1_FIT)} parameters, bounds of docs/calibration.md")
+    print(format_report(res, experiments))
+    if args.cv:
+        print(format_cross_validation(cross_validate(experiments, base, V1_FIT, bounds=V1_BOUNDS, x0s=starts,
+                                                     max_nfev=40 * len(V1_FIT), full=res)))
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    header = (f"fitted by `cepam-gym calibrate --v1 --preset {args.preset}`\n"
+              f"mean |relative error| {100 * np.abs(res.residuals).mean():.2f}% over {len(experiments)} "
+              "reported numbers; the full report is printed by the command")
+    out.write_text(fitted_yaml(res, args.preset, header))
+    PlantParams.from_yaml(out)
+    print(f"wrote {out}")
+    return 0

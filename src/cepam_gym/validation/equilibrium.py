@@ -104,21 +104,25 @@ def settle(g: Callable, start: float, lo: float, hi: float) -> tuple[float, str]
 
 # ------------------------------------------------------------------ the devices
 def experiment_params(exp: Experiment, params: PlantParams) -> PlantParams:
-    """The plant parameters of the device the experiment used: tube rows get the tube's wall."""
+    """The plant parameters of the device the experiment used: tube rows get the tube's wall and,
+    with neo-Hookean bladders (plant v1), the tube rubber's modulus (braids are shared)."""
     if exp.bladder == "tube" and exp.bladder_thickness_mm is not None:
-        return params.replace(bladder_thickness=to_si(exp.bladder_thickness_mm, "mm"))
+        return params.replace(bladder_thickness=to_si(exp.bladder_thickness_mm, "mm"),
+                              bladder_shear_modulus=params.tube_shear_modulus)
     return params
 
 
 def _row(params: PlantParams, device: str) -> np.ndarray:
-    """Kernel parameter row. A single muscle: no CPAM-in-EPAM coupling (kappa = lambda = 0) and no
-    CE-PAM elasticity, so ``cepam_force`` reduces to ``P_ac dV_ac/dL`` (Pe = 0) or
+    """Kernel parameter row. A single muscle: no CPAM-in-EPAM coupling (kappa = lambda = 0), no
+    CE-PAM spring and no other muscle's bladder wall, so ``cepam_force`` reduces to ``P_ac dV_ac/dL`` (Pe = 0) or
     ``P_ae dV_ae/dL`` (Pc = 0), Eq. 14 of one muscle."""
     row = params.to_array()
     if device != "cepam":
         row[ix.KAPPA] = 0.0
         row[ix.LAMBDA] = 0.0
         row[ix.K_EL] = 0.0
+        # plant v1: only the muscle's own bladder wall stores energy
+        row[ix.EL_E if device == "cpam" else ix.EL_C] = 0.0
     return row
 
 

@@ -94,10 +94,44 @@ FIT_PARAMS: dict[str, FitParam] = {fp.name: fp for fp in (
     FitParam("elastic_rest_length", "cm", 15.0, 19.5,
              "rest length of that elasticity: between the EPAM bladder (15 cm) and the CPAM (19.5 cm)",
              *_field("elastic_rest_length"), ("elastic_rest_length",)),
+    FitParam("bladder_shear_modulus", "kpa", 50.0, 3000.0,
+             "neo-Hookean shear modulus of the balloon rubber (natural latex: about 0.3-0.6 MPa "
+             "in small strain; wide bounds because only mu t_b is seen by most data)",
+             *_field("bladder_shear_modulus"), ("bladder_shear_modulus",)),
+    FitParam("tube_shear_modulus", "kpa", 50.0, 3000.0,
+             "neo-Hookean shear modulus of the rubber-tube bladders (natural or silicone rubber: "
+             "about 0.2-1 MPa)", *_field("tube_shear_modulus"), ("tube_shear_modulus",)),
     FitParam("end_mass", "g", 5.0, 100.0, "the hanging end cap (3D printed)",
              *_field("end_mass"), ("end_mass",)),
 )}
 DEFAULT_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "kr_scale", "elastic_stiffness")
+
+# ------------------------------------------------------------------ plant v1: one fit across all data
+# The braid angles' lower bounds keep each sleeve within twice its nominal diameter over the stroke
+# (docs/calibration.md, "Plant v1"): a braid of free length L_f, angle theta_0, pressed to L has
+# D / D_0 = sin(theta) / sin(theta_0) with cos(theta) = (L / L_f) cos(theta_0); D / D_0 <= 2 at the
+# shortest length (15 cm) needs theta_0 >= 20.3 deg (CPAM, L_f = 19.5 cm) and >= 26.6 deg (EPAM
+# sleeve, L_f = 30 cm). Moduli: rubber in small strain, 0.2-1 MPa (latex, natural and silicone
+# rubber); walls: a balloon of 0.05-0.5 mm, a braid of 0.05-0.5 mm.
+# K_r of Eq. 27 stays the paper's (fitting its scale moves the mean error by 0.3 %).
+V1_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "bladder_thickness", "sleeve_thickness",
+          "bladder_shear_modulus", "tube_shear_modulus")
+V1_BOUNDS = {"cpam_rest_angle": (20.3, 50.0), "epam_sleeve_free_angle": (26.6, 50.0),
+             "bladder_thickness": (0.05, 0.5), "sleeve_thickness": (0.05, 0.5),
+             "bladder_shear_modulus": (200.0, 1000.0), "tube_shear_modulus": (200.0, 1000.0)}
+V1_STARTS = ([21.0, 35.0, 0.2, 0.1, 500.0, 300.0], [22.0, 40.0, 0.3, 0.1, 300.0, 600.0],
+             [30.0, 45.0, 0.1, 0.2, 800.0, 200.0])  # edge units, in V1_FIT order
+
+
+def sleeve_diameter_ratio(length: float, free_length: float, free_angle: float) -> float:
+    """``D / D_0`` of a braid of free length and angle (rad) pressed or pulled to ``length``."""
+    c = length / free_length * math.cos(free_angle)
+    return math.sqrt(1.0 - c * c) / math.sin(free_angle)
+
+
+def experiment_group(exp: Experiment) -> str:
+    """The experiment group a row belongs to (device and bladder): cross-validation leaves one out."""
+    return exp.device if exp.device == "cepam" else f"{exp.device}_{exp.bladder}"
 
 
 def apply(base: PlantParams, names: tuple[str, ...], values: np.ndarray) -> PlantParams:
@@ -128,6 +162,7 @@ class FitResult:
     message: str
     starts_tried: int = 1
     notes: list[str] = field(default_factory=list)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)  # as used (edge units)
 
 
 def model_values(experiments: list[Experiment], params: PlantParams) -> np.ndarray:
@@ -141,11 +176,14 @@ def relative_errors(model: np.ndarray, experiments: list[Experiment]) -> np.ndar
 
 
 def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...] = DEFAULT_FIT,
-        starts: int = 1, seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None) -> FitResult:
+        starts: int = 1, seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None,
+        max_nfev: int | None = None, tol: float = 1e-10, x0s: list[np.ndarray] | None = None) -> FitResult:
     """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
 
     ``starts > 1`` adds ``starts - 1`` random starting points inside the bounds (seeded); the
-    lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units).
+    lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units). ``x0s`` adds
+    given starting points (edge units); ``max_nfev`` (default ``200 * len(names)``) and ``tol``
+    (xtol, ftol, gtol) bound the work of each start.
     """
     from scipy.optimize import least_squares
 
@@ -175,11 +213,13 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
 
     rng = np.random.default_rng(seed)
     z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
+    z0s += [np.clip((np.asarray(x, float) - lo) / span, 0.0, 1.0) for x in (x0s or [])]
     best = None
     for z0 in z0s:
         try:
             sol = least_squares(residuals, z0, bounds=(0.0, 1.0), method="trf", diff_step=1e-4,
-                                x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200 * len(names))
+                                x_scale=1.0, xtol=tol, ftol=tol, gtol=tol,
+                                max_nfev=max_nfev or 200 * len(names))
         except ValueError:
             continue
         if best is None or sol.cost < best.cost:
@@ -212,7 +252,7 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
         cov = np.full((k, k), np.nan)
         std = np.full(k, np.nan)
         notes.append(f"{m} measurements for {k} parameters: no residual degrees of freedom, no uncertainty")
-    at_bound = best.active_mask != 0
+    at_bound = (best.active_mask != 0) | (best.x < 1e-6) | (best.x > 1.0 - 1e-6)
     if np.any(at_bound):
         notes.append("at a bound (the uncertainty of a bounded parameter is not a confidence interval): "
                      + ", ".join(n for n, b in zip(names, at_bound) if b))
@@ -221,7 +261,8 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
                      + ", ".join(n for n, i in zip(names, identifiable) if not i))
     return FitResult(names, x_start, values, std, cov, at_bound, identifiable, params, r,
                      relative_errors(model_start, experiments), model, model_start, float(best.cost),
-                     bool(best.success), str(best.message), len(z0s), notes)
+                     bool(best.success), str(best.message), len(z0s), notes,
+                     {n: (float(a), float(b)) for n, a, b in zip(names, lo, hi)})
 
 
 def _jacobian(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.ndarray,
@@ -267,10 +308,11 @@ def format_report(res: FitResult, experiments: list[Experiment]) -> str:
              f"  {'name':<24} {'start':>10} {'fitted':>10} {'+/- 1 sd':>10} {'unit':>8}  bounds"]
     for j, n in enumerate(res.names):
         fp = FIT_PARAMS[n]
+        lo, hi = res.bounds.get(n, (fp.lo, fp.hi))
         sd = "n/a" if not math.isfinite(res.std[j]) else f"{res.std[j]:.3g}"
         flag = " (at bound)" if res.at_bound[j] else ""
         lines.append(f"  {n:<24} {res.start[j]:>10.4g} {res.values[j]:>10.4g} {sd:>10} {fp.unit:>8}  "
-                     f"[{fp.lo:g}, {fp.hi:g}]{flag}")
+                     f"[{lo:g}, {hi:g}]{flag}")
     lines.append("")
     lines.append("residuals per measurement (relative, model vs measured):")
     w = max(len(e.name) for e in experiments)
@@ -317,3 +359,42 @@ def fitted_yaml(res: FitResult, base_preset: str, header: str = "") -> str:
             lines.append(f"{key}: {edge[key]:.6g}")
     return "\n".join(lines) + "\n"
 
+
+
+@dataclass
+class CrossValidation:
+    """Leave-one-group-out: per group, the errors of its rows predicted by a fit without them."""
+
+    groups: list[str]
+    predicted: dict[str, np.ndarray]  # group -> relative errors of its rows, out of sample
+    in_sample: dict[str, np.ndarray]  # group -> relative errors of the fit to all data
+    values: dict[str, np.ndarray]  # group -> parameters fitted without it
+
+
+def cross_validate(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...],
+                   bounds: dict[str, tuple[float, float]] | None = None, x0s=None, max_nfev: int | None = None,
+                   tol: float = 1e-7, full: FitResult | None = None) -> CrossValidation:
+    """Fit without each experiment group in turn (:func:`experiment_group`) and predict it."""
+    groups = list(dict.fromkeys(experiment_group(e) for e in experiments))
+    full = full or fit(experiments, base, names, bounds=bounds, x0s=x0s, max_nfev=max_nfev, tol=tol)
+    pred, ins, vals = {}, {}, {}
+    for g in groups:
+        keep = [e for e in experiments if experiment_group(e) != g]
+        out = [e for e in experiments if experiment_group(e) == g]
+        res = fit(keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol)
+        pred[g] = relative_errors(model_values(out, res.params), out)
+        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if experiment_group(e) == g])
+        vals[g] = res.values
+    return CrossValidation(groups, pred, ins, vals)
+
+
+def format_cross_validation(cv: CrossValidation) -> str:
+    lines = ["leave-one-group-out (fit without the group, predict it): mean |error| in sample -> out of sample",
+             f"  {'group':<16} {'rows':>4} {'in sample':>10} {'predicted':>10} {'worst pred.':>12}"]
+    for g in cv.groups:
+        i, p = np.abs(cv.in_sample[g]), np.abs(cv.predicted[g])
+        lines.append(f"  {g:<16} {len(p):>4} {100 * i.mean():>9.1f}% {100 * p.mean():>9.1f}% {100 * p.max():>11.1f}%")
+    alli = np.abs(np.concatenate([cv.in_sample[g] for g in cv.groups]))
+    allp = np.abs(np.concatenate([cv.predicted[g] for g in cv.groups]))
+    lines.append(f"  {'all':<16} {len(allp):>4} {100 * alli.mean():>9.1f}% {100 * allp.mean():>9.1f}% {100 * allp.max():>11.1f}%")
+    return "\n".join(lines)

@@ -14,6 +14,11 @@ from .equilibrium import simulate
 from .experiments import Experiment, load_experiments
 
 LEVELS = tuple(f"{fm}/{ff}" for fm in FORCE_MODELS for ff in FORCE_FORMS)
+# the plant as configured (plant v1: tension-only braids, bladder walls); the paper's levels above
+# evaluate its geometry with the paper's force model as written (braids that also push, no wall
+# energy: the v0 options), so they are the same for a v0 and a v1 plant of equal geometry
+PLANT_LEVEL = "plant"
+DEFAULT_LEVELS = (PLANT_LEVEL,) + LEVELS
 
 
 def base_params(preset_name: str | None = None, params_file: str | Path | None = None) -> PlantParams:
@@ -26,7 +31,17 @@ def _finite(x: float) -> float | None:
     return float(x) if x is not None and math.isfinite(x) else None
 
 
-def validation_rows(params: PlantParams | None = None, levels: tuple[str, ...] = LEVELS,
+def level_params(params: PlantParams, level: str) -> PlantParams:
+    """The plant of one table column: ``plant`` as given, else the paper's ``force_model/force_form``
+    with the paper's braids and no wall energy (``braid_tension = bidirectional``, ``bladder_model =
+    spring``; a v0 plant keeps its spring)."""
+    if level == PLANT_LEVEL:
+        return params
+    fm, ff = level.split("/")
+    return params.replace(force_model=fm, force_form=ff, braid_tension="bidirectional", bladder_model="spring")
+
+
+def validation_rows(params: PlantParams | None = None, levels: tuple[str, ...] = DEFAULT_LEVELS,
                     experiments: list[Experiment] | None = None) -> list[dict]:
     """One row per computable experiment and force-model level (``force_model/force_form``), one
     row per non-computable experiment (``model_level = "n/a"``, ``model = rel_error = None``).
@@ -46,8 +61,9 @@ def validation_rows(params: PlantParams | None = None, levels: tuple[str, ...] =
                          "derived_from": exp.derived_from})
             continue
         for level in levels:
-            fm, ff = level.split("/")
-            out = simulate(exp, params.replace(force_model=fm, force_form=ff))
+            p = level_params(params, level)
+            fm, ff = p.force_model, p.force_form
+            out = simulate(exp, p)
             model = _finite(out.value)
             rows.append({
                 "name": exp.name, "unit": exp.unit, "reported": exp.value, "model": model,
@@ -75,6 +91,8 @@ _SHORT = {"basic": "bas", "radial": "rad", "enhanced": "enh", "paper": "pap", "v
 
 
 def _short(level: str) -> str:
+    if level == PLANT_LEVEL:
+        return "plant"
     fm, ff = level.split("/")
     return f"{_SHORT[fm]}/{_SHORT[ff]}"
 
@@ -102,7 +120,8 @@ def format_table(rows: list[dict], title: str = "") -> str:
                 line += f" {r['model']:>8.4g}{mark}({100 * r['rel_error']:+5.0f}%)"
         lines.append(line)
     lines.append("")
-    lines.append("columns: model value (relative error) per force_model/force_form: bas = basic (Eq. 20-25), "
+    lines.append("columns: model value (relative error); plant = the plant as configured (v1: tension-only "
+                 "braids, bladder walls); then the paper's model as written per force_model/force_form: bas = basic (Eq. 20-25), "
                  "rad = +P_r (Eq. 26-33), enh = +t_a (Eq. 34-45); pap = paper form (Eq. 22, 15), "
                  "vw = virtual work. * = no free equilibrium to hang weights from: local -dF/dL. "
                  "Single-muscle rows do not depend on the form (no annulus).")
@@ -128,6 +147,54 @@ def format_table(rows: list[dict], title: str = "") -> str:
             lines.append(f"  {names[i]} [{', '.join(lvs)}]: {note}")
     return "\n".join(lines)
 
+
+
+def device_headline(rows: list[dict], level: str | None = None) -> dict[str, dict]:
+    """Per device (CE-PAM, CPAM, EPAM) at one level (default: the first): mean and worst |relative
+    error| and how many of its numbers are within 5 % (derived ratios excluded)."""
+    from .experiments import DEVICES, load_experiments
+
+    level = level or next(r["model_level"] for r in rows if r["model_level"] != "n/a")
+    device = {e.id: e.device for e in load_experiments()}
+    out = {}
+    for d in DEVICES:
+        errs = [abs(r["rel_error"]) if r["rel_error"] is not None else math.inf for r in rows
+                if r["model_level"] == level and not r["derived_from"] and device.get(r["id"]) == d]
+        if errs:
+            out[d] = {"mean": float(np.mean(errs)), "worst": float(np.max(errs)),
+                      "within_5pct": int(sum(e <= 0.05 for e in errs)), "rows": len(errs)}
+    return out
+
+
+def format_headline(rows: list[dict], level: str | None = None) -> str:
+    head = device_headline(rows, level)
+    names = {"cepam": "CE-PAM", "cpam": "CPAM", "epam": "EPAM"}
+    return "\n".join(f"headline {names[d]:<6}: mean {100 * h['mean']:.1f}%, worst {100 * h['worst']:.1f}%, "
+                     f"{h['within_5pct']}/{h['rows']} within 5%" for d, h in head.items())
+
+
+def geometry_lines(params: PlantParams) -> str:
+    """Each muscle's braid diameter and each chamber's air volume over the stroke, beside the
+    paper's built dimensions (CPAM 5 mm, EPAM bladder and sleeve 10 mm; sections II, III)."""
+    from ..physics import api
+
+    lengths = np.array([params.min_length, 0.5 * (params.min_length + params.max_length), params.max_length])
+    bc, nc = params.cpam_braid()
+    be, ne = params.epam_braid()
+    dc = bc * np.sqrt(1 - (lengths / bc) ** 2) / (np.pi * nc)
+    de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
+    vc, ve, _, _ = api.chamber_volumes(lengths, params)
+    at = "  ".join(f"{L * 100:.2f} cm" for L in lengths)
+    return "\n".join([
+        f"geometry over the stroke ({at}):",
+        "  CPAM braid diameter [mm]:   " + "  ".join(f"{x * 1e3:7.2f}" for x in dc)
+        + f"   (paper: {params.cpam_rest_diameter * 1e3:g} mm at {params.cpam_rest_length * 100:g} cm)",
+        "  EPAM braid diameter [mm]:   " + "  ".join(f"{x * 1e3:7.2f}" for x in de)
+        + f"   (paper: {params.epam_sleeve_free_diameter * 1e3:g} mm sleeve and bladder; "
+        f"{de.max() / params.epam_sleeve_free_diameter:.2f}x nominal at most)",
+        "  CPAM chamber volume [cm3]:  " + "  ".join(f"{x * 1e6:7.2f}" for x in vc) + "   (dead volume included)",
+        "  annulus volume [cm3]:       " + "  ".join(f"{x * 1e6:7.2f}" for x in ve) + "   (dead volume included)",
+    ])
 
 
 def json_rows(rows: list[dict]) -> list[dict]:
