@@ -75,8 +75,8 @@ def test_hyperparams_files_have_all_ids(algo):
     assert set(ENV_IDS) <= set(hp)
     from cepam_gym.bench.suites import SUITES
 
-    randomized = SUITES["randomized"].env_kwargs
     for env_id in ENV_IDS:  # the training distribution is the benchmark's randomized suite
+        randomized = SUITES["randomized-v1" if env_id.endswith("-v1") else "randomized"].env_kwargs
         kw = hp[env_id]["env_kwargs"]
         assert kw["randomize"] == randomized["randomize"] and kw["sensor_noise"] == randomized["sensor_noise"]
     for env_id in ENV_IDS:

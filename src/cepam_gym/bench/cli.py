@@ -8,7 +8,26 @@ from pathlib import Path
 
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
+from .metrics import normalized_score
 from .suites import SUITES, available
+
+
+def add_normalized(rows: list[dict]) -> None:
+    """``normalized`` (0 = zero controller, 100 = oracle) in each row: from the zero controller's
+    and the oracle's scores of the same run on that suite when both ran, else from the suite's
+    stored reference scores (``normalized_from`` says which); absent for a suite without either."""
+    for suite in dict.fromkeys(r["suite"] for r in rows):
+        ran = {r["controller"]: r["score"] for r in rows if r["suite"] == suite}
+        if "zero" in ran and "oracle" in ran:
+            ends, source = (ran["zero"], ran["oracle"]), "this run"
+        elif SUITES[suite].reference is not None:
+            ends, source = SUITES[suite].reference, "reference scores"
+        else:
+            continue
+        for r in rows:
+            if r["suite"] == suite:
+                r["normalized"] = normalized_score(r["score"], *ends)
+                r["normalized_from"] = source
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,9 +58,10 @@ def main(argv: list[str] | None = None) -> int:
             metrics, tr = run_suite(c, s, episodes=args.episodes)
             rows.append(metrics)
             traces[(s, c)] = tr
-            if args.json:
-                print(json.dumps(metrics), flush=True)
+    add_normalized(rows)
     if args.json:
+        for metrics in rows:
+            print(json.dumps(metrics), flush=True)
         return 0
     from . import report
 

@@ -10,13 +10,13 @@ COLUMNS = (("length_rmse_mm", "len RMSE mm"), ("angle_rmse_deg", "ang RMS deg"),
            ("stiffness_rmse_pct", "K RMSE %"),
            ("settling_time_s", "settle s"), ("overshoot_pct", "overshoot %"),
            ("cvar10_return", "CVaR10 ret"), ("failure_rate", "fail"),
-           ("air_g_per_episode", "air g/ep"), ("score", "score"))
+           ("air_g_per_episode", "air g/ep"), ("score", "score"), ("normalized", "normalized"))
 
 
 def table(rows: list[dict]) -> str:
     # the tracking-error columns only when some row has them (rig suites: mm, joint suite: deg)
     cols = [(k, t) for k, t in COLUMNS
-            if k not in ("length_rmse_mm", "angle_rmse_deg") or any(k in r for r in rows)]
+            if k not in ("length_rmse_mm", "angle_rmse_deg", "normalized") or any(k in r for r in rows)]
     head = f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in cols)
     lines = [head, "-" * len(head)]
     for r in rows:

@@ -60,6 +60,12 @@ class Suite:
     traces: TraceSpec = RIG  # what the trace columns hold and how they are scored
     extra: str = ""  # the pip extra the env needs ("mujoco"); left out of 'all' without it
 
+    @property
+    def reference(self) -> tuple[float, float] | None:
+        """``(zero controller's score, oracle's score)`` on this suite at its default episodes, the
+        ends of the normalized score (:data:`REFERENCE_SCORES`), or None where not measured."""
+        return REFERENCE_SCORES.get(self.name)
+
 
 SUITES: dict[str, Suite] = {s.name: s for s in (
     Suite("nominal", "cepam_gym/CEPAM-v0", {"task_options": {"load_kinds": ["step"]}}, seed=1000,
@@ -101,3 +107,11 @@ def available(name: str) -> bool:
 
     extra = SUITES[name].extra
     return not extra or importlib.util.find_spec(extra) is not None
+
+
+# Scores of the zero controller and of the oracle on each suite at its default episodes and seed,
+# measured with `cepam-gym bench --controller zero --controller oracle --suite NAME` (the ends of
+# the normalized score: 0 and 100). Re-measure when a suite, the plant or the oracle changes; a
+# test checks them on a few episodes. The joint suite has none (the oracle drives the rig envs).
+REFERENCE_SCORES: dict[str, tuple[float, float]] = {
+}
