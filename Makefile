@@ -44,8 +44,9 @@ test: install install-distributed  ## every test; the RLlib ones (skipped in .ve
 test-fast: install
 	$(PY) -m pytest -q -m "not slow" $$($(PY) -c "import xdist" 2>/dev/null && echo "-n auto")
 
-lint: install  ## ruff (configured in pyproject.toml): pip install ruff
+lint: install  ## ruff lint and format check (configured in pyproject.toml; tests/test_lint.py runs both)
 	$(PY) -m ruff check .
+	$(PY) -m ruff format --check .
 
 bench: install
 	$(PY) benchmarks/throughput.py

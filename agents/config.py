@@ -28,7 +28,8 @@ Layout of a config (every section optional except ``algorithm``; defaults below)
     eval: {every_steps: 20000, episodes: 16, suite: null, seed: 12345}
     checkpoint: {every_steps: 50000, keep: 2, replay_buffer: true}
     log_every_steps: 5000
-    time_limit_minutes: null      # stop (saved; run.json status stopped_by_time_limit) after this much training wall time
+    time_limit_minutes: null      # stop after this much training wall time (saved; run.json
+                                  # status stopped_by_time_limit)
 
 Unknown keys are rejected with the key's path and the valid keys. Numbers are parsed as numbers
 even where YAML 1.1 (PyYAML) reads them as strings (``1e-3``, ``3e5``). Units: steps and episodes
@@ -40,18 +41,36 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import yaml
 
 ALGORITHMS = ("SAC", "PPO", "TD3")
 # constructor arguments the trainer sets itself (or that cannot come from YAML)
-_RESERVED = {"self", "policy", "env", "seed", "verbose", "tensorboard_log", "device", "policy_kwargs",
-             "_init_setup_model", "replay_buffer_class", "rollout_buffer_class"}
-ACTIVATIONS = {"relu": "ReLU", "tanh": "Tanh", "elu": "ELU", "leaky_relu": "LeakyReLU", "gelu": "GELU",
-               "silu": "SiLU"}
+_RESERVED = {
+    "self",
+    "policy",
+    "env",
+    "seed",
+    "verbose",
+    "tensorboard_log",
+    "device",
+    "policy_kwargs",
+    "_init_setup_model",
+    "replay_buffer_class",
+    "rollout_buffer_class",
+}
+ACTIVATIONS = {
+    "relu": "ReLU",
+    "tanh": "Tanh",
+    "elu": "ELU",
+    "leaky_relu": "LeakyReLU",
+    "gelu": "GELU",
+    "silu": "SiLU",
+}
 NOISE_TYPES = ("normal", "ornstein_uhlenbeck")
 
 _NUMBER = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
@@ -122,9 +141,11 @@ def _check_keys(data: Mapping, cls, where: str) -> None:
     bad = [k for k in data if k not in valid]
     if bad:
         label = f"in {where}" if where else "at the top level"
-        raise ConfigError(f"unknown config key {bad[0]!r} {label}"
-                          f"{' (also: ' + ', '.join(map(repr, bad[1:])) + ')' if bad[1:] else ''}; "
-                          f"valid keys: {valid}")
+        raise ConfigError(
+            f"unknown config key {bad[0]!r} {label}"
+            f"{' (also: ' + ', '.join(map(repr, bad[1:])) + ')' if bad[1:] else ''}; "
+            f"valid keys: {valid}"
+        )
 
 
 # --------------------------------------------------------------------------- sections
@@ -140,7 +161,7 @@ class EnvConfig:
     kwargs: dict = field(default_factory=dict)
 
     @classmethod
-    def parse(cls, data: Any) -> "EnvConfig":
+    def parse(cls, data: Any) -> EnvConfig:
         d = _mapping(data, "env")
         _check_keys(d, cls, "env")
         suite = d.get("suite")
@@ -169,8 +190,9 @@ def _check_env_kwargs(kwargs: Mapping, where: str) -> None:
     from cepam_gym.envs.cepam import CEPAMVectorEnv
     from cepam_gym.envs.core import CEPAMBatch
 
-    names = set(inspect.signature(CEPAMBatch.__init__).parameters) | \
-        set(inspect.signature(CEPAMVectorEnv.__init__).parameters)
+    names = set(inspect.signature(CEPAMBatch.__init__).parameters) | set(
+        inspect.signature(CEPAMVectorEnv.__init__).parameters
+    )
     names -= {"self", "kwargs", "num_envs", "task", "render_mode"}
     bad = sorted(set(kwargs) - names)
     if bad:
@@ -189,16 +211,19 @@ class NormalizeConfig:
         return self.obs or self.reward
 
     @classmethod
-    def parse(cls, data: Any) -> "NormalizeConfig":
+    def parse(cls, data: Any) -> NormalizeConfig:
         if data is None or data is False:
             return cls()
         if data is True:
             return cls(obs=True, reward=True)
         d = _mapping(data, "normalize")
         _check_keys(d, cls, "normalize")
-        return cls(_bool(d.get("obs", False), "normalize.obs"), _bool(d.get("reward", False), "normalize.reward"),
-                   _float(d.get("clip_obs", 10.0), "normalize.clip_obs", 0.0),
-                   _float(d.get("clip_reward", 10.0), "normalize.clip_reward", 0.0))
+        return cls(
+            _bool(d.get("obs", False), "normalize.obs"),
+            _bool(d.get("reward", False), "normalize.reward"),
+            _float(d.get("clip_obs", 10.0), "normalize.clip_obs", 0.0),
+            _float(d.get("clip_reward", 10.0), "normalize.clip_reward", 0.0),
+        )
 
 
 def _filters(value: Any, where: str) -> list:
@@ -238,28 +263,34 @@ class AgentConfig:
     target_shift_length_mm: float = 5.0
     target_shift_stiffness: float = 0.4
     target_shift_filter_s: float = 0.0  # first-order low-pass of the shifts (0: none) [s]
-    obs_filters_s: list = field(default_factory=list)  # time constants [s] of low-passed copies of the observation
+    obs_filters_s: list = field(
+        default_factory=list
+    )  # time constants [s] of low-passed copies of the observation
 
     @property
     def uses_baseline(self) -> bool:
         return self.residual or self.baseline_in_obs or self.target_shift
 
     @classmethod
-    def parse(cls, data: Any) -> "AgentConfig":
+    def parse(cls, data: Any) -> AgentConfig:
         d = _mapping(data, "agent")
         _check_keys(d, cls, "agent")
-        out = cls(_bool(d.get("residual", False), "agent.residual"),
-                  _float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
-                  _bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
-                  _int(d.get("history", 1), "agent.history", 1),
-                  _bool(d.get("target_shift", False), "agent.target_shift"),
-                  _float(d.get("target_shift_length_mm", 5.0), "agent.target_shift_length_mm", 0.0),
-                  _float(d.get("target_shift_stiffness", 0.4), "agent.target_shift_stiffness", 0.0),
-                  _float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
-                  _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"))
+        out = cls(
+            _bool(d.get("residual", False), "agent.residual"),
+            _float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
+            _bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
+            _int(d.get("history", 1), "agent.history", 1),
+            _bool(d.get("target_shift", False), "agent.target_shift"),
+            _float(d.get("target_shift_length_mm", 5.0), "agent.target_shift_length_mm", 0.0),
+            _float(d.get("target_shift_stiffness", 0.4), "agent.target_shift_stiffness", 0.0),
+            _float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
+            _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),
+        )
         if out.target_shift and out.baseline_in_obs:
-            raise ConfigError("agent.baseline_in_obs cannot be used with agent.target_shift (the baseline "
-                              "acts after the policy has chosen the shift); drop one of them")
+            raise ConfigError(
+                "agent.baseline_in_obs cannot be used with agent.target_shift (the baseline "
+                "acts after the policy has chosen the shift); drop one of them"
+            )
         return out
 
 
@@ -276,7 +307,7 @@ class EvalConfig:
     seed: int = 12345
 
     @classmethod
-    def parse(cls, data: Any) -> "EvalConfig":
+    def parse(cls, data: Any) -> EvalConfig:
         d = _mapping(data, "eval")
         _check_keys(d, cls, "eval")
         suite = d.get("suite")
@@ -285,9 +316,12 @@ class EvalConfig:
 
             if suite not in SUITES:
                 raise ConfigError(f"eval.suite: unknown suite {suite!r}; choose from {list(SUITES)}")
-        return cls(_int(d.get("every_steps", cls.every_steps), "eval.every_steps", 1),
-                   _int(d.get("episodes", cls.episodes), "eval.episodes", 1), suite,
-                   _int(d.get("seed", cls.seed), "eval.seed", 0))
+        return cls(
+            _int(d.get("every_steps", cls.every_steps), "eval.every_steps", 1),
+            _int(d.get("episodes", cls.episodes), "eval.episodes", 1),
+            suite,
+            _int(d.get("seed", cls.seed), "eval.seed", 0),
+        )
 
 
 @dataclass(frozen=True)
@@ -297,12 +331,14 @@ class CheckpointConfig:
     replay_buffer: bool = True  # off-policy algorithms: save the replay buffer for --resume
 
     @classmethod
-    def parse(cls, data: Any) -> "CheckpointConfig":
+    def parse(cls, data: Any) -> CheckpointConfig:
         d = _mapping(data, "checkpoint")
         _check_keys(d, cls, "checkpoint")
-        return cls(_int(d.get("every_steps", cls.every_steps), "checkpoint.every_steps", 1),
-                   _int(d.get("keep", cls.keep), "checkpoint.keep", 1),
-                   _bool(d.get("replay_buffer", True), "checkpoint.replay_buffer"))
+        return cls(
+            _int(d.get("every_steps", cls.every_steps), "checkpoint.every_steps", 1),
+            _int(d.get("keep", cls.keep), "checkpoint.keep", 1),
+            _bool(d.get("replay_buffer", True), "checkpoint.replay_buffer"),
+        )
 
 
 def algorithm_class(name: str):
@@ -320,7 +356,9 @@ def _check_hyperparameters(algorithm: str, hp: dict) -> dict:
     for key, value in hp.items():
         if key not in params or key in _RESERVED:
             why = " (set by the trainer or another section)" if key in _RESERVED else ""
-            raise ConfigError(f"hyperparameters: unknown key {key!r} for {algorithm}{why}; valid keys: {valid}")
+            raise ConfigError(
+                f"hyperparameters: unknown key {key!r} for {algorithm}{why}; valid keys: {valid}"
+            )
         default = params[key].default
         where = f"hyperparameters.{key}"
         if key == "action_noise":
@@ -359,10 +397,14 @@ def _check_policy_kwargs(algorithm: str, pk: dict) -> dict:
     out = {}
     for key, value in pk.items():
         if key not in valid:
-            raise ConfigError(f"policy_kwargs: unknown key {key!r} for {algorithm}'s MlpPolicy; valid keys: {valid}")
+            raise ConfigError(
+                f"policy_kwargs: unknown key {key!r} for {algorithm}'s MlpPolicy; valid keys: {valid}"
+            )
         if key == "activation_fn":
             if value not in ACTIVATIONS:
-                raise ConfigError(f"policy_kwargs.activation_fn must be one of {sorted(ACTIVATIONS)}, got {value!r}")
+                raise ConfigError(
+                    f"policy_kwargs.activation_fn must be one of {sorted(ACTIVATIONS)}, got {value!r}"
+                )
         out[key] = value
     return out
 
@@ -385,7 +427,7 @@ class TrainConfig:
     time_limit_minutes: float | None = None
 
     @classmethod
-    def from_dict(cls, data: Any) -> "TrainConfig":
+    def from_dict(cls, data: Any) -> TrainConfig:
         d = _mapping(data, "config")
         _check_keys(d, cls, "")
         if "algorithm" not in d:
@@ -394,7 +436,9 @@ class TrainConfig:
         if not isinstance(algo, str) or algo.upper() not in ALGORITHMS:
             raise ConfigError(f"algorithm must be one of {list(ALGORITHMS)}, got {algo!r}")
         algo = algo.upper()
-        hp = _check_hyperparameters(algo, _numbers_deep(_mapping(d.get("hyperparameters"), "hyperparameters")))
+        hp = _check_hyperparameters(
+            algo, _numbers_deep(_mapping(d.get("hyperparameters"), "hyperparameters"))
+        )
         pk = _check_policy_kwargs(algo, _numbers_deep(_mapping(d.get("policy_kwargs"), "policy_kwargs")))
         if algo == "PPO" and "action_noise" in hp:
             raise ConfigError("hyperparameters.action_noise is for SAC and TD3, not PPO")
@@ -411,14 +455,15 @@ class TrainConfig:
             eval=EvalConfig.parse(d.get("eval")),
             checkpoint=CheckpointConfig.parse(d.get("checkpoint")),
             log_every_steps=_int(d.get("log_every_steps", cls.log_every_steps), "log_every_steps", 1),
-            time_limit_minutes=None if d.get("time_limit_minutes") is None else
-            _float(d["time_limit_minutes"], "time_limit_minutes", 0.0),
+            time_limit_minutes=None
+            if d.get("time_limit_minutes") is None
+            else _float(d["time_limit_minutes"], "time_limit_minutes", 0.0),
         )
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
-    def replace(self, **changes) -> "TrainConfig":
+    def replace(self, **changes) -> TrainConfig:
         return dataclasses.replace(self, **changes)
 
 

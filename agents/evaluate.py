@@ -29,23 +29,40 @@ def compare(rows: list[dict], agent: str = "agent", baseline: str = "baseline") 
             continue
         ratio = a["score"] / b["score"] if b["score"] > 0 else float("nan")
         goal = {"nominal": GOAL_NOMINAL_RATIO, "randomized": GOAL_RANDOMIZED_RATIO}.get(s)
-        out.append({"suite": s, "agent_score": a["score"], "baseline_score": b["score"], "ratio": ratio,
-                    "goal_ratio": goal, "goal_met": None if goal is None else bool(ratio <= goal),
-                    "agent_failures": a["failure_rate"], "baseline_failures": b["failure_rate"]})
+        out.append(
+            {
+                "suite": s,
+                "agent_score": a["score"],
+                "baseline_score": b["score"],
+                "ratio": ratio,
+                "goal_ratio": goal,
+                "goal_met": None if goal is None else bool(ratio <= goal),
+                "agent_failures": a["failure_rate"],
+                "baseline_failures": b["failure_rate"],
+            }
+        )
     return out
 
 
 def comparison_markdown(cmp: list[dict], run: Path, which: str) -> str:
-    lines = [f"# {run.name}: agent ({which} model) vs the inverse-model baseline", "",
-             "| suite | agent score | baseline score | agent / baseline | goal | met |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"# {run.name}: agent ({which} model) vs the inverse-model baseline",
+        "",
+        "| suite | agent score | baseline score | agent / baseline | goal | met |",
+        "|---|---|---|---|---|---|",
+    ]
     for c in cmp:
         goal = "-" if c["goal_ratio"] is None else f"<= {c['goal_ratio']:.2f}"
         met = "-" if c["goal_met"] is None else ("yes" if c["goal_met"] else "no")
-        lines.append(f"| {c['suite']} | {c['agent_score']:.3f} | {c['baseline_score']:.3f} | "
-                     f"{c['ratio']:.3f} | {goal} | {met} |")
-    lines += ["", "Combined score (lower is better): length RMSE / 5 mm + stiffness RMSE / 20 % "
-              "+ 2 x failure rate (cepam_gym.bench.metrics)."]
+        lines.append(
+            f"| {c['suite']} | {c['agent_score']:.3f} | {c['baseline_score']:.3f} | "
+            f"{c['ratio']:.3f} | {goal} | {met} |"
+        )
+    lines += [
+        "",
+        "Combined score (lower is better): length RMSE / 5 mm + stiffness RMSE / 20 % "
+        "+ 2 x failure rate (cepam_gym.bench.metrics).",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -57,11 +74,21 @@ def main(argv: list[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
     ap.add_argument("--run", required=True, help="run directory written by cepam-gym train")
-    ap.add_argument("--suite", action="append", default=None,
-                    help=f"one of {list(SUITES)} or 'all' (repeatable; default nominal and randomized)")
-    ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)")
-    ap.add_argument("--model", default="auto", choices=("auto", "best", "final", "latest"),
-                    help="which model of the run (auto: best, else final, else latest checkpoint)")
+    ap.add_argument(
+        "--suite",
+        action="append",
+        default=None,
+        help=f"one of {list(SUITES)} or 'all' (repeatable; default nominal and randomized)",
+    )
+    ap.add_argument(
+        "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
+    )
+    ap.add_argument(
+        "--model",
+        default="auto",
+        choices=("auto", "best", "final", "latest"),
+        help="which model of the run (auto: best, else final, else latest checkpoint)",
+    )
     ap.add_argument("--no-baseline", action="store_true", help="score the agent only")
     ap.add_argument("--out-dir", help="where the table and plots go (default <run>/eval)")
     args = ap.parse_args(argv)
@@ -100,12 +127,16 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print(md)
     (out / "table.txt").write_text(text + "\n")
-    (out / "results.json").write_text(json.dumps({"run": str(run), "model": str(model_path), "rows": rows,
-                                                  "comparison": cmp}, indent=2))
+    (out / "results.json").write_text(
+        json.dumps({"run": str(run), "model": str(model_path), "rows": rows, "comparison": cmp}, indent=2)
+    )
     (out / "comparison.md").write_text(md)
     for (s, c), tr in traces.items():
-        report.plot_traces(tr, f"{c} ({run.name}) on {s} (episode 0)" if c == "agent" else f"{c} on {s} (episode 0)",
-                           out / f"traces_{s}_{c}.png")
+        report.plot_traces(
+            tr,
+            f"{c} ({run.name}) on {s} (episode 0)" if c == "agent" else f"{c} on {s} (episode 0)",
+            out / f"traces_{s}_{c}.png",
+        )
     report.plot_bars(rows, out / "scores.png")
     print(f"wrote {out}/table.txt, results.json, comparison.md, scores.png and traces_*.png")
     return 0

@@ -45,8 +45,12 @@ class Features:
         self.n_actions = self.n_shift + (2 if (cfg.residual or not cfg.target_shift) else 0)
         # with filtered shifts, the filter state is observed too (else the policy cannot know it)
         self._shift_obs = self.n_shift if (cfg.target_shift and cfg.target_shift_filter_s > 0) else 0
-        self.frame_dim = self.raw_dim + (2 if cfg.baseline_in_obs else 0) + self._shift_obs + \
-            self.raw_dim * len(cfg.obs_filters_s)
+        self.frame_dim = (
+            self.raw_dim
+            + (2 if cfg.baseline_in_obs else 0)
+            + self._shift_obs
+            + self.raw_dim * len(cfg.obs_filters_s)
+        )
         if cfg.obs_filters_s:
             from cepam_gym.control.baseline import core_of
 
@@ -97,8 +101,11 @@ class Features:
         base = self.baseline.act(obs) if (self.baseline is not None and not self.acts_late) else None
         frame = np.concatenate([obs, base], axis=1) if self.cfg.baseline_in_obs else obs
         if self._shift_obs:
-            state = np.zeros((obs.shape[0], self.n_shift)) if self._shift is None or \
-                self._shift.shape[0] != obs.shape[0] else np.nan_to_num(self._shift)
+            state = (
+                np.zeros((obs.shape[0], self.n_shift))
+                if self._shift is None or self._shift.shape[0] != obs.shape[0]
+                else np.nan_to_num(self._shift)
+            )
             frame = np.concatenate([frame, state.astype(np.float32)], axis=1)
         if self.cfg.obs_filters_s:
             n = obs.shape[0]
@@ -132,10 +139,19 @@ class Features:
 
     def _save(self):
         b = self.baseline
-        copy = (lambda a: None if a is None else a.copy())
-        return (copy(self._hist), copy(self._fresh),
-                None if b is None else b.get_state(), self._obs, copy(self._shift),
-                copy(self._ema), copy(self._ema_fresh))
+
+        def copy(a):
+            return None if a is None else a.copy()
+
+        return (
+            copy(self._hist),
+            copy(self._fresh),
+            None if b is None else b.get_state(),
+            self._obs,
+            copy(self._shift),
+            copy(self._ema),
+            copy(self._ema_fresh),
+        )
 
     def _restore(self, saved) -> None:
         self._hist, self._fresh, b, self._obs, self._shift, self._ema, self._ema_fresh = saved
@@ -150,12 +166,14 @@ class Features:
             raise ValueError(f"policy action must have shape (N, {self.n_actions}), got {a.shape}")
         a = np.clip(a, -1.0, 1.0)
         if self.cfg.target_shift:
-            shift = a[:, :self.n_shift].astype(np.float64)
+            shift = a[:, : self.n_shift].astype(np.float64)
             if self._alpha < 1.0:
                 if self._shift is None or self._shift.shape != shift.shape:
                     self._shift = shift.copy()
                 fresh = np.isnan(self._shift[:, 0])
-                self._shift = np.where(fresh[:, None], shift, self._shift + self._alpha * (shift - self._shift))
+                self._shift = np.where(
+                    fresh[:, None], shift, self._shift + self._alpha * (shift - self._shift)
+                )
                 shift = self._shift
             o = np.array(self._obs, dtype=np.float64)
             o[:, self._col_l] += self._dl * shift[:, 0]
@@ -163,7 +181,9 @@ class Features:
                 o[:, self._col_k] *= np.exp(self.cfg.target_shift_stiffness * shift[:, 1])
             base = self.baseline.act(o)
         if self.cfg.residual:
-            return np.clip(base + self.cfg.residual_scale * a[:, self.n_shift:], -1.0, 1.0).astype(np.float32)
+            return np.clip(base + self.cfg.residual_scale * a[:, self.n_shift :], -1.0, 1.0).astype(
+                np.float32
+            )
         if self.cfg.target_shift:
             return base.astype(np.float32)
         return a

@@ -33,11 +33,15 @@ class AgentPolicy:
         self.obs_dim = features.raw_dim
         want = model.observation_space.shape
         if want != (features.dim,):
-            raise ValueError(f"the model expects observations of shape {want}, the features give "
-                             f"({features.dim},): wrong env for this agent?")
+            raise ValueError(
+                f"the model expects observations of shape {want}, the features give "
+                f"({features.dim},): wrong env for this agent?"
+            )
         if model.action_space.shape != (features.n_actions,):
-            raise ValueError(f"the model sends actions of shape {model.action_space.shape}, the agent config "
-                             f"expects ({features.n_actions},): wrong env for this agent?")
+            raise ValueError(
+                f"the model sends actions of shape {model.action_space.shape}, the agent config "
+                f"expects ({features.n_actions},): wrong env for this agent?"
+            )
 
     def reset(self, indices=None) -> None:
         self.features.reset(indices)
@@ -46,8 +50,9 @@ class AgentPolicy:
         single = np.ndim(obs) == 1
         o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
         if o.shape[1] != self.obs_dim:
-            raise ValueError(f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}), "
-                             f"got {np.shape(obs)}")
+            raise ValueError(
+                f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}), got {np.shape(obs)}"
+            )
         f, base = self.features(o)
         if self.normalizer is not None:
             f = self.normalizer.normalize_obs(f)
@@ -66,14 +71,19 @@ def _files(run: Path, which: str) -> tuple[Path, Path | None]:
     latest = run / "checkpoints" / "latest.json"
     if latest.is_file():
         meta = guarded_load(latest, "checkpoint index", lambda: json.loads(latest.read_text()))
-        candidates["latest"] = (run / meta["model"], run / meta["vecnormalize"] if meta.get("vecnormalize") else None)
+        candidates["latest"] = (
+            run / meta["model"],
+            run / meta["vecnormalize"] if meta.get("vecnormalize") else None,
+        )
     order = [which] if which != "auto" else ["best", "final", "latest"]
     for key in order:
         if key in candidates and candidates[key][0].is_file():
             model, norm = candidates[key]
             return model, norm if norm is not None and norm.is_file() else None
-    raise FileNotFoundError(f"no {'model' if which == 'auto' else which + ' model'} in run directory {run} "
-                            f"(looked for best_model.zip, model.zip, checkpoints/latest.json)")
+    raise FileNotFoundError(
+        f"no {'model' if which == 'auto' else which + ' model'} in run directory {run} "
+        f"(looked for best_model.zip, model.zip, checkpoints/latest.json)"
+    )
 
 
 def load_run_config(run: str | Path) -> TrainConfig:
@@ -88,6 +98,7 @@ def load_run_config(run: str | Path) -> TrainConfig:
 def load_normalizer(path: Path | None):
     if path is None:
         return None
+
     def load():
         with open(path, "rb") as f:
             return pickle.load(f)
@@ -110,8 +121,10 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
     else:
         run = spec
         if not run.is_dir():
-            raise ValueError(f"unknown controller {str(spec)!r}: not a run directory or model .zip "
-                             f"(use baseline, zero, random, or a trained agent's run directory)")
+            raise ValueError(
+                f"unknown controller {str(spec)!r}: not a run directory or model .zip "
+                f"(use baseline, zero, random, or a trained agent's run directory)"
+            )
         if which not in (*MODEL_CHOICES, "auto"):
             raise ValueError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
         model_path, norm_path = _files(run, which)
@@ -119,11 +132,17 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
     core = _core(env)
     trained_mode = cfg.env.kwargs.get("action_mode", "valve")
     if core.action_mode != trained_mode:
-        raise ValueError(f"agent {run} was trained with action_mode={trained_mode!r}, the env uses "
-                         f"{core.action_mode!r}")
+        raise ValueError(
+            f"agent {run} was trained with action_mode={trained_mode!r}, the env uses {core.action_mode!r}"
+        )
     torch.set_num_threads(max(1, cfg.torch_threads))
-    model = guarded_load(model_path, f"{cfg.algorithm} model", algorithm_class(cfg.algorithm).load,
-                         str(model_path), device="cpu")
+    model = guarded_load(
+        model_path,
+        f"{cfg.algorithm} model",
+        algorithm_class(cfg.algorithm).load,
+        str(model_path),
+        device="cpu",
+    )
     features = Features(env, cfg.agent, core.obs_dim)
     return AgentPolicy(model, features, load_normalizer(norm_path))
 

@@ -6,13 +6,13 @@ The run directory (default ``runs/<config name>-s<seed>``) receives:
 
 | file | what |
 |---|---|
-| ``config.yaml`` | the resolved config (command-line overrides applied): ``--config DIR/config.yaml`` reproduces the run |
+| ``config.yaml`` | the resolved config (overrides applied; ``--config DIR/config.yaml`` reruns it) |
 | ``run.json`` | seed, command line, package versions, git commit, and one entry per training session |
 | ``model.zip``, ``vecnormalize.pkl`` | the model at the end of training (and its observation statistics) |
 | ``best_model.zip``, ``best_vecnormalize.pkl`` | the model with the best periodic evaluation score |
-| ``checkpoints/`` | periodic checkpoints, ``latest.json`` pointing at the newest (``--resume`` starts there) |
+| ``checkpoints/`` | periodic checkpoints; ``latest.json`` names the newest (``--resume`` starts there) |
 | ``evaluations.json`` | every periodic evaluation (benchmark metrics) |
-| ``tb/``, ``logs/`` | TensorBoard events and CSV: SB3's losses, episode returns, the env's reward terms, length and stiffness errors, evaluation scores |
+| ``tb/``, ``logs/`` | TensorBoard events and CSV: losses, returns, reward terms, errors, evaluations |
 
 Ctrl-C (SIGINT) or SIGTERM (what batch schedulers send) saves a checkpoint of the current model
 (and the replay buffer) before exiting with 130 or 143; ``--resume`` continues from the newest
@@ -37,7 +37,7 @@ import platform
 import subprocess
 import sys
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -108,14 +108,19 @@ class RunLock:
         return f"pid {os.getpid()} since {_now()}\n"
 
     def _refusal(self, holder: str) -> FileExistsError:
-        return FileExistsError(f"run directory {self.path.parent} is in use by another training session "
-                               f"({holder}); wait for it to end, or pass another --out")
+        return FileExistsError(
+            f"run directory {self.path.parent} is in use by another training session "
+            f"({holder}); wait for it to end, or pass another --out"
+        )
 
     def _say_stale(self, holder: str) -> None:
         pid = holder.split()[1] if holder.startswith("pid ") else "?"
         if not pid.isdigit() or not _pid_alive(int(pid)):
-            print(f"cepam-gym train: {self.path.parent}: lock of pid {pid} is stale (process gone): "
-                  "taking over", file=sys.stderr)
+            print(
+                f"cepam-gym train: {self.path.parent}: lock of pid {pid} is stale (process gone): "
+                "taking over",
+                file=sys.stderr,
+            )
 
     def release(self) -> None:
         if self.fh is False:
@@ -165,10 +170,19 @@ def package_versions() -> dict:
 def git_state() -> dict:
     root = Path(__file__).resolve().parent.parent
     try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
-                                timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
-                               capture_output=True, text=True, timeout=10).stdout.strip() != ""
+        commit = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
+        ).stdout.strip()
+        dirty = (
+            subprocess.run(
+                ["git", "status", "--porcelain", "--untracked-files=no"],
+                cwd=root,
+                capture_output=True,
+                text=True,
+                timeout=10,
+            ).stdout.strip()
+            != ""
+        )
         return {"commit": commit or None, "dirty": dirty if commit else None}
     except (OSError, subprocess.SubprocessError):
         return {"commit": None, "dirty": None}
@@ -181,7 +195,7 @@ def _write_json(path: Path, data) -> None:
 
 
 def _now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 # --------------------------------------------------------------------------- building blocks
@@ -205,8 +219,14 @@ def _normalize(env, cfg: TrainConfig, load_from: Path | None = None):
         vn.training = True
         return vn
     gamma = cfg.hyperparameters.get("gamma", 0.99)
-    return VecNormalize(env, norm_obs=cfg.normalize.obs, norm_reward=cfg.normalize.reward,
-                        clip_obs=cfg.normalize.clip_obs, clip_reward=cfg.normalize.clip_reward, gamma=gamma)
+    return VecNormalize(
+        env,
+        norm_obs=cfg.normalize.obs,
+        norm_reward=cfg.normalize.reward,
+        clip_obs=cfg.normalize.clip_obs,
+        clip_reward=cfg.normalize.clip_reward,
+        gamma=gamma,
+    )
 
 
 def _hyperparameters(cfg: TrainConfig) -> dict:
@@ -250,7 +270,7 @@ def _make_callback_class():
         """Logs the env's reward terms and errors, evaluates, keeps the best model, checkpoints,
         and draws the progress bar (with the latest evaluation score)."""
 
-        def __init__(self, trainer: "Trainer"):
+        def __init__(self, trainer: Trainer):
             super().__init__(verbose=0)
             self.t = trainer
             self._sums: dict[str, float] = {}
@@ -273,18 +293,26 @@ def _make_callback_class():
             n = self.num_timesteps
             if n >= self.next_log:
                 self._log()
-                self.next_log += self.t.cfg.log_every_steps * max(1, (n - self.next_log) // self.t.cfg.log_every_steps + 1)
+                self.next_log += self.t.cfg.log_every_steps * max(
+                    1, (n - self.next_log) // self.t.cfg.log_every_steps + 1
+                )
             if n >= self.next_eval:
                 self.t.evaluate(n)
-                self.next_eval += self.t.cfg.eval.every_steps * max(1, (n - self.next_eval) // self.t.cfg.eval.every_steps + 1)
-            if self.first_ckpt is not None and (n >= self.first_ckpt or time.perf_counter() >= self.first_ckpt_wall):
+                self.next_eval += self.t.cfg.eval.every_steps * max(
+                    1, (n - self.next_eval) // self.t.cfg.eval.every_steps + 1
+                )
+            if self.first_ckpt is not None and (
+                n >= self.first_ckpt or time.perf_counter() >= self.first_ckpt_wall
+            ):
                 self.first_ckpt = None
                 if n < self.next_ckpt:
                     self.t.save_checkpoint(n)
             if n >= self.next_ckpt:
                 self.first_ckpt = None
                 self.t.save_checkpoint(n)
-                self.next_ckpt += self.t.cfg.checkpoint.every_steps * max(1, (n - self.next_ckpt) // self.t.cfg.checkpoint.every_steps + 1)
+                self.next_ckpt += self.t.cfg.checkpoint.every_steps * max(
+                    1, (n - self.next_ckpt) // self.t.cfg.checkpoint.every_steps + 1
+                )
             self.t.progress_to(n)
             limit = self.t.cfg.time_limit_minutes
             if limit is not None and self.t.wall() >= 60.0 * limit:
@@ -321,8 +349,14 @@ def _make_callback_class():
 class Trainer:
     """One training session of one run directory (new or resumed)."""
 
-    def __init__(self, cfg: TrainConfig, run_dir: Path, resume: bool = False, quiet: bool = False,
-                 argv: list[str] | None = None):
+    def __init__(
+        self,
+        cfg: TrainConfig,
+        run_dir: Path,
+        resume: bool = False,
+        quiet: bool = False,
+        argv: list[str] | None = None,
+    ):
         self.cfg, self.run, self.resume, self.quiet = cfg, Path(run_dir), resume, quiet
         self.argv = argv
         self.ckpt_dir = self.run / "checkpoints"
@@ -347,8 +381,9 @@ class Trainer:
         algo = algorithm_class(cfg.algorithm)
         candidates = self._resume_candidates() if self.resume else []
         if self.resume and not candidates:
-            self._say(f"{self.run}: no saved model to resume (killed during start-up?): starting afresh",
-                      err=True)
+            self._say(
+                f"{self.run}: no saved model to resume (killed during start-up?): starting afresh", err=True
+            )
             self.resume = False
         latest = candidates[0] if candidates else None
         start = int(latest["steps"]) if latest else 0
@@ -370,29 +405,47 @@ class Trainer:
             set_random_seed(seed)
             evals = self.run / "evaluations.json"
             if evals.is_file():
-                self.evaluations = guarded_load(evals, "evaluation log", lambda: json.loads(evals.read_text()))
+                self.evaluations = guarded_load(
+                    evals, "evaluation log", lambda: json.loads(evals.read_text())
+                )
                 scores = [e["score"] for e in self.evaluations if e.get("score") is not None]
                 self.best_score = min(scores, default=float("inf"))
                 self.last_score = scores[-1] if scores else None
             self.wall_before = float(latest.get("wall_s", 0.0))
         else:
             try:
-                self.model = algo("MlpPolicy", env, seed=cfg.seed, verbose=0, device="cpu",
-                                  policy_kwargs=_policy_kwargs(cfg), **_hyperparameters(cfg))
+                self.model = algo(
+                    "MlpPolicy",
+                    env,
+                    seed=cfg.seed,
+                    verbose=0,
+                    device="cpu",
+                    policy_kwargs=_policy_kwargs(cfg),
+                    **_hyperparameters(cfg),
+                )
             except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
-                raise ConfigError(f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
-                                  f"or policy_kwargs {cfg.policy_kwargs}: {e}") from e
+                raise ConfigError(
+                    f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
+                    f"or policy_kwargs {cfg.policy_kwargs}: {e}"
+                ) from e
         self.env = env
         self.vecnorm = env if cfg.normalize.enabled else None
         self.start_step = int(self.model.num_timesteps)
         (self.run / "logs").mkdir(exist_ok=True)
-        self.model.set_logger(Logger(str(self.run), [
-            make_output_format("tensorboard", str(self.run / "tb")),
-            make_output_format("csv", str(self.run / "logs"), log_suffix=f"_{self.start_step}")]))
+        self.model.set_logger(
+            Logger(
+                str(self.run),
+                [
+                    make_output_format("tensorboard", str(self.run / "tb")),
+                    make_output_format("csv", str(self.run / "logs"), log_suffix=f"_{self.start_step}"),
+                ],
+            )
+        )
         core = raw.unwrapped.venv.core  # SB3 adapter -> CEPAMVectorEnv -> batch
         self.track_stiffness = bool(core.task.track_stiffness)
-        self.info_keys = ["length", "target_length", "stiffness", "target_stiffness"] + \
-            [f"reward_{t}" for t in _reward_terms()]
+        self.info_keys = ["length", "target_length", "stiffness", "target_stiffness"] + [
+            f"reward_{t}" for t in _reward_terms()
+        ]
         self.eval_id, self.eval_kwargs = _eval_env_spec(cfg)
         self._write_run_json(status="running")
 
@@ -411,8 +464,14 @@ class Trainer:
             model_path = self.run / cand["model"]
             try:
                 env = guarded_load(norm, "observation normalizer", _normalize, raw_env, self.cfg, norm)
-                model = guarded_load(model_path, f"{self.cfg.algorithm} model", algo.load, str(model_path),
-                                     env=env, device="cpu")
+                model = guarded_load(
+                    model_path,
+                    f"{self.cfg.algorithm} model",
+                    algo.load,
+                    str(model_path),
+                    env=env,
+                    device="cpu",
+                )
             except (ValueError, FileNotFoundError) as e:
                 errors.append(e)
                 self._say(f"cepam-gym train: {e}; trying an older model", err=True)
@@ -429,26 +488,48 @@ class Trainer:
         if path.is_file():
             meta = guarded_load(path, "checkpoint index", lambda: json.loads(path.read_text()))
             out.append({**meta, "source": "checkpoint"})
-        for model, norm, info, key in (("model.zip", "vecnormalize.pkl", "summary.json", "steps"),
-                                       ("best_model.zip", "best_vecnormalize.pkl", "best.json", "step")):
+        for model, norm, info, key in (
+            ("model.zip", "vecnormalize.pkl", "summary.json", "steps"),
+            ("best_model.zip", "best_vecnormalize.pkl", "best.json", "step"),
+        ):
             if (self.run / model).is_file() and (self.run / info).is_file():
                 try:
                     steps = int(json.loads((self.run / info).read_text())[key])
                 except (ValueError, KeyError, TypeError):
                     continue
-                out.append({"steps": steps, "model": model, "replay_buffer": None, "source": model,
-                            "vecnormalize": norm if (self.run / norm).is_file() else None})
+                out.append(
+                    {
+                        "steps": steps,
+                        "model": model,
+                        "replay_buffer": None,
+                        "source": model,
+                        "vecnormalize": norm if (self.run / norm).is_file() else None,
+                    }
+                )
         return sorted(out, key=lambda m: -int(m["steps"]))
 
     def _write_run_json(self, status: str, **extra) -> None:
         path = self.run / "run.json"
-        data = json.loads(path.read_text()) if path.is_file() else {
-            "seed": self.cfg.seed, "created": _now(), "versions": package_versions(), "git": git_state(),
-            "sessions": []}
+        data = (
+            json.loads(path.read_text())
+            if path.is_file()
+            else {
+                "seed": self.cfg.seed,
+                "created": _now(),
+                "versions": package_versions(),
+                "git": git_state(),
+                "sessions": [],
+            }
+        )
         self._session_extra = {**getattr(self, "_session_extra", {}), **extra}
-        session = {"started": getattr(self, "_started", None) or _now(), "argv": self.argv,
-                   "start_step": self.start_step, "status": status, "versions": package_versions(),
-                   **self._session_extra}
+        session = {
+            "started": getattr(self, "_started", None) or _now(),
+            "argv": self.argv,
+            "start_step": self.start_step,
+            "status": status,
+            "versions": package_versions(),
+            **self._session_extra,
+        }
         self._started = session["started"]
         if data["sessions"] and data["sessions"][-1].get("started") == session["started"]:
             data["sessions"][-1] = session
@@ -467,9 +548,16 @@ class Trainer:
         from tqdm import tqdm
 
         tty = sys.stderr.isatty()
-        self.bar = tqdm(total=self.cfg.total_timesteps, initial=n, unit="step", unit_scale=True,
-                        dynamic_ncols=True, mininterval=0.5 if tty else 30.0, file=sys.stderr,
-                        desc=f"{self.cfg.algorithm} {self.run.name}")
+        self.bar = tqdm(
+            total=self.cfg.total_timesteps,
+            initial=n,
+            unit="step",
+            unit_scale=True,
+            dynamic_ncols=True,
+            mininterval=0.5 if tty else 30.0,
+            file=sys.stderr,
+            desc=f"{self.cfg.algorithm} {self.run.name}",
+        )
         self._bar_n = n
         self._postfix()
 
@@ -484,7 +572,9 @@ class Trainer:
         if self.last_score is None:
             self.bar.set_postfix_str("eval score: -")
         else:
-            self.bar.set_postfix_str(f"eval score {self.last_score:.3f} (best {self.best_score:.3f}, lower is better)")
+            self.bar.set_postfix_str(
+                f"eval score {self.last_score:.3f} (best {self.best_score:.3f}, lower is better)"
+            )
 
     # ----------------------------------------------------------------- evaluation and saving
     def evaluate(self, n: int) -> dict:
@@ -499,10 +589,22 @@ class Trainer:
 
         t = time.perf_counter()
         m = evaluate(make, self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed)
-        m = {"step": int(n), "wall_s": round(self.wall(), 2), "eval_s": round(time.perf_counter() - t, 2), **m}
+        m = {
+            "step": int(n),
+            "wall_s": round(self.wall(), 2),
+            "eval_s": round(time.perf_counter() - t, 2),
+            **m,
+        }
         self.evaluations.append(m)
         _write_json(self.run / "evaluations.json", self.evaluations)
-        for k in ("score", "length_rmse_mm", "stiffness_rmse_pct", "mean_return", "failure_rate", "settling_time_s"):
+        for k in (
+            "score",
+            "length_rmse_mm",
+            "stiffness_rmse_pct",
+            "mean_return",
+            "failure_rate",
+            "settling_time_s",
+        ):
             if m.get(k) is not None:
                 self.model.logger.record(f"eval/{k}", m[k])
         self.last_score = m["score"]
@@ -522,8 +624,15 @@ class Trainer:
     def save_checkpoint(self, n: int, interrupted: bool = False) -> Path:
         model_rel = f"checkpoints/model_{n}.zip"
         self.model.save(str(self.run / model_rel))
-        meta = {"steps": int(n), "model": model_rel, "vecnormalize": None, "replay_buffer": None,
-                "wall_s": round(self.wall(), 2), "interrupted": interrupted, "saved": _now()}
+        meta = {
+            "steps": int(n),
+            "model": model_rel,
+            "vecnormalize": None,
+            "replay_buffer": None,
+            "wall_s": round(self.wall(), 2),
+            "interrupted": interrupted,
+            "saved": _now(),
+        }
         if self.vecnorm is not None:
             meta["vecnormalize"] = f"checkpoints/vecnormalize_{n}.pkl"
             self.vecnorm.save(str(self.run / meta["vecnormalize"]))
@@ -536,7 +645,7 @@ class Trainer:
 
     def _prune(self) -> None:
         steps = sorted(int(p.stem.split("_")[1]) for p in self.ckpt_dir.glob("model_*.zip"))
-        for s in steps[:-self.cfg.checkpoint.keep]:
+        for s in steps[: -self.cfg.checkpoint.keep]:
             for p in (self.ckpt_dir / f"model_{s}.zip", self.ckpt_dir / f"vecnormalize_{s}.pkl"):
                 p.unlink(missing_ok=True)
 
@@ -548,33 +657,48 @@ class Trainer:
         remaining = cfg.total_timesteps - self.start_step
         self.t0 = time.perf_counter()
         if remaining <= 0:
-            self._say(f"{self.run}: already at {self.start_step} >= total_timesteps {cfg.total_timesteps} steps; "
-                      "pass a larger --total-timesteps to train further")
+            self._say(
+                f"{self.run}: already at {self.start_step} >= total_timesteps {cfg.total_timesteps} steps; "
+                "pass a larger --total-timesteps to train further"
+            )
             return 0
         cb = CallbackList([_make_callback_class()(self), *callbacks])
         chunk = steps_per_collection(self.model)
         planned = -(-remaining // chunk) * chunk
         if planned != remaining:
-            self._say(f"note: {cfg.algorithm} collects {chunk} steps at a time ({_chunk_why(self.model)}): "
-                      f"training {planned} steps, not {remaining} (total {self.start_step + planned})", err=True)
+            self._say(
+                f"note: {cfg.algorithm} collects {chunk} steps at a time ({_chunk_why(self.model)}): "
+                f"training {planned} steps, not {remaining} (total {self.start_step + planned})",
+                err=True,
+            )
         self._write_run_json("running", requested_steps=remaining, planned_steps=planned)
-        self._say(f"training {cfg.algorithm} on {cfg.env.id} x{cfg.env.num_envs} for {planned} steps "
-                  f"(from step {self.start_step}) -> {self.run}")
+        self._say(
+            f"training {cfg.algorithm} on {cfg.env.id} x{cfg.env.num_envs} for {planned} steps "
+            f"(from step {self.start_step}) -> {self.run}"
+        )
         import signal
 
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
         try:
-            self.model.learn(remaining, callback=cb, reset_num_timesteps=not self.resume or self.start_step == 0,
-                             progress_bar=False)
+            self.model.learn(
+                remaining,
+                callback=cb,
+                reset_num_timesteps=not self.resume or self.start_step == 0,
+                progress_bar=False,
+            )
         except KeyboardInterrupt as e:
             signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the save
             n = int(self.model.num_timesteps)
             self._close_bar()
             path = self.save_checkpoint(n, interrupted=True)
             how = "SIGTERM" if isinstance(e, _StopSignal) else "interrupted (SIGINT)"
-            self._write_run_json("interrupted", end_step=n, wall_s=round(self.wall(), 2), ended=_now(), signal=how)
-            self._say(f"{how} at step {n}: saved {path}; continue with "
-                      f"cepam-gym train --out {self.run} --resume", err=True)
+            self._write_run_json(
+                "interrupted", end_step=n, wall_s=round(self.wall(), 2), ended=_now(), signal=how
+            )
+            self._say(
+                f"{how} at step {n}: saved {path}; continue with cepam-gym train --out {self.run} --resume",
+                err=True,
+            )
             return 128 + e.signum if isinstance(e, _StopSignal) else EXIT_INTERRUPTED
         finally:
             signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
@@ -586,19 +710,34 @@ class Trainer:
         if self.vecnorm is not None:
             self.vecnorm.save(str(self.run / "vecnormalize.pkl"))
         self.save_checkpoint(n)
-        summary = {"steps": n, "wall_s": round(self.wall(), 2), "stopped_by_time_limit": self.stopped_by_time,
-                   "best_score": self.best_score,
-                   "final_score": self.last_score, "best": json.loads((self.run / "best.json").read_text())}
+        summary = {
+            "steps": n,
+            "wall_s": round(self.wall(), 2),
+            "stopped_by_time_limit": self.stopped_by_time,
+            "best_score": self.best_score,
+            "final_score": self.last_score,
+            "best": json.loads((self.run / "best.json").read_text()),
+        }
         _write_json(self.run / "summary.json", summary)
         status = "stopped_by_time_limit" if self.stopped_by_time else "finished"
-        self._write_run_json(status, end_step=n, wall_s=round(self.wall(), 2), ended=_now(),
-                             total_timesteps=cfg.total_timesteps)
+        self._write_run_json(
+            status,
+            end_step=n,
+            wall_s=round(self.wall(), 2),
+            ended=_now(),
+            total_timesteps=cfg.total_timesteps,
+        )
         if self.stopped_by_time:
-            self._say(f"STOPPED BY THE TIME LIMIT: {cfg.time_limit_minutes} min reached at step {n} of "
-                      f"{cfg.total_timesteps} ({100.0 * n / cfg.total_timesteps:.0f} %); the models are saved; "
-                      f"continue with cepam-gym train --out {self.run} --resume", err=True)
-        self._say(f"done: {n} steps in {self.wall():.0f} s; final eval score {self.last_score:.3f}, best "
-                  f"{self.best_score:.3f} (step {summary['best']['step']}); models in {self.run}")
+            self._say(
+                f"STOPPED BY THE TIME LIMIT: {cfg.time_limit_minutes} min reached at step {n} of "
+                f"{cfg.total_timesteps} ({100.0 * n / cfg.total_timesteps:.0f} %); the models are saved; "
+                f"continue with cepam-gym train --out {self.run} --resume",
+                err=True,
+            )
+        self._say(
+            f"done: {n} steps in {self.wall():.0f} s; final eval score {self.last_score:.3f}, best "
+            f"{self.best_score:.3f} (step {summary['best']['step']}); models in {self.run}"
+        )
         return 0
 
     def _close_bar(self) -> None:
@@ -643,8 +782,14 @@ def _reward_terms():
     return REWARD_TERMS
 
 
-def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, callbacks=(), quiet: bool = False,
-          argv: list[str] | None = None) -> int:
+def train(
+    cfg: TrainConfig,
+    run_dir: str | Path,
+    resume: bool = False,
+    callbacks=(),
+    quiet: bool = False,
+    argv: list[str] | None = None,
+) -> int:
     """Train (or resume) one run; returns the exit code (0, or 130 after Ctrl-C)."""
     run = Path(run_dir)
     lock = RunLock(run)
@@ -654,10 +799,15 @@ def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, callbacks
             if (run / "config.yaml").exists():
                 probe = Trainer(cfg, run, quiet=True)
                 if probe._resume_candidates():
-                    raise FileExistsError(f"run directory {run} already holds a run: pass --resume to continue "
-                                          "it or --out for a new directory")
-                print(f"cepam-gym train: {run} holds a run that saved no model (killed during start-up?): "
-                      "starting it afresh", file=sys.stderr)
+                    raise FileExistsError(
+                        f"run directory {run} already holds a run: pass --resume to continue "
+                        "it or --out for a new directory"
+                    )
+                print(
+                    f"cepam-gym train: {run} holds a run that saved no model (killed during start-up?): "
+                    "starting it afresh",
+                    file=sys.stderr,
+                )
             run.mkdir(parents=True, exist_ok=True)
             dump_config(cfg, run / "config.yaml")
         else:
@@ -675,14 +825,20 @@ def train(cfg: TrainConfig, run_dir: str | Path, resume: bool = False, callbacks
 # --------------------------------------------------------------------------- command line
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    ap = argparse.ArgumentParser(prog="cepam-gym train", description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="cepam-gym train",
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--config", help="training config (YAML), e.g. configs/quick.yaml")
     ap.add_argument("--total-timesteps", type=int, help="override the config's total_timesteps")
     ap.add_argument("--seed", type=int, help="override the config's seed")
     ap.add_argument("--out", help="run directory (default runs/<config name>-s<seed>)")
-    ap.add_argument("--resume", action="store_true",
-                    help="continue the run in --out (or the default directory) from its newest checkpoint")
+    ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in --out (or the default directory) from its newest checkpoint",
+    )
     ap.add_argument("--quiet", action="store_true", help="no progress bar or messages")
     args = ap.parse_args(argv)
     if args.total_timesteps is not None and args.total_timesteps < 1:
@@ -716,8 +872,11 @@ def main(argv: list[str] | None = None) -> int:
             cfg = cfg.replace(total_timesteps=args.total_timesteps)
         return train(cfg, run, resume=args.resume, quiet=args.quiet, argv=["train", *argv])
     except KeyboardInterrupt:  # during start-up (learn() handles its own): nothing to save yet
-        print("cepam-gym train: interrupted before training started; nothing saved (the same command "
-              "starts the run afresh)", file=sys.stderr)
+        print(
+            "cepam-gym train: interrupted before training started; nothing saved (the same command "
+            "starts the run afresh)",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
     except user_error_types() as e:  # bad config, env kwargs, hyperparameters, missing or corrupted files
         if debug_on():

@@ -96,7 +96,12 @@ def versions(n: int, rounds: int = 15, seconds: float = 0.05) -> dict:
                 calls += 1
             times[name].append((time.perf_counter() - t0) / calls)
     med = {name: 1e6 * float(np.median(t)) for name, t in times.items()}
-    return {"n": n, "v0_us": med["balloon_v0"], "v1_us": med["balloon"], "ratio": med["balloon"] / med["balloon_v0"]}
+    return {
+        "n": n,
+        "v0_us": med["balloon_v0"],
+        "v1_us": med["balloon"],
+        "ratio": med["balloon"] / med["balloon_v0"],
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -117,28 +122,38 @@ def main(argv: list[str] | None = None) -> int:
         print(f"# 1-min load average: {os.getloadavg()[0]:.2f}")
         return 0
     load_before = os.getloadavg()[0]
-    print(f"# plant.step throughput: proportional valves, dt = {DT * 1e3:g} ms, n_sub = {N_SUB} "
-          f"({1 / (DT * N_SUB):g} Hz control)")
-    print(f"# numba {numba.__version__}, {numba.get_num_threads()} threads "
-          f"(parallel kernel for N >= {plant._PARALLEL_MIN_BATCH}), {os.cpu_count()} CPUs, "
-          f"{platform.processor() or platform.machine()}, Python {platform.python_version()}")
+    print(
+        f"# plant.step throughput: proportional valves, dt = {DT * 1e3:g} ms, n_sub = {N_SUB} "
+        f"({1 / (DT * N_SUB):g} Hz control)"
+    )
+    print(
+        f"# numba {numba.__version__}, {numba.get_num_threads()} threads "
+        f"(parallel kernel for N >= {plant._PARALLEL_MIN_BATCH}), {os.cpu_count()} CPUs, "
+        f"{platform.processor() or platform.machine()}, Python {platform.python_version()}"
+    )
     rows = [measure(n, args.seconds) for n in args.sizes]
     base = rows[0]["control_steps_per_s"] if rows[0]["n"] == 1 else None
-    head = (f"{'N':>6} {'calls':>8} {'us/call':>10} {'sub-steps/s':>14} {'control steps/s':>16} "
-            f"{'speed-up vs N=1':>16}")
+    head = (
+        f"{'N':>6} {'calls':>8} {'us/call':>10} {'sub-steps/s':>14} {'control steps/s':>16} "
+        f"{'speed-up vs N=1':>16}"
+    )
     print(head)
     print("-" * len(head))
     for r in rows:
         speed = f"{r['control_steps_per_s'] / base:16.1f}" if base else f"{'-':>16}"
-        print(f"{r['n']:>6} {r['calls']:>8} {r['us_per_call']:>10.1f} {r['substeps_per_s']:>14.3e} "
-              f"{r['control_steps_per_s']:>16.3e} {speed}")
+        print(
+            f"{r['n']:>6} {r['calls']:>8} {r['us_per_call']:>10.1f} {r['substeps_per_s']:>14.3e} "
+            f"{r['control_steps_per_s']:>16.3e} {speed}"
+        )
     try:
         layer = numba.threading_layer()
     except ValueError:  # no parallel region ran (only small N)
         layer = "not initialised"
     print(f"# numba threading layer: {layer} (choose with NUMBA_THREADING_LAYER=omp|tbb|workqueue)")
-    print(f"# 1-min load average before / after: {load_before:.2f} / {os.getloadavg()[0]:.2f} "
-          "(other busy processes slow the parallel kernel: its threads wait for a CPU)")
+    print(
+        f"# 1-min load average before / after: {load_before:.2f} / {os.getloadavg()[0]:.2f} "
+        "(other busy processes slow the parallel kernel: its threads wait for a CPU)"
+    )
     return 0
 
 

@@ -109,9 +109,13 @@ def _busy_core_study(sizes, seconds: float, repeats: int) -> None:
 
     choices = sorted({1, numba.config.NUMBA_NUM_THREADS})
     env_id = "cepam_gym/CEPAM-v0"
-    print(f"batched {env_id}, steps between resets, median of {repeats}; NUMBA_NUM_THREADS="
-          f"{numba.config.NUMBA_NUM_THREADS}, threading layer chosen by numba")
-    print(f"{'envs':>6s} {'num_threads':>11s} {'quiet steps/s':>14s} {'busy steps/s':>13s} {'busy/quiet':>11s}")
+    print(
+        f"batched {env_id}, steps between resets, median of {repeats}; NUMBA_NUM_THREADS="
+        f"{numba.config.NUMBA_NUM_THREADS}, threading layer chosen by numba"
+    )
+    print(
+        f"{'envs':>6s} {'num_threads':>11s} {'quiet steps/s':>14s} {'busy steps/s':>13s} {'busy/quiet':>11s}"
+    )
     for n in sizes:
         quiet = {c: [] for c in choices}
         busy = {c: [] for c in choices}
@@ -128,7 +132,10 @@ def _busy_core_study(sizes, seconds: float, repeats: int) -> None:
                 spinner.wait()
         if n == sizes[0]:
             try:
-                print(f"(numba threading layer: {numba.threading_layer()}; NUMBA_THREADING_LAYER selects another)")
+                print(
+                    f"(numba threading layer: {numba.threading_layer()}; "
+                    "NUMBA_THREADING_LAYER selects another)"
+                )
             except ValueError:  # no parallel region ran (every size below the parallel threshold)
                 pass
         for c in choices:
@@ -139,8 +146,13 @@ def _busy_core_study(sizes, seconds: float, repeats: int) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seconds", type=float, default=2.0)
-    ap.add_argument("--sizes", type=int, nargs="*", default=None,
-                    help="batch sizes (default 1 64 1024 4096; with --busy-core 1024 4096)")
+    ap.add_argument(
+        "--sizes",
+        type=int,
+        nargs="*",
+        default=None,
+        help="batch sizes (default 1 64 1024 4096; with --busy-core 1024 4096)",
+    )
     ap.add_argument("--busy-core", action="store_true", help="the num_threads study, quiet vs one core busy")
     ap.add_argument("--repeats", type=int, default=3, help="--busy-core: alternating repeats")
     args = ap.parse_args()

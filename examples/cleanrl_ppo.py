@@ -33,8 +33,10 @@ from torch.distributions.normal import Normal
 
 
 def parse_args(argv=None):
-    p = argparse.ArgumentParser(description="CleanRL-style PPO on a cepam_gym native vector env",
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = argparse.ArgumentParser(
+        description="CleanRL-style PPO on a cepam_gym native vector env",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
     p.add_argument("--env-id", default="cepam_gym/CEPAM-v0")
     p.add_argument("--suite", default=None, help="env kwargs of a benchmark suite, e.g. randomized")
     p.add_argument("--env-kwargs", type=json.loads, default={}, help="extra env kwargs as JSON")
@@ -59,8 +61,17 @@ def parse_args(argv=None):
     p.add_argument("--torch-deterministic", action=argparse.BooleanOptionalAction, default=True)
     p.add_argument("--log-every", type=int, default=1, help="print every this many updates")
     args = p.parse_args(argv)
-    for name in ("total_timesteps", "num_envs", "num_steps", "num_minibatches", "update_epochs",
-                 "max_episode_steps", "hidden", "torch_threads", "log_every"):
+    for name in (
+        "total_timesteps",
+        "num_envs",
+        "num_steps",
+        "num_minibatches",
+        "update_epochs",
+        "max_episode_steps",
+        "hidden",
+        "torch_threads",
+        "log_every",
+    ):
         if getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be >= 1, got {getattr(args, name)}")
     args.batch_size = args.num_envs * args.num_steps
@@ -81,13 +92,17 @@ class Agent(nn.Module):
     def __init__(self, obs_dim, act_dim, hidden):
         super().__init__()
         self.critic = nn.Sequential(
-            layer_init(nn.Linear(obs_dim, hidden)), nn.Tanh(),
-            layer_init(nn.Linear(hidden, hidden)), nn.Tanh(),
+            layer_init(nn.Linear(obs_dim, hidden)),
+            nn.Tanh(),
+            layer_init(nn.Linear(hidden, hidden)),
+            nn.Tanh(),
             layer_init(nn.Linear(hidden, 1), std=1.0),
         )
         self.actor_mean = nn.Sequential(
-            layer_init(nn.Linear(obs_dim, hidden)), nn.Tanh(),
-            layer_init(nn.Linear(hidden, hidden)), nn.Tanh(),
+            layer_init(nn.Linear(obs_dim, hidden)),
+            nn.Tanh(),
+            layer_init(nn.Linear(hidden, hidden)),
+            nn.Tanh(),
             layer_init(nn.Linear(hidden, act_dim), std=0.01),
         )
         self.actor_logstd = nn.Parameter(torch.full((1, act_dim), -0.5))  # std 0.6 of a [-1, 1] command
@@ -133,8 +148,13 @@ def make_env(args):
             raise SystemExit(f"--suite: unknown suite {args.suite!r}; available: {sorted(SUITES)}")
         kwargs.update(SUITES[args.suite].env_kwargs)
     kwargs.update(args.env_kwargs)
-    return gym.make_vec(args.env_id, num_envs=args.num_envs, max_episode_steps=args.max_episode_steps,
-                        autoreset_mode="same_step", **kwargs)
+    return gym.make_vec(
+        args.env_id,
+        num_envs=args.num_envs,
+        max_episode_steps=args.max_episode_steps,
+        autoreset_mode="same_step",
+        **kwargs,
+    )
 
 
 def main(argv=None):
@@ -148,8 +168,10 @@ def main(argv=None):
 
     envs = make_env(args)
     if envs.metadata.get("autoreset_mode") != gym.vector.AutoresetMode.SAME_STEP:
-        raise SystemExit(f"{type(envs).__name__}: this loop handles same-step autoreset only "
-                         f"(got {envs.metadata.get('autoreset_mode')})")
+        raise SystemExit(
+            f"{type(envs).__name__}: this loop handles same-step autoreset only "
+            f"(got {envs.metadata.get('autoreset_mode')})"
+        )
     assert isinstance(envs.single_action_space, gym.spaces.Box), "only continuous action space is supported"
     obs_dim = int(np.prod(envs.single_observation_space.shape))
     act_dim = int(np.prod(envs.single_action_space.shape))
@@ -222,7 +244,9 @@ def main(argv=None):
                 nextvalues = next_value if t == args.num_steps - 1 else values[t + 1]
                 nextnonterminal = 1.0 - dones[t]
                 delta = rewards[t] + args.gamma * nextvalues * nextnonterminal - values[t]
-                advantages[t] = lastgaelam = delta + args.gamma * args.gae_lambda * nextnonterminal * lastgaelam
+                advantages[t] = lastgaelam = (
+                    delta + args.gamma * args.gae_lambda * nextnonterminal * lastgaelam
+                )
             returns = advantages + values
 
         b_obs = obs.reshape((-1, obs_dim))
@@ -237,8 +261,10 @@ def main(argv=None):
         for epoch in range(args.update_epochs):
             np.random.shuffle(b_inds)
             for start in range(0, args.batch_size, args.minibatch_size):
-                mb_inds = b_inds[start:start + args.minibatch_size]
-                _, newlogprob, entropy, newvalue = agent.get_action_and_value(b_obs[mb_inds], b_actions[mb_inds])
+                mb_inds = b_inds[start : start + args.minibatch_size]
+                _, newlogprob, entropy, newvalue = agent.get_action_and_value(
+                    b_obs[mb_inds], b_actions[mb_inds]
+                )
                 logratio = newlogprob - b_logprobs[mb_inds]
                 ratio = logratio.exp()
                 with torch.no_grad():
@@ -253,7 +279,9 @@ def main(argv=None):
 
                 newvalue = newvalue.view(-1)
                 v_loss_unclipped = (newvalue - b_returns[mb_inds]) ** 2
-                v_clipped = b_values[mb_inds] + torch.clamp(newvalue - b_values[mb_inds], -args.clip_coef, args.clip_coef)
+                v_clipped = b_values[mb_inds] + torch.clamp(
+                    newvalue - b_values[mb_inds], -args.clip_coef, args.clip_coef
+                )
                 v_loss_clipped = (v_clipped - b_returns[mb_inds]) ** 2
                 v_loss = 0.5 * torch.max(v_loss_unclipped, v_loss_clipped).mean()
 
@@ -271,21 +299,33 @@ def main(argv=None):
         sps = int(global_step / (time.time() - start_time))
         reward_per_step = raw_reward_sum / args.batch_size
         recent = [r for s, r, _ in finished if s > global_step - args.batch_size]
-        history.append({"iteration": iteration, "global_step": global_step, "reward_per_step": reward_per_step,
-                         "episodes": len(recent), "episodic_return": float(np.mean(recent)) if recent else None})
+        history.append(
+            {
+                "iteration": iteration,
+                "global_step": global_step,
+                "reward_per_step": reward_per_step,
+                "episodes": len(recent),
+                "episodic_return": float(np.mean(recent)) if recent else None,
+            }
+        )
         if iteration % args.log_every == 0 or iteration == args.num_iterations:
             ep = f"  episodic_return={np.mean(recent):8.2f} ({len(recent)} eps)" if recent else ""
-            print(f"iter={iteration:4d}  global_step={global_step:8d}  reward/step={reward_per_step:7.3f}{ep}"
-                  f"  v_loss={v_loss.item():.3f}  approx_kl={approx_kl.item():.4f}"
-                  f"  clipfrac={np.mean(clipfracs):.3f}  explained_var={explained_var:.2f}  SPS={sps}", flush=True)
+            print(
+                f"iter={iteration:4d}  global_step={global_step:8d}  reward/step={reward_per_step:7.3f}{ep}"
+                f"  v_loss={v_loss.item():.3f}  approx_kl={approx_kl.item():.4f}"
+                f"  clipfrac={np.mean(clipfracs):.3f}  explained_var={explained_var:.2f}  SPS={sps}",
+                flush=True,
+            )
 
     envs.close()
     returns_ = [r for _, r, _ in finished]
     k = max(1, min(args.num_envs, len(returns_) // 2))  # one batch of episodes at each end
     summary = {
-        "global_step": global_step, "seconds": round(time.time() - start_time, 2),
+        "global_step": global_step,
+        "seconds": round(time.time() - start_time, 2),
         "steps_per_second": int(global_step / (time.time() - start_time)),
-        "reward_per_step_first": history[0]["reward_per_step"], "reward_per_step_last": history[-1]["reward_per_step"],
+        "reward_per_step_first": history[0]["reward_per_step"],
+        "reward_per_step_last": history[-1]["reward_per_step"],
         "episodes": len(returns_),
         "episodic_return_first": float(np.mean(returns_[:k])) if returns_ else None,
         "episodic_return_last": float(np.mean(returns_[-k:])) if returns_ else None,

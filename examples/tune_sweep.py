@@ -26,7 +26,9 @@ def parse_grid(items: list[str]) -> dict[str, list]:
     for item in items:
         key, sep, values = item.partition("=")
         if not sep or not key or not values:
-            raise SystemExit(f"--grid {item!r}: expected KEY=V1,V2,... (a key of the config's hyperparameters)")
+            raise SystemExit(
+                f"--grid {item!r}: expected KEY=V1,V2,... (a key of the config's hyperparameters)"
+            )
         try:
             grid[key] = [parse_number(yaml.safe_load(v)) for v in values.split(",")]
         except yaml.YAMLError:
@@ -48,25 +50,39 @@ def trainable(config: dict) -> None:
     base["total_timesteps"] = config["total_timesteps"]
     base["seed"] = config["seed"]
     base["time_limit_minutes"] = None  # the budget is total_timesteps, the same for every trial
-    base["eval"] = {**base["eval"], "episodes": config["eval_episodes"], "every_steps": config["total_timesteps"]}
+    base["eval"] = {
+        **base["eval"],
+        "episodes": config["eval_episodes"],
+        "every_steps": config["total_timesteps"],
+    }
     cfg = TrainConfig.from_dict(base)  # ConfigError names a bad key or value
     run = Path(tune.get_context().get_trial_dir()) / "run"
     train(cfg, run, quiet=True)
     summary = json.loads((run / "summary.json").read_text())
-    tune.report({"score": summary["final_score"], "best_score": summary["best_score"], "steps": summary["steps"]})
+    tune.report(
+        {"score": summary["final_score"], "best_score": summary["best_score"], "steps": summary["steps"]}
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
+    )
     p.add_argument("--config", default="quick", help="base training config (name in configs/ or a path)")
-    p.add_argument("--grid", action="append", default=None,
-                   help="KEY=V1,V2 (scalars) over the config's hyperparameters (repeatable); default learning_rate=1e-4,3e-4")
+    p.add_argument(
+        "--grid",
+        action="append",
+        default=None,
+        help="KEY=V1,V2 (scalars) over the config's hyperparameters (repeatable); "
+        "default learning_rate=1e-4,3e-4",
+    )
     p.add_argument("--total-timesteps", type=int, default=100_000, help="training steps per trial")
     p.add_argument("--eval-episodes", type=int, default=8)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--max-concurrent", type=int, default=None, help="default: one trial per CPU")
-    p.add_argument("--address", default=None, help="existing Ray cluster ('auto'); default: $RAY_ADDRESS or local")
+    p.add_argument(
+        "--address", default=None, help="existing Ray cluster ('auto'); default: $RAY_ADDRESS or local"
+    )
     p.add_argument("--out", default="runs/tune", help="Tune's storage directory")
     p.add_argument("--name", default="sweep")
     args = p.parse_args(argv)
@@ -76,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         import ray
         from ray import tune
     except ImportError:
-        raise SystemExit('Ray Tune is not installed: pip install "cepam-gym[distributed]"')
+        raise SystemExit('Ray Tune is not installed: pip install "cepam-gym[distributed]"') from None
 
     from cepam_gym_agents.config import ConfigError, TrainConfig, load_config  # installed with cepam-gym
 
@@ -99,7 +115,9 @@ def main(argv: list[str] | None = None) -> int:
     param_space = {
         "base_config": str(Path(args.config).resolve()) if Path(args.config).is_file() else args.config,
         "hyperparameters": {k: tune.grid_search(v) for k, v in grid.items()},
-        "total_timesteps": args.total_timesteps, "seed": args.seed, "eval_episodes": args.eval_episodes,
+        "total_timesteps": args.total_timesteps,
+        "seed": args.seed,
+        "eval_episodes": args.eval_episodes,
     }
     tuner = tune.Tuner(
         tune.with_resources(trainable, {"cpu": 1}),

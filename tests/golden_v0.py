@@ -24,8 +24,11 @@ def plant_trajectories() -> dict[str, np.ndarray]:
 
     out = {}
     rng = np.random.default_rng(1234)
-    for name, v0_preset in (("balloon", "balloon_v0"), ("balloon_uncalibrated", "balloon_uncalibrated"),
-                            ("rubber_tube", "rubber_tube_v0")):
+    for name, v0_preset in (
+        ("balloon", "balloon_v0"),
+        ("balloon_uncalibrated", "balloon_uncalibrated"),
+        ("rubber_tube", "rubber_tube_v0"),
+    ):
         p = preset(v0_preset).to_array()[None]
         for mode_name, mode in pl.MODES.items():
             n = 18  # two plant blocks of 16
@@ -38,7 +41,7 @@ def plant_trajectories() -> dict[str, np.ndarray]:
                 inp[:, pl.I_LOAD] = 0.1 + 0.05 * np.sin(0.1 * k + np.arange(n))
                 x, aux = pl.step(x, inp, p, mode)
                 # the v0 state columns (plant v1 appended friction deflections, 0 without friction)
-                rows.append(np.concatenate([x[:, :pl.N_STATE_V0], aux], axis=1))
+                rows.append(np.concatenate([x[:, : pl.N_STATE_V0], aux], axis=1))
             out[f"plant/{name}/{mode_name}"] = np.stack(rows)
     return out
 
@@ -58,8 +61,11 @@ def env_trajectories() -> dict[str, np.ndarray]:
             rows = []
             for _ in range(N_STEPS):
                 obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
-                rows.append(np.concatenate([obs, [r, info["length"], info["pressure_c"],
-                                                  info["pressure_e"], info["stiffness"]]]))
+                rows.append(
+                    np.concatenate(
+                        [obs, [r, info["length"], info["pressure_c"], info["pressure_e"], info["stiffness"]]]
+                    )
+                )
                 if term:
                     obs, _ = env.reset()
             out[f"single/{env_id}/{mode}"] = np.array(rows)
@@ -86,7 +92,9 @@ def joint_trajectories() -> dict[str, np.ndarray]:
         rows = []
         for _ in range(N_STEPS // 2):
             obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
-            rows.append(np.concatenate([obs, [r, info["angle"], info["muscle_force"], info["joint_stiffness"]]]))
+            rows.append(
+                np.concatenate([obs, [r, info["angle"], info["muscle_force"], info["joint_stiffness"]]])
+            )
         out[f"joint/{mode}"] = np.array(rows)
     return out
 

@@ -22,10 +22,19 @@ TINY = {
     "algorithm": "SAC",
     "total_timesteps": 300,
     "seed": 3,
-    "env": {"id": "cepam_gym/CEPAM-v0", "num_envs": 2, "kwargs": {"episode_seconds": 2.0, "max_episode_steps": 100}},
+    "env": {
+        "id": "cepam_gym/CEPAM-v0",
+        "num_envs": 2,
+        "kwargs": {"episode_seconds": 2.0, "max_episode_steps": 100},
+    },
     "agent": {"residual": True, "residual_scale": 0.5, "baseline_in_obs": True, "history": 2},
     "normalize": {"obs": True},
-    "hyperparameters": {"learning_rate": "1e-3", "learning_starts": 50, "batch_size": 32, "buffer_size": "1e4"},
+    "hyperparameters": {
+        "learning_rate": "1e-3",
+        "learning_starts": 50,
+        "batch_size": 32,
+        "buffer_size": "1e4",
+    },
     "policy_kwargs": {"net_arch": [16, 16], "activation_fn": "tanh"},
     "eval": {"every_steps": 150, "episodes": 2},
     "checkpoint": {"every_steps": 100},
@@ -51,41 +60,51 @@ def test_shipped_configs_load():
 def test_numbers_parse_as_numbers_including_yaml11_exponents():
     cfg = _cfg()
     assert cfg.hyperparameters["learning_rate"] == pytest.approx(1e-3)
-    assert isinstance(cfg.hyperparameters["buffer_size"], int) and cfg.hyperparameters["buffer_size"] == 10_000
+    assert (
+        isinstance(cfg.hyperparameters["buffer_size"], int) and cfg.hyperparameters["buffer_size"] == 10_000
+    )
     # straight from YAML text: PyYAML reads 3e-4 and 2e5 as strings
-    raw = yaml.safe_load("algorithm: PPO\ntotal_timesteps: 2e5\nhyperparameters: {learning_rate: 3e-4, n_steps: 64}")
+    raw = yaml.safe_load(
+        "algorithm: PPO\ntotal_timesteps: 2e5\nhyperparameters: {learning_rate: 3e-4, n_steps: 64}"
+    )
     assert isinstance(raw["hyperparameters"]["learning_rate"], str)
     cfg = TrainConfig.from_dict(raw)
     assert cfg.total_timesteps == 200_000 and cfg.hyperparameters["learning_rate"] == pytest.approx(3e-4)
 
 
-@pytest.mark.parametrize("changes, key", [
-    ({"learnin_rate": 1e-3}, "learnin_rate"),
-    ({"env": {"id": "cepam_gym/CEPAM-v0", "num_env": 4}}, "num_env"),
-    ({"env": {"id": "cepam_gym/CEPAM-v0", "kwargs": {"randomise": {}}}}, "randomise"),
-    ({"hyperparameters": {"n_epochs": 4}}, "n_epochs"),  # a PPO key given to SAC
-    ({"hyperparameters": {"seed": 4}}, "seed"),
-    ({"policy_kwargs": {"netarch": [8]}}, "netarch"),
-    ({"eval": {"every": 10}}, "every"),
-    ({"agent": {"residual_scal": 1.0}}, "residual_scal"),
-    ({"checkpoint": {"every_step": 10}}, "every_step"),
-])
+@pytest.mark.parametrize(
+    "changes, key",
+    [
+        ({"learnin_rate": 1e-3}, "learnin_rate"),
+        ({"env": {"id": "cepam_gym/CEPAM-v0", "num_env": 4}}, "num_env"),
+        ({"env": {"id": "cepam_gym/CEPAM-v0", "kwargs": {"randomise": {}}}}, "randomise"),
+        ({"hyperparameters": {"n_epochs": 4}}, "n_epochs"),  # a PPO key given to SAC
+        ({"hyperparameters": {"seed": 4}}, "seed"),
+        ({"policy_kwargs": {"netarch": [8]}}, "netarch"),
+        ({"eval": {"every": 10}}, "every"),
+        ({"agent": {"residual_scal": 1.0}}, "residual_scal"),
+        ({"checkpoint": {"every_step": 10}}, "every_step"),
+    ],
+)
 def test_unknown_keys_are_named(changes, key):
     with pytest.raises(ConfigError, match=f"'{key}'") as e:
         _cfg(**changes)
     assert "valid" in str(e.value)
 
 
-@pytest.mark.parametrize("changes, match", [
-    ({"algorithm": "DQN"}, "algorithm must be one of"),
-    ({"total_timesteps": "lots"}, "total_timesteps must be an integer"),
-    ({"total_timesteps": 1.5}, "total_timesteps must be an integer"),
-    ({"env": {"id": "cepam_gym/Nope-v0"}}, "unknown environment 'cepam_gym/Nope-v0'"),
-    ({"hyperparameters": {"batch_size": "big"}}, "hyperparameters.batch_size must be a number"),
-    ({"policy_kwargs": {"activation_fn": "sigmoidish"}}, "activation_fn must be one of"),
-    ({"eval": {"suite": "nope"}}, "eval.suite: unknown suite 'nope'"),
-    ({"agent": {"history": 0}}, "agent.history must be >= 1"),
-])
+@pytest.mark.parametrize(
+    "changes, match",
+    [
+        ({"algorithm": "DQN"}, "algorithm must be one of"),
+        ({"total_timesteps": "lots"}, "total_timesteps must be an integer"),
+        ({"total_timesteps": 1.5}, "total_timesteps must be an integer"),
+        ({"env": {"id": "cepam_gym/Nope-v0"}}, "unknown environment 'cepam_gym/Nope-v0'"),
+        ({"hyperparameters": {"batch_size": "big"}}, "hyperparameters.batch_size must be a number"),
+        ({"policy_kwargs": {"activation_fn": "sigmoidish"}}, "activation_fn must be one of"),
+        ({"eval": {"suite": "nope"}}, "eval.suite: unknown suite 'nope'"),
+        ({"agent": {"history": 0}}, "agent.history must be >= 1"),
+    ],
+)
 def test_bad_values_are_named(changes, match):
     with pytest.raises(ConfigError, match=match):
         _cfg(**changes)
@@ -115,18 +134,33 @@ def tiny_run(tmp_path_factory):
 @pytest.mark.slow  # trains
 def test_tiny_run_writes_model_config_and_logs(tiny_run):
     run = tiny_run
-    for name in ("model.zip", "vecnormalize.pkl", "best_model.zip", "config.yaml", "run.json",
-                 "evaluations.json", "summary.json", "checkpoints/latest.json"):
+    for name in (
+        "model.zip",
+        "vecnormalize.pkl",
+        "best_model.zip",
+        "config.yaml",
+        "run.json",
+        "evaluations.json",
+        "summary.json",
+        "checkpoints/latest.json",
+    ):
         assert (run / name).is_file(), name
     # the resolved config reproduces the run
     assert load_config(run / "config.yaml") == _cfg()
     meta = json.loads((run / "run.json").read_text())
     assert meta["seed"] == 3 and meta["status"] == "finished"
-    assert meta["versions"]["stable-baselines3"] and meta["versions"]["torch"] and meta["versions"]["cepam-gym"]
+    assert (
+        meta["versions"]["stable-baselines3"] and meta["versions"]["torch"] and meta["versions"]["cepam-gym"]
+    )
     assert list((run / "tb").glob("events.out.tfevents.*"))
     header = (run / "logs" / "progress_0.csv").read_text().splitlines()[0].split(",")
-    for key in ("env/reward_length", "env/reward_stiffness", "env/length_error_mm", "env/stiffness_error_pct",
-                "eval/score"):
+    for key in (
+        "env/reward_length",
+        "env/reward_stiffness",
+        "env/length_error_mm",
+        "env/stiffness_error_pct",
+        "eval/score",
+    ):
         assert key in header
     evals = json.loads((run / "evaluations.json").read_text())
     assert [e["step"] for e in evals] == [150, 300, 300]  # schedule + the final one
@@ -246,19 +280,38 @@ def test_interrupt_saves_a_usable_checkpoint(tmp_path):
 
 
 @pytest.mark.slow  # trains
-@pytest.mark.parametrize("algo, hp, agent, n_act", [
-    ("PPO", {"n_steps": 32, "batch_size": 32, "n_epochs": 1}, {"target_shift": True, "residual": True}, 4),
-    ("TD3", {"learning_starts": 20, "batch_size": 16, "action_noise": {"type": "normal", "sigma": 0.2}}, {}, 2),
-])
+@pytest.mark.parametrize(
+    "algo, hp, agent, n_act",
+    [
+        (
+            "PPO",
+            {"n_steps": 32, "batch_size": 32, "n_epochs": 1},
+            {"target_shift": True, "residual": True},
+            4,
+        ),
+        (
+            "TD3",
+            {"learning_starts": 20, "batch_size": 16, "action_noise": {"type": "normal", "sigma": 0.2}},
+            {},
+            2,
+        ),
+    ],
+)
 def test_ppo_and_td3_train_and_act(tmp_path, algo, hp, agent, n_act):
     import gymnasium as gym
 
     from cepam_gym_agents.policy import load_policy
     from cepam_gym_agents.train import train
 
-    cfg = _cfg(algorithm=algo, total_timesteps=128, hyperparameters=hp, agent=agent,
-               normalize={"obs": True, "reward": True}, eval={"every_steps": 1000, "episodes": 1},
-               policy_kwargs={"net_arch": [8]})
+    cfg = _cfg(
+        algorithm=algo,
+        total_timesteps=128,
+        hyperparameters=hp,
+        agent=agent,
+        normalize={"obs": True, "reward": True},
+        eval={"every_steps": 1000, "episodes": 1},
+        policy_kwargs={"net_arch": [8]},
+    )
     assert train(cfg, tmp_path / algo, quiet=True) == 0
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=0)
@@ -272,14 +325,16 @@ def test_ppo_and_td3_train_and_act(tmp_path, algo, hp, agent, n_act):
 def test_residual_features_terminal_obs_and_peek():
     import gymnasium as gym
 
-    from cepam_gym_agents.config import AgentConfig
-    from cepam_gym_agents.features import Features, make_agent_vec_env
     from cepam_gym.control import InverseStaticController
     from cepam_gym.envs.sb3 import make_sb3_vec_env
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features, make_agent_vec_env
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=5)
-    feats = Features(venv, AgentConfig(residual=True, baseline_in_obs=True, history=3), venv.unwrapped.core.obs_dim)
+    feats = Features(
+        venv, AgentConfig(residual=True, baseline_in_obs=True, history=3), venv.unwrapped.core.obs_dim
+    )
     ref = InverseStaticController(venv)
     f, base = feats(obs)
     assert f.shape == (2, 3 * 11)
@@ -292,8 +347,10 @@ def test_residual_features_terminal_obs_and_peek():
     np.testing.assert_array_equal(before[0], after[0])
     np.testing.assert_array_equal(before[2][0], after[2][0])
 
-    env = make_agent_vec_env(make_sb3_vec_env("cepam_gym/CEPAM-v0", num_envs=2, seed=0, max_episode_steps=3),
-                             AgentConfig(residual=True, baseline_in_obs=True, history=2))
+    env = make_agent_vec_env(
+        make_sb3_vec_env("cepam_gym/CEPAM-v0", num_envs=2, seed=0, max_episode_steps=3),
+        AgentConfig(residual=True, baseline_in_obs=True, history=2),
+    )
     o = env.reset()
     assert o.shape == (2, 22)
     for _ in range(5):
@@ -306,8 +363,10 @@ def test_residual_features_terminal_obs_and_peek():
 
 
 def test_agents_import_is_light():
-    code = ("import sys, cepam_gym_agents, cepam_gym; "
-            "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)")
+    code = (
+        "import sys, cepam_gym_agents, cepam_gym; "
+        "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
 
@@ -346,19 +405,27 @@ def test_shipped_config_by_name_and_missing_file(tmp_path, monkeypatch):
         load_config("elsewhere/quick.yaml")  # a path that is not there is not a shipped name
 
 
-@pytest.mark.parametrize("env_id, residual, n_act", [("cepam_gym/CEPAM-v0", False, 2), ("cepam_gym/CEPAM-v0", True, 4),
-                                                     ("cepam_gym/CEPAMLength-v0", False, 1)])
+@pytest.mark.parametrize(
+    "env_id, residual, n_act",
+    [
+        ("cepam_gym/CEPAM-v0", False, 2),
+        ("cepam_gym/CEPAM-v0", True, 4),
+        ("cepam_gym/CEPAMLength-v0", False, 1),
+    ],
+)
 def test_target_shift_moves_the_baselines_targets(env_id, residual, n_act):
     import gymnasium as gym
 
+    from cepam_gym.control import InverseStaticController
     from cepam_gym_agents.config import AgentConfig
     from cepam_gym_agents.features import Features
-    from cepam_gym.control import InverseStaticController
 
     venv = gym.make_vec(env_id, num_envs=2)
     obs, _ = venv.reset(seed=2)
     dim = venv.unwrapped.core.obs_dim
-    cfg = AgentConfig(target_shift=True, residual=residual, target_shift_length_mm=4.0, target_shift_stiffness=0.5)
+    cfg = AgentConfig(
+        target_shift=True, residual=residual, target_shift_length_mm=4.0, target_shift_stiffness=0.5
+    )
     feats = Features(venv, cfg, dim)
     assert feats.n_actions == n_act
     f, base = feats(obs)
@@ -395,7 +462,9 @@ def test_target_shift_filter_is_first_order_and_observed():
     alpha = 1 - np.exp(-0.02 / 0.1)
     f, _ = feats(obs)
     np.testing.assert_array_equal(f[:, 9:], 0.0)
-    feats.action(np.full((2, 2), 0.5, dtype=np.float32), None)  # the first action of an episode is taken as is
+    feats.action(
+        np.full((2, 2), 0.5, dtype=np.float32), None
+    )  # the first action of an episode is taken as is
     feats(obs)
     feats.action(np.full((2, 2), -0.5, dtype=np.float32), None)
     f, _ = feats(obs)

@@ -189,8 +189,13 @@ LAYERS = {
     "physics": ("cepam_gym.physics",),
     "plant": ("cepam_gym", "cepam_gym.params", "cepam_gym.plant", "cepam_gym.mujoco.coupling"),
     "tasks": ("cepam_gym.tasks", "cepam_gym.mujoco.joint_task"),
-    "envs": ("cepam_gym.envs", "cepam_gym.mujoco.rig", "cepam_gym.mujoco.joint", "cepam_gym.mujoco.joint_sim",
-             "cepam_gym.mujoco.joint_view"),
+    "envs": (
+        "cepam_gym.envs",
+        "cepam_gym.mujoco.rig",
+        "cepam_gym.mujoco.joint",
+        "cepam_gym.mujoco.joint_sim",
+        "cepam_gym.mujoco.joint_view",
+    ),
     "control": ("cepam_gym.control",),
     "bench": ("cepam_gym.bench",),
     "top": (
@@ -239,10 +244,5 @@ def test_layers_import_only_downward(layer):
     """physics imports nothing above it; plant nothing of tasks, envs, control, bench; tasks nothing
     of envs, control, bench; envs (the joint env included) nothing of control or bench."""
     graph = _graph()
-    bad = [
-        v
-        for name in MODULES
-        if _layer(name) == layer
-        for v in _upward(name, graph)
-    ]
+    bad = [v for name in MODULES if _layer(name) == layer for v in _upward(name, graph)]
     assert not bad, bad

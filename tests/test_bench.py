@@ -15,10 +15,17 @@ from cepam_gym.bench.metrics import score_traces
 def _traces(T=100, N=2, dt=0.1):
     tl = np.full((T, N), 0.17)
     tl[50:] = 0.18  # a 1 cm step at t = 5 s
-    tr = {"length": tl.copy(), "target_length": tl, "stiffness": np.full((T, N), 800.0),
-          "target_stiffness": np.full((T, N), 800.0), "air_used": np.full((T, N), 1e-6),
-          "reward": np.full((T, N), -1.0), "alive": np.ones((T, N), dtype=bool),
-          "failed": np.zeros(N, dtype=bool), "dt": dt}
+    tr = {
+        "length": tl.copy(),
+        "target_length": tl,
+        "stiffness": np.full((T, N), 800.0),
+        "target_stiffness": np.full((T, N), 800.0),
+        "air_used": np.full((T, N), 1e-6),
+        "reward": np.full((T, N), -1.0),
+        "alive": np.ones((T, N), dtype=bool),
+        "failed": np.zeros(N, dtype=bool),
+        "dt": dt,
+    }
     return tr
 
 
@@ -69,14 +76,39 @@ def test_failures_and_cvar():
 
 @pytest.mark.slow  # a subprocess: interpreter, numba cache and two suites (~10 s)
 def test_bench_cli_json_one_object_per_suite():
-    out = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "baseline",
-                          "--suite", "nominal", "--suite", "stiffness-at-fixed-length", "--episodes", "3",
-                          "--json"], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cepam_gym.cli",
+            "bench",
+            "--controller",
+            "baseline",
+            "--suite",
+            "nominal",
+            "--suite",
+            "stiffness-at-fixed-length",
+            "--episodes",
+            "3",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     rows = [json.loads(line) for line in out.stdout.splitlines()]
     assert [r["suite"] for r in rows] == ["nominal", "stiffness-at-fixed-length"]
     for r in rows:
-        for key in ("length_rmse_mm", "stiffness_rmse_pct", "settling_time_s", "overshoot_pct",
-                    "cvar10_return", "failure_rate", "air_g_per_episode", "score"):
+        for key in (
+            "length_rmse_mm",
+            "stiffness_rmse_pct",
+            "settling_time_s",
+            "overshoot_pct",
+            "cvar10_return",
+            "failure_rate",
+            "air_g_per_episode",
+            "score",
+        ):
             assert np.isfinite(r[key])
 
 
@@ -92,8 +124,9 @@ def test_unknown_controller_and_suite_are_rejected():
 
     with pytest.raises(ValueError, match="controller"):
         run_suite("pid-from-mars", "nominal", episodes=1)
-    bad = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--suite", "moon"],
-                         capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "cepam_gym.cli", "bench", "--suite", "moon"], capture_output=True, text=True
+    )
     assert bad.returncode != 0 and "moon" in bad.stderr
 
 
@@ -112,13 +145,20 @@ def test_joint_trace_spec_scores_the_angle_in_degrees():
 
 
 def test_joint_suite_needs_mujoco_only_when_used():
-    r = subprocess.run([sys.executable, "-c",
-                        "import sys; sys.modules['mujoco'] = None  # as if not installed\n"
-                        "from cepam_gym.bench import harness, cli, report\n"
-                        "from cepam_gym.bench.suites import SUITES, available\n"
-                        "assert 'joint' in SUITES and not available('joint') and available('nominal')\n"
-                        "assert 'cepam_gym.mujoco.joint' not in sys.modules\n"],
-                       capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; sys.modules['mujoco'] = None  # as if not installed\n"
+            "from cepam_gym.bench import harness, cli, report\n"
+            "from cepam_gym.bench.suites import SUITES, available\n"
+            "assert 'joint' in SUITES and not available('joint') and available('nominal')\n"
+            "assert 'cepam_gym.mujoco.joint' not in sys.modules\n",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
 
 
@@ -128,10 +168,17 @@ def test_env_reward_weighs_length_and_stiffness_like_the_score():
     from cepam_gym.tasks import RewardWeights
 
     T, N = 10, 1
-    base = {"length": np.full((T, N), 0.17), "target_length": np.full((T, N), 0.17),
-            "stiffness": np.full((T, N), 800.0), "target_stiffness": np.full((T, N), 800.0),
-            "air_used": np.zeros((T, N)), "reward": np.zeros((T, N)), "alive": np.ones((T, N), dtype=bool),
-            "failed": np.zeros(N, dtype=bool), "dt": 0.02}
+    base = {
+        "length": np.full((T, N), 0.17),
+        "target_length": np.full((T, N), 0.17),
+        "stiffness": np.full((T, N), 800.0),
+        "target_stiffness": np.full((T, N), 800.0),
+        "air_used": np.zeros((T, N)),
+        "reward": np.zeros((T, N)),
+        "alive": np.ones((T, N), dtype=bool),
+        "failed": np.zeros(N, dtype=bool),
+        "dt": 0.02,
+    }
     off_5mm = dict(base, length=base["length"] + 5e-3)
     off_20pct = dict(base, stiffness=base["stiffness"] * 1.2)
     s_len, s_k = score_traces(off_5mm)["score"], score_traces(off_20pct)["score"]

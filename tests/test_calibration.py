@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from cepam_gym import validation as cal
-from cepam_gym.validation.cli import calibrate_main
 from cepam_gym.params import PlantParams, preset
 from cepam_gym.validation import Experiment, load_experiments, simulate
+from cepam_gym.validation.cli import calibrate_main
 
 HEADER = "kind,muscle,pc_kpa,pe_kpa,length_cm,load_g,value,unit,name"
 V0 = preset("balloon_v0")  # these tests fit the v0 plant's parameters (the spring); plant v1 below
@@ -74,7 +74,7 @@ def test_noisy_synthetic_data_recover_the_parameters_within_their_uncertainty(tm
     z = (res.values - TRUE_VALUES) / res.std
     assert np.all(np.abs(z) < 3.0), dict(zip(TRUE_NAMES, z))
     assert np.all(res.std < [0.5, 0.5, 0.1, 10.0]), res.std
-    assert 0.005 < np.sqrt(np.mean(res.residuals ** 2)) < 0.02  # residuals at the noise level
+    assert 0.005 < np.sqrt(np.mean(res.residuals**2)) < 0.02  # residuals at the noise level
     assert res.success and res.identifiable.all() and not res.at_bound.any()
 
 
@@ -93,8 +93,12 @@ def test_thicknesses_that_only_enter_as_a_sum_are_reported_not_identifiable(tmp_
 def test_cli_writes_a_yaml_that_plantparams_loads(tmp_path, truth, capsys):
     path = _write(tmp_path, [HEADER] + _synthetic_rows(truth, 0.0, 0))
     out = tmp_path / "fitted.yaml"
-    assert calibrate_main(["--data", str(path), "--out", str(out), "--fit", "elastic_stiffness",
-                     "--preset", "balloon_v0"]) == 0
+    assert (
+        calibrate_main(
+            ["--data", str(path), "--out", str(out), "--fit", "elastic_stiffness", "--preset", "balloon_v0"]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "residuals per measurement" in text and "+/- 1 sd" in text
     assert (tmp_path / "fitted.png").stat().st_size > 0
@@ -113,26 +117,51 @@ def test_units_of_the_value_column_are_converted(tmp_path):
     assert k.value == pytest.approx(552.5) and k.held_length_cm == 17.5 and k.loads_g == ()
 
 
-@pytest.mark.parametrize("lines, match", [
-    (["kind,muscle,pc_kpa,pe_kpa,length_cm,load_g,unit", "force,cepam,1,1,17,,N"],
-     r"line 1 \(header\): missing column\(s\) \['value'\]"),
-    ([HEADER.replace("pe_kpa", "pe_kPa2"), "force,cepam,1,1,17,,2,N,x"], r"line 1 \(header\): unknown column"),
-    ([HEADER, "weight,cepam,75,50,,0,17.5,cm,x"], r"line 2, column 'kind': unknown kind 'weight'"),
-    ([HEADER, "# a comment", "equilibrium_length,cepam,75,fifty,,0,17.5,cm,x"],
-     r"line 3, column 'pe_kpa': 'fifty' is not a number"),
-    ([HEADER, "equilibrium_length,cepam,75,50,,0,nan,cm,x"], r"line 2, column 'value': 'nan' is not a finite"),
-    ([HEADER, "stiffness,cepam,75,50,,50;-100,500,N/m,x"], r"line 2, column 'load_g': negative load"),
-    ([HEADER, "equilibrium_length,cepam,75,50,,-20,17.5,cm,x"], r"line 2, column 'load_g': negative load"),
-    ([HEADER, "equilibrium_length,cepam,-75,50,,0,17.5,cm,x"], r"line 2, column 'pc_kpa': negative gauge"),
-    ([HEADER, "equilibrium_length,cepam,75,,,0,17.5,cm,x"], r"line 2, column 'pe_kpa': empty"),
-    ([HEADER, "equilibrium_length,cepam,75,50,,0,17.5,N/m,x"], r"line 2, column 'unit': 'N/m' is not a unit"),
-    ([HEADER, "stiffness,cepam,75,50,17.5,50,500,N/m,x"], r"line 2, columns 'length_cm'/'load_g'"),
-    ([HEADER, "force,cepam,75,50,,,2.0,N,x"], r"line 2, column 'length_cm': empty"),
-    ([HEADER, "equilibrium_length,cpam,75,50,,0,17.5,cm,x"], r"line 2, column 'pe_kpa': a single CPAM"),
-    ([HEADER, "equilibrium_length,cepam,75,50,,0,17.5,cm"], r"line 2: 8 cells, but the header has 9"),
-    ([HEADER, "equilibrium_length,muscle9,75,50,,0,17.5,cm,x"], r"line 2, column 'muscle': unknown muscle"),
-    ([HEADER], r"no measurement rows"),
-])
+@pytest.mark.parametrize(
+    "lines, match",
+    [
+        (
+            ["kind,muscle,pc_kpa,pe_kpa,length_cm,load_g,unit", "force,cepam,1,1,17,,N"],
+            r"line 1 \(header\): missing column\(s\) \['value'\]",
+        ),
+        (
+            [HEADER.replace("pe_kpa", "pe_kPa2"), "force,cepam,1,1,17,,2,N,x"],
+            r"line 1 \(header\): unknown column",
+        ),
+        ([HEADER, "weight,cepam,75,50,,0,17.5,cm,x"], r"line 2, column 'kind': unknown kind 'weight'"),
+        (
+            [HEADER, "# a comment", "equilibrium_length,cepam,75,fifty,,0,17.5,cm,x"],
+            r"line 3, column 'pe_kpa': 'fifty' is not a number",
+        ),
+        (
+            [HEADER, "equilibrium_length,cepam,75,50,,0,nan,cm,x"],
+            r"line 2, column 'value': 'nan' is not a finite",
+        ),
+        ([HEADER, "stiffness,cepam,75,50,,50;-100,500,N/m,x"], r"line 2, column 'load_g': negative load"),
+        (
+            [HEADER, "equilibrium_length,cepam,75,50,,-20,17.5,cm,x"],
+            r"line 2, column 'load_g': negative load",
+        ),
+        (
+            [HEADER, "equilibrium_length,cepam,-75,50,,0,17.5,cm,x"],
+            r"line 2, column 'pc_kpa': negative gauge",
+        ),
+        ([HEADER, "equilibrium_length,cepam,75,,,0,17.5,cm,x"], r"line 2, column 'pe_kpa': empty"),
+        (
+            [HEADER, "equilibrium_length,cepam,75,50,,0,17.5,N/m,x"],
+            r"line 2, column 'unit': 'N/m' is not a unit",
+        ),
+        ([HEADER, "stiffness,cepam,75,50,17.5,50,500,N/m,x"], r"line 2, columns 'length_cm'/'load_g'"),
+        ([HEADER, "force,cepam,75,50,,,2.0,N,x"], r"line 2, column 'length_cm': empty"),
+        ([HEADER, "equilibrium_length,cpam,75,50,,0,17.5,cm,x"], r"line 2, column 'pe_kpa': a single CPAM"),
+        ([HEADER, "equilibrium_length,cepam,75,50,,0,17.5,cm"], r"line 2: 8 cells, but the header has 9"),
+        (
+            [HEADER, "equilibrium_length,muscle9,75,50,,0,17.5,cm,x"],
+            r"line 2, column 'muscle': unknown muscle",
+        ),
+        ([HEADER], r"no measurement rows"),
+    ],
+)
 def test_bad_csv_is_rejected_naming_line_and_column(tmp_path, lines, match):
     path = _write(tmp_path, lines)
     with pytest.raises(ValueError, match=match) as err:
@@ -174,7 +203,9 @@ def test_v0_plant_is_the_calibration_to_the_papers_cepam_numbers():
     assert after < 0.045 and after < before - 0.02
     names = ("cpam_rest_angle", "epam_sleeve_free_angle", "elastic_stiffness")
     res = cal.fit(exps, p, names)
-    start = np.array([np.degrees(p.cpam_rest_angle), np.degrees(p.epam_sleeve_free_angle), p.elastic_stiffness])
+    start = np.array(
+        [np.degrees(p.cpam_rest_angle), np.degrees(p.epam_sleeve_free_angle), p.elastic_stiffness]
+    )
     assert np.all(np.abs(res.values - start) < 0.05 * res.std), (res.values, start, res.std)  # at the optimum
     assert np.abs(res.residuals).mean() == pytest.approx(after, abs=1e-4)
 
@@ -189,9 +220,18 @@ def test_unknown_fit_parameter_is_named():
 def test_minimax_check_finds_an_exact_parameter():
     """The reachability check: one parameter, data made by the model, so the best max error is ~0."""
     truth = V0.replace(elastic_stiffness=150.0)
-    exps = [Experiment("l", "l", "length", "cm", simulate(Experiment("l", "l", "length", "cm", 1.0, pc_kpa=pc,
-                                                                     pe_kpa=pe), truth).value, pc_kpa=pc, pe_kpa=pe)
-            for pe, pc in ((50, 0), (75, 125))]
+    exps = [
+        Experiment(
+            "l",
+            "l",
+            "length",
+            "cm",
+            simulate(Experiment("l", "l", "length", "cm", 1.0, pc_kpa=pc, pe_kpa=pe), truth).value,
+            pc_kpa=pc,
+            pe_kpa=pe,
+        )
+        for pe, pc in ((50, 0), (75, 125))
+    ]
     worst, x = cal.minimax(exps, V0, ("elastic_stiffness",), maxiter=30)
     assert worst < 1e-4 and x[0] == pytest.approx(150.0, rel=1e-3)
 
@@ -212,14 +252,17 @@ def test_v1_calibration_recovers_known_elasticity_from_noisy_synthetic_data():
     true = np.array([24.0, 36.0, 700.0, 550.0])
     truth = cal.apply(PlantParams(), names, true)
     rng = np.random.default_rng(3)
-    exps = [dataclasses.replace(e, value=simulate(e, truth).value * (1.0 + 0.005 * rng.standard_normal()))
-            for e in _paper_rows() if e.device != "cepam"]
+    exps = [
+        dataclasses.replace(e, value=simulate(e, truth).value * (1.0 + 0.005 * rng.standard_normal()))
+        for e in _paper_rows()
+        if e.device != "cepam"
+    ]
     res = cal.fit(exps, PlantParams(), names, bounds=cal.V1_BOUNDS, tol=1e-8)
     assert np.abs(res.residuals_start).max() > 0.3  # the default is genuinely off this truth
     z = (res.values - true) / res.std
     assert np.all(np.abs(z) < 3.0), dict(zip(names, z))
     assert np.all(res.std < [0.5, 0.5, 150.0, 10.0]), res.std
-    assert np.sqrt(np.mean(res.residuals ** 2)) < 0.01  # residuals at the noise level
+    assert np.sqrt(np.mean(res.residuals**2)) < 0.01  # residuals at the noise level
 
 
 def test_default_plant_is_the_v1_fit_to_every_reported_number():

@@ -20,18 +20,21 @@ SCRIPT = ROOT / "examples" / "cleanrl_ppo.py"
 
 def _run(*args, timeout=240):
     pytest.importorskip("torch")
-    out = subprocess.run([sys.executable, str(SCRIPT), *args], capture_output=True, text=True,
-                         timeout=timeout, cwd=ROOT)
+    out = subprocess.run(
+        [sys.executable, str(SCRIPT), *args], capture_output=True, text=True, timeout=timeout, cwd=ROOT
+    )
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     (line,) = [ln for ln in out.stdout.splitlines() if ln.startswith("summary: ")]
-    return json.loads(line[len("summary: "):]), out.stdout
+    return json.loads(line[len("summary: ") :]), out.stdout
 
 
 def test_vector_env_autoreset_contract_used_by_the_loop():
     """The loop bootstraps truncated episodes from infos['final_obs'] and treats the returned
     observation as the next episode's first: check both against single envs seeded alike."""
     n, horizon, seed = 3, 4, 10
-    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon, autoreset_mode="same_step")
+    venv = gym.make_vec(
+        "cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon, autoreset_mode="same_step"
+    )
     singles = [gym.make("cepam_gym/CEPAM-v0", max_episode_steps=horizon, stream=i) for i in range(n)]
     try:
         assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
@@ -69,8 +72,20 @@ def test_bad_flags_rejected():
 @pytest.mark.slow
 def test_short_episodes_are_counted_and_scored():
     # 4 envs x 128 steps with 20-step episodes: 6 truncations each, through the bootstrap path
-    s, out = _run("--total-timesteps", "512", "--num-envs", "4", "--num-steps", "32",
-                  "--num-minibatches", "4", "--max-episode-steps", "20", "--seed", "3")
+    s, out = _run(
+        "--total-timesteps",
+        "512",
+        "--num-envs",
+        "4",
+        "--num-steps",
+        "32",
+        "--num-minibatches",
+        "4",
+        "--max-episode-steps",
+        "20",
+        "--seed",
+        "3",
+    )
     assert s["global_step"] == 512
     assert s["episodes"] == 4 * (128 // 20)
     assert -20 * 10 < s["episodic_return_first"] < 0  # penalties only, above the worst case per step
@@ -83,8 +98,18 @@ def test_learns_within_a_small_budget():
     # the first rollout, -1.00..-1.11 in the eighth. The untrained policy (--learning-rate 0, seed
     # 1) goes from -1.63 to -1.95 over the same steps (later in the episode is harder), so the
     # gain asserted here comes from learning.
-    s, _ = _run("--total-timesteps", "16384", "--num-envs", "32", "--num-steps", "64", "--seed", "1",
-                "--log-every", "100")
+    s, _ = _run(
+        "--total-timesteps",
+        "16384",
+        "--num-envs",
+        "32",
+        "--num-steps",
+        "64",
+        "--seed",
+        "1",
+        "--log-every",
+        "100",
+    )
     assert s["global_step"] == 16384
     assert s["episodes"] == 32  # one 500-step episode per env
     assert s["reward_per_step_last"] > s["reward_per_step_first"] + 0.25, s

@@ -49,8 +49,11 @@ def run_dir(tmp_path_factory):
     (run / "checkpoints").mkdir()
     model.save(str(run / "checkpoints" / "model_8.zip"))
     env.save(str(run / "checkpoints" / "vecnormalize_8.pkl"))
-    (run / "checkpoints" / "latest.json").write_text(json.dumps(
-        {"steps": 8, "model": "checkpoints/model_8.zip", "vecnormalize": "checkpoints/vecnormalize_8.pkl"}))
+    (run / "checkpoints" / "latest.json").write_text(
+        json.dumps(
+            {"steps": 8, "model": "checkpoints/model_8.zip", "vecnormalize": "checkpoints/vecnormalize_8.pkl"}
+        )
+    )
     assert yaml.safe_load((run / "config.yaml").read_text())["algorithm"] == "PPO"
     return run
 
@@ -85,16 +88,20 @@ def test_eval_on_corrupted_run_files(capsys, run_dir, tmp_path, corrupt):
     else:
         (run / "config.yaml").write_text("algorithm: [PPO\n")
         needles = ("config.yaml",)
-    _one_line_error(capsys, ["eval", "--run", str(run), "--suite", "nominal", "--episodes", "1",
-                             "--no-baseline"], *needles)
+    _one_line_error(
+        capsys,
+        ["eval", "--run", str(run), "--suite", "nominal", "--episodes", "1", "--no-baseline"],
+        *needles,
+    )
     # the benchmark reads the same files
-    _one_line_error(capsys, ["bench", "--controller", str(run), "--suite", "nominal", "--episodes", "1"],
-                    *needles)
+    _one_line_error(
+        capsys, ["bench", "--controller", str(run), "--suite", "nominal", "--episodes", "1"], *needles
+    )
 
 
 def test_resume_on_broken_checkpoint_index(capsys, run_dir, tmp_path):
     run = _copy(run_dir, tmp_path)
-    (run / "checkpoints" / "latest.json").write_text("{\"steps\": 8, \"model\": ")
+    (run / "checkpoints" / "latest.json").write_text('{"steps": 8, "model": ')
     _one_line_error(capsys, ["train", "--out", str(run), "--resume", "--quiet"], "latest.json")
 
 
@@ -118,22 +125,66 @@ def test_train_bad_config_env_kwargs_and_hyperparameters(capsys, tmp_path):
     broken = tmp_path / "broken.yaml"
     broken.write_text("algorithm: [\n")
     _one_line_error(capsys, ["train", "--config", str(broken), "--out", str(tmp_path / "a")], "broken.yaml")
-    _one_line_error(capsys, ["train", "--config", str(cfg("k", **{"env.kwargs.control_dt": 20})),
-                             "--out", str(tmp_path / "b"), "--quiet"], "control_dt is in seconds")
-    _one_line_error(capsys, ["train", "--config", str(cfg("r", **{"env.kwargs.randomize": {"nope_kpa": [1, 2]}})),
-                             "--out", str(tmp_path / "c"), "--quiet"], "nope_kpa")
-    _one_line_error(capsys, ["train", "--config", str(cfg("h", **{"hyperparameters.batch_size": 0})),
-                             "--out", str(tmp_path / "d"), "--quiet"], "batch_size")
-    _one_line_error(capsys, ["train", "--config", str(cfg("u", **{"hyperparameters.bogus": 1})),
-                             "--out", str(tmp_path / "e"), "--quiet"], "bogus")
+    _one_line_error(
+        capsys,
+        [
+            "train",
+            "--config",
+            str(cfg("k", **{"env.kwargs.control_dt": 20})),
+            "--out",
+            str(tmp_path / "b"),
+            "--quiet",
+        ],
+        "control_dt is in seconds",
+    )
+    _one_line_error(
+        capsys,
+        [
+            "train",
+            "--config",
+            str(cfg("r", **{"env.kwargs.randomize": {"nope_kpa": [1, 2]}})),
+            "--out",
+            str(tmp_path / "c"),
+            "--quiet",
+        ],
+        "nope_kpa",
+    )
+    _one_line_error(
+        capsys,
+        [
+            "train",
+            "--config",
+            str(cfg("h", **{"hyperparameters.batch_size": 0})),
+            "--out",
+            str(tmp_path / "d"),
+            "--quiet",
+        ],
+        "batch_size",
+    )
+    _one_line_error(
+        capsys,
+        [
+            "train",
+            "--config",
+            str(cfg("u", **{"hyperparameters.bogus": 1})),
+            "--out",
+            str(tmp_path / "e"),
+            "--quiet",
+        ],
+        "bogus",
+    )
     _one_line_error(capsys, ["train", "--config", str(tmp_path / "missing.yaml")], "missing.yaml")
 
 
 def test_unknown_controller_and_missing_files(capsys, tmp_path):
-    _one_line_error(capsys, ["bench", "--controller", "nosuch", "--suite", "nominal", "--episodes", "1"],
-                    "unknown controller 'nosuch'")
-    _one_line_error(capsys, ["calibrate", "--data", str(tmp_path / "gone.csv"), "--out", str(tmp_path / "o")],
-                    "gone.csv")
+    _one_line_error(
+        capsys,
+        ["bench", "--controller", "nosuch", "--suite", "nominal", "--episodes", "1"],
+        "unknown controller 'nosuch'",
+    )
+    _one_line_error(
+        capsys, ["calibrate", "--data", str(tmp_path / "gone.csv"), "--out", str(tmp_path / "o")], "gone.csv"
+    )
 
 
 def test_calibrate_value_errors_are_one_line(capsys, tmp_path):
@@ -143,9 +194,38 @@ def test_calibrate_value_errors_are_one_line(capsys, tmp_path):
 
 
 def test_debug_shows_the_traceback(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "nosuch",
-                        "--suite", "nominal", "--episodes", "1", "--debug"], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cepam_gym.cli",
+            "bench",
+            "--controller",
+            "nosuch",
+            "--suite",
+            "nominal",
+            "--episodes",
+            "1",
+            "--debug",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode != 0 and "Traceback" in r.stderr and "unknown controller" in r.stderr
-    r = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "nosuch",
-                        "--suite", "nominal", "--episodes", "1"], capture_output=True, text=True)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cepam_gym.cli",
+            "bench",
+            "--controller",
+            "nosuch",
+            "--suite",
+            "nominal",
+            "--episodes",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert r.returncode == 2 and "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1

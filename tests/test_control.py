@@ -24,8 +24,9 @@ def _grid(core):
     return L, lo + f * (hi - lo), m
 
 
-@pytest.mark.parametrize("mode, tol_mm, tol_pct", [("valve", 0.5, 5.0), ("pressure", 0.5, 5.0),
-                                                   ("pwm", 2.0, 5.0)])
+@pytest.mark.parametrize(
+    "mode, tol_mm, tol_pct", [("valve", 0.5, 5.0), ("pressure", 0.5, 5.0), ("pwm", 2.0, 5.0)]
+)
 def test_baseline_settles_on_grid_of_targets_and_loads(mode, tol_mm, tol_pct):
     # PWM at 50 Hz leaves a small limit cycle: 2 mm is what on/off valves achieve here
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=36, action_mode=mode)

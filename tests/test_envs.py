@@ -44,8 +44,11 @@ def test_spaces_and_dtypes():
 
 def test_seeding_is_deterministic_bit_for_bit():
     def run(seed):
-        env = gym.make("cepam_gym/CEPAM-v0", sensor_noise={"length_mm": 0.5, "pressure_kpa": 2.0},
-                       randomize={"valve_conductance_dm3_per_s_bar": [0.05, 0.15]})
+        env = gym.make(
+            "cepam_gym/CEPAM-v0",
+            sensor_noise={"length_mm": 0.5, "pressure_kpa": 2.0},
+            randomize={"valve_conductance_dm3_per_s_bar": [0.05, 0.15]},
+        )
         obs, _ = env.reset(seed=seed)
         rng = np.random.default_rng(99)
         out = [obs]
@@ -98,7 +101,8 @@ def test_single_env_fast_path_equals_general_path():
     path (action checks, CEPAMBatch.step, info from the arrays). Both give the same bits."""
     envs = [gym.make("cepam_gym/CEPAM-v0", sensor_noise={"pressure_kpa": 1.0}) for _ in range(2)]
     assert envs[0].unwrapped.core.fast_single
-    outs = [e.reset(seed=4) for e in envs]
+    for e in envs:
+        e.reset(seed=4)
     rng = np.random.default_rng(1)
     for _ in range(40):
         a = rng.uniform(-1.3, 1.3, 2)
@@ -169,7 +173,9 @@ def test_batched_equals_single_bit_for_bit():
 
 
 def test_vector_env_autoresets_same_step_with_final_obs():
-    venv = gym.make_vec("cepam_gym/CEPAMLength-v0", num_envs=4, max_episode_steps=20, autoreset_mode="same_step")
+    venv = gym.make_vec(
+        "cepam_gym/CEPAMLength-v0", num_envs=4, max_episode_steps=20, autoreset_mode="same_step"
+    )
     venv.reset(seed=0)
     for t in range(20):
         obs, r, term, trunc, infos = venv.step(np.zeros((4, 2)))
@@ -184,14 +190,17 @@ def test_control_period_must_divide():
         gym.make("cepam_gym/CEPAM-v0", control_dt=0.02, sub_dt=0.0003)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    ({"action_mode": "torque"}, "action_mode"),
-    ({"plant": {"supply_kpa": 3}}, "supply_kpa"),
-    ({"randomize": {"not_a_param": [0, 1]}}, "not_a_param"),
-    ({"reward_weights": {"speed": 1.0}}, "speed"),
-    ({"sensor_noise": {"length_cm": 1.0}}, "length_cm"),
-    ({"action_latency_steps": -1}, "action_latency_steps"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"action_mode": "torque"}, "action_mode"),
+        ({"plant": {"supply_kpa": 3}}, "supply_kpa"),
+        ({"randomize": {"not_a_param": [0, 1]}}, "not_a_param"),
+        ({"reward_weights": {"speed": 1.0}}, "speed"),
+        ({"sensor_noise": {"length_cm": 1.0}}, "length_cm"),
+        ({"action_latency_steps": -1}, "action_latency_steps"),
+    ],
+)
 def test_bad_kwargs_name_the_problem(kwargs, match):
     with pytest.raises(ValueError, match=match):
         gym.make("cepam_gym/CEPAM-v0", **kwargs)
@@ -271,8 +280,10 @@ def test_ezpickle_rebuilds_same_env():
 
 
 def test_import_does_not_import_torch():
-    code = "import sys, cepam_gym, gymnasium as gym; gym.make('cepam_gym/CEPAM-v0'); " \
-           "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)"
+    code = (
+        "import sys, cepam_gym, gymnasium as gym; gym.make('cepam_gym/CEPAM-v0'); "
+        "print('torch' in sys.modules, 'stable_baselines3' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
 

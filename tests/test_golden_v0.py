@@ -3,7 +3,6 @@
 
 import numpy as np
 import pytest
-
 from golden_v0 import GOLDEN, env_trajectories, joint_trajectories, plant_trajectories
 
 pytestmark = pytest.mark.slow

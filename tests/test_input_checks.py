@@ -9,16 +9,19 @@ import pytest
 import cepam_gym  # noqa: F401
 
 
-@pytest.mark.parametrize("options, pattern", [
-    ({"target_length": 17.0}, r"target_length is in metres.*\[0.15, 0.195\] m"),
-    ({"target_length": 0.1}, r"target_length is in metres"),
-    ({"load_mass": -0.1}, r"load_mass must be >= 0 kg"),
-    ({"load_mass": 200.0}, r"load_mass is in kg.*200 g is 0.2"),
-    ({"target_stiffness": -500.0}, r"target_stiffness must be > 0 N/m"),
-    ({"target_stiffness": 0.0}, r"target_stiffness must be > 0 N/m"),
-    ({"target_length": float("nan")}, r"target_length must be finite"),
-    ({"load_mass": "heavy"}, r"load_mass must be a number"),
-])
+@pytest.mark.parametrize(
+    "options, pattern",
+    [
+        ({"target_length": 17.0}, r"target_length is in metres.*\[0.15, 0.195\] m"),
+        ({"target_length": 0.1}, r"target_length is in metres"),
+        ({"load_mass": -0.1}, r"load_mass must be >= 0 kg"),
+        ({"load_mass": 200.0}, r"load_mass is in kg.*200 g is 0.2"),
+        ({"target_stiffness": -500.0}, r"target_stiffness must be > 0 N/m"),
+        ({"target_stiffness": 0.0}, r"target_stiffness must be > 0 N/m"),
+        ({"target_length": float("nan")}, r"target_length must be finite"),
+        ({"load_mass": "heavy"}, r"load_mass must be a number"),
+    ],
+)
 def test_reset_options_checked(options, pattern):
     env = gym.make("cepam_gym/CEPAM-v0")
     env.reset(seed=0)
@@ -38,13 +41,16 @@ def test_negative_stiffness_target_cannot_give_positive_reward():
         assert r <= 0
 
 
-@pytest.mark.parametrize("kwargs, pattern", [
-    ({"control_dt": 20}, r"control_dt is in seconds"),
-    ({"task_options": {"length_range": [15.5, 19.0]}}, r"length_range is in metres"),
-    ({"plant": {"end_mass_g": -20}}, r"end_mass must be > 0"),
-    ({"task_options": {"load_range": [-0.1, 0.2]}}, r"load_range"),
-    ({"task_options": {"stiffness_range": [-100, 200]}}, r"stiffness_range"),
-])
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        ({"control_dt": 20}, r"control_dt is in seconds"),
+        ({"task_options": {"length_range": [15.5, 19.0]}}, r"length_range is in metres"),
+        ({"plant": {"end_mass_g": -20}}, r"end_mass must be > 0"),
+        ({"task_options": {"load_range": [-0.1, 0.2]}}, r"load_range"),
+        ({"task_options": {"stiffness_range": [-100, 200]}}, r"stiffness_range"),
+    ],
+)
 def test_env_kwargs_checked(kwargs, pattern):
     with pytest.raises(ValueError, match=pattern):
         gym.make("cepam_gym/CEPAM-v0", **kwargs)

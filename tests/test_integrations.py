@@ -57,10 +57,12 @@ def test_module_prefixed_id_make_vec():
 
 def test_module_prefixed_id_in_fresh_interpreter():
     """The prefix imports the package: no explicit ``import cepam_gym`` needed."""
-    code = ("import gymnasium as gym; "
-            "e = gym.make('cepam_gym:cepam_gym/CEPAMLength-v0'); e.reset(seed=0); "
-            "v = gym.make_vec('cepam_gym:cepam_gym/CEPAM-v0', num_envs=4); v.reset(seed=0); "
-            "print(type(v).__name__)")
+    code = (
+        "import gymnasium as gym; "
+        "e = gym.make('cepam_gym:cepam_gym/CEPAMLength-v0'); e.reset(seed=0); "
+        "v = gym.make_vec('cepam_gym:cepam_gym/CEPAM-v0', num_envs=4); v.reset(seed=0); "
+        "print(type(v).__name__)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert "CEPAMVectorEnv" in out.stdout
@@ -88,9 +90,27 @@ def test_hyperparams_files_have_all_ids(algo):
 @pytest.mark.slow
 def test_rl_zoo3_train_ppo(tmp_path):
     pytest.importorskip("rl_zoo3")
-    cmd = [sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", "cepam_gym/CEPAM-v0",
-           "--gym-packages", "cepam_gym", "-conf", str(ROOT / "hyperparams" / "ppo.yml"),
-           "-n", "500", "-f", str(tmp_path), "--seed", "0", "--num-threads", "1"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rl_zoo3.train",
+        "--algo",
+        "ppo",
+        "--env",
+        "cepam_gym/CEPAM-v0",
+        "--gym-packages",
+        "cepam_gym",
+        "-conf",
+        str(ROOT / "hyperparams" / "ppo.yml"),
+        "-n",
+        "500",
+        "-f",
+        str(tmp_path),
+        "--seed",
+        "0",
+        "--num-threads",
+        "1",
+    ]
     env = {**os.environ, "MPLBACKEND": "Agg"}
     out = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=300, env=env)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]

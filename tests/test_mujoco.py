@@ -16,10 +16,10 @@ import pytest
 
 import cepam_gym
 from cepam_gym import plant as pl
-from cepam_gym.physics import api
 from cepam_gym.control.joint_baseline import JointInverseStaticController
 from cepam_gym.mujoco.joint import CEPAMJointEnv
 from cepam_gym.mujoco.rig import RigRenderer, RigSimulator
+from cepam_gym.physics import api
 from cepam_gym.physics import layout as ix
 
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
@@ -37,7 +37,8 @@ def test_import_and_default_render_do_not_import_mujoco():
         "env = gym.make('cepam_gym/CEPAM-v0', render_mode='rgb_array'); env.reset(seed=0)\n"
         "frame = env.render(); assert frame.shape == (400, 320, 3), frame.shape\n"
         "assert 'cepam_gym/CEPAMJoint-v0' in gym.registry\n"
-        "assert 'mujoco' not in sys.modules, 'mujoco imported'\n")
+        "assert 'mujoco' not in sys.modules, 'mujoco imported'\n"
+    )
     assert r.returncode == 0, r.stderr
 
 
@@ -52,7 +53,8 @@ def test_missing_mujoco_gives_the_install_hint():
         "    except ImportError as e:\n"
         "        assert \"pip install 'cepam-gym[mujoco]'\" in str(e), str(e)\n"
         "    else:\n"
-        "        raise SystemExit('no ImportError')\n")
+        "        raise SystemExit('no ImportError')\n"
+    )
     assert r.returncode == 0, r.stderr
 
 
@@ -156,7 +158,9 @@ def test_joint_env_passes_gymnasium_check_env(mujoco):
 def test_joint_env_pickles_and_is_deterministic(mujoco):
     import pickle
 
-    env = CEPAMJointEnv(action_mode="pwm", joint={"lever_arm": 0.03}, task_options={"angle_range": [0.2, 1.4]})
+    env = CEPAMJointEnv(
+        action_mode="pwm", joint={"lever_arm": 0.03}, task_options={"angle_range": [0.2, 1.4]}
+    )
     twin = pickle.loads(pickle.dumps(env))
     assert twin.geometry.lever_arm == 0.03 and twin.action_mode == "pwm"
     a, _ = env.reset(seed=5)
@@ -183,12 +187,27 @@ def _sealed_energy(mujoco, env):
 
 def _sealed_oscillation(mujoco, sub_dt: float):
     """Worst energy error and the kinetic energies over 1 s (about 4 oscillations) after a kick."""
-    env = CEPAMJointEnv(sub_dt=sub_dt,
-                        plant={"preset": "balloon_v0", "force_model": "basic", "heat_transfer_w_per_k": 0.0,
-                               "leak_conductance_dm3_per_s_bar": 0.0, "damping_ns_per_m": 0.0},
-                        joint={"joint_damping": 0.0})
-    env.reset(seed=0, options={"initial_angle": 0.9, "initial_stiffness": 0.5, "external_torque": 0.0,
-                               "target_angle": 0.9, "target_stiffness": 0.5})
+    env = CEPAMJointEnv(
+        sub_dt=sub_dt,
+        plant={
+            "preset": "balloon_v0",
+            "force_model": "basic",
+            "heat_transfer_w_per_k": 0.0,
+            "leak_conductance_dm3_per_s_bar": 0.0,
+            "damping_ns_per_m": 0.0,
+        },
+        joint={"joint_damping": 0.0},
+    )
+    env.reset(
+        seed=0,
+        options={
+            "initial_angle": 0.9,
+            "initial_stiffness": 0.5,
+            "external_torque": 0.0,
+            "target_angle": 0.9,
+            "target_stiffness": 0.5,
+        },
+    )
     env.data.qvel[0] = 1.0  # kick: 0.5 mJ of kinetic energy
     e0, ke0 = _sealed_energy(mujoco, env)
     errors, kinetic, angles = [], [], []
@@ -220,8 +239,13 @@ def test_joint_static_stiffness_is_muscle_stiffness_times_arm_squared(mujoco):
     """Held pressures (set-point mode), a small external torque step: the angle moves by
     dtau / (K r^2 + m g l_c cos theta)."""
     env = CEPAMJointEnv(action_mode="pressure", plant="balloon_v0")  # the v0 id's plant
-    opts = {"initial_angle": 0.9, "initial_stiffness": 0.5, "external_torque": 0.02,
-            "target_angle": 0.9, "target_stiffness": 0.5}
+    opts = {
+        "initial_angle": 0.9,
+        "initial_stiffness": 0.5,
+        "external_torque": 0.02,
+        "target_angle": 0.9,
+        "target_stiffness": 0.5,
+    }
     _, info = env.reset(seed=0, options=opts)
     cap = env.setpoint_max
     a = np.array([2 * info["pressure_c"] / cap - 1, 2 * info["pressure_e"] / cap - 1])
@@ -237,16 +261,23 @@ def test_joint_static_stiffness_is_muscle_stiffness_times_arm_squared(mujoco):
     predicted = -dtau / (0.5 * (k1 + k2))
     assert (th2 - th1) == pytest.approx(predicted, rel=0.03)
     g = env.geometry
-    assert info["joint_stiffness"] == pytest.approx(info["stiffness"] * g.lever_arm ** 2)
+    assert info["joint_stiffness"] == pytest.approx(info["stiffness"] * g.lever_arm**2)
 
 
 @pytest.mark.parametrize("mode", ["valve", "pressure"])
 def test_joint_baseline_settles_on_the_nominal_plant(mujoco, mode):
     env = gym.make("cepam_gym/CEPAMJoint-v0", action_mode=mode)
     ctl = JointInverseStaticController(env)
-    obs, info = env.reset(seed=3, options={"target_angle": 1.1, "target_stiffness": 0.45,
-                                           "external_torque": 0.03, "initial_angle": 0.5,
-                                           "initial_stiffness": 0.3})
+    obs, info = env.reset(
+        seed=3,
+        options={
+            "target_angle": 1.1,
+            "target_stiffness": 0.45,
+            "external_torque": 0.03,
+            "initial_angle": 0.5,
+            "initial_stiffness": 0.3,
+        },
+    )
     ctl.reset()
     assert abs(info["angle"] - 1.1) > 0.5
     for _ in range(150):  # 3 s
@@ -273,15 +304,28 @@ def test_joint_reward_terms_are_the_rig_terms_over_the_mechanism_map(mujoco):
         _, r, _, _, info = env.step(a)
         got = [info[f"reward_{t}"] for t in ("angle", "stiffness", "effort", "air", "burst")]
         terms = np.zeros(tk.N_TERMS)
-        total = tk.reward_terms(info["angle"], info["target_angle"], info["joint_stiffness"],
-                                info["target_stiffness"], a[0], a[1], info["air_used"], False,
-                                env.task_vec, terms)
+        total = tk.reward_terms(
+            info["angle"],
+            info["target_angle"],
+            info["joint_stiffness"],
+            info["target_stiffness"],
+            a[0],
+            a[1],
+            info["air_used"],
+            False,
+            env.task_vec,
+            terms,
+        )
         assert terms.tolist() == got and total == r
         w = env.weights
-        expect = [-w.angle * min(abs(info["angle"] - info["target_angle"]) / math.radians(10), 5.0),
-                  -w.stiffness * min(abs(info["joint_stiffness"] - info["target_stiffness"])
-                                     / info["target_stiffness"], 2.0),
-                  -w.effort * 0.5 * (a[0] ** 2 + a[1] ** 2), -0.3 * info["air_used"] / 1e-5, 0.0]
+        expect = [
+            -w.angle * min(abs(info["angle"] - info["target_angle"]) / math.radians(10), 5.0),
+            -w.stiffness
+            * min(abs(info["joint_stiffness"] - info["target_stiffness"]) / info["target_stiffness"], 2.0),
+            -w.effort * 0.5 * (a[0] ** 2 + a[1] ** 2),
+            -0.3 * info["air_used"] / 1e-5,
+            0.0,
+        ]
         assert got == pytest.approx(expect, rel=1e-12, abs=1e-15)
     # the observation is the layout's encoding of the measured quantities, by name
     obs = env._obs()
@@ -307,8 +351,26 @@ def test_video_command_writes_an_episode(mujoco, tmp_path):
     from cepam_gym.cli import main
 
     out = tmp_path / "joint.gif"
-    assert main(["video", "--controller", "zero", "--env-id", "cepam_gym/CEPAMJoint-v0",
-                 "--seconds", "0.3", "--fps", "10", "--size", "160", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "video",
+                "--controller",
+                "zero",
+                "--env-id",
+                "cepam_gym/CEPAMJoint-v0",
+                "--seconds",
+                "0.3",
+                "--fps",
+                "10",
+                "--size",
+                "160",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     import imageio.v3 as iio
 
     frames = iio.imread(out, index=None)
@@ -338,12 +400,29 @@ def test_joint_bench_cli_json_and_table(mujoco, tmp_path):
 
     from cepam_gym.bench.cli import main
 
-    out = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "bench", "--controller", "baseline",
-                          "--suite", "joint", "--episodes", "2", "--json"],
-                         capture_output=True, text=True, timeout=300, check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cepam_gym.cli",
+            "bench",
+            "--controller",
+            "baseline",
+            "--suite",
+            "joint",
+            "--episodes",
+            "2",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
     (row,) = [json.loads(line) for line in out.stdout.splitlines()]
     assert row["suite"] == "joint" and np.isfinite(row["angle_rmse_deg"]) and np.isfinite(row["score"])
-    assert main(["--controller", "zero", "--suite", "joint", "--episodes", "1",
-                 "--out-dir", str(tmp_path)]) == 0
+    assert (
+        main(["--controller", "zero", "--suite", "joint", "--episodes", "1", "--out-dir", str(tmp_path)]) == 0
+    )
     assert "ang RMS deg" in (tmp_path / "table.txt").read_text()
     assert (tmp_path / "traces_joint_zero.png").stat().st_size > 0

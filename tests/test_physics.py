@@ -87,7 +87,7 @@ def test_braid_terms_chou_single_muscle(b, n):
         assert v_out == pytest.approx(V, rel=1e-12)
         assert dv_out == pytest.approx(dV, rel=1e-10, abs=1e-15)
         # Eq. 17-19 route: (dV/dtheta) / (dL/dtheta)
-        dv_dth = b ** 3 * math.sin(theta) * (3 * math.cos(theta) ** 2 - 1) / (4 * math.pi * n * n)
+        dv_dth = b**3 * math.sin(theta) * (3 * math.cos(theta) ** 2 - 1) / (4 * math.pi * n * n)
         dl_dth = -b * math.sin(theta)
         assert dv_out == pytest.approx(dv_dth / dl_dth, rel=1e-10, abs=1e-15)
         # with no wall the air volume is the braid volume
@@ -109,16 +109,27 @@ def test_braid_terms_air_volume_derivatives(ta):
         v_out, v_air, dv_out, dv_air, d2v_out, d2v_air = muscle.braid_terms(L, b, n, ta)
         assert v_air == pytest.approx(math.pi * (D - 2 * ta) ** 2 * L / 4, rel=1e-12)
         # Eq. 37 expanded form
-        eq37 = math.pi * b * math.cos(theta) / 4 * (
-            b * b * math.sin(theta) ** 2 / (math.pi ** 2 * n * n)
-            - 4 * ta * b * math.sin(theta) / (math.pi * n) + 4 * ta * ta)
+        eq37 = (
+            math.pi
+            * b
+            * math.cos(theta)
+            / 4
+            * (
+                b * b * math.sin(theta) ** 2 / (math.pi**2 * n * n)
+                - 4 * ta * b * math.sin(theta) / (math.pi * n)
+                + 4 * ta * ta
+            )
+        )
         assert v_air == pytest.approx(eq37, rel=1e-12)
         assert dv_air == pytest.approx(fd(lambda x: muscle.braid_terms(x, b, n, ta)[1], L, h), rel=1e-7)
         assert d2v_air == pytest.approx(fd(lambda x: muscle.braid_terms(x, b, n, ta)[3], L, h), rel=1e-6)
         assert d2v_out == pytest.approx(fd(lambda x: muscle.braid_terms(x, b, n, ta)[2], L, h), rel=1e-6)
         c = math.cos(theta)
-        eq40 = (b * ta / (n * math.sin(theta)) * (2 * c * c - 1)
-                - b * b / (4 * math.pi * n * n) * (3 * c * c - 1) + math.pi * ta * ta)
+        eq40 = (
+            b * ta / (n * math.sin(theta)) * (2 * c * c - 1)
+            - b * b / (4 * math.pi * n * n) * (3 * c * c - 1)
+            + math.pi * ta * ta
+        )
         assert dv_air == pytest.approx(eq40, rel=1e-10)
         # a wall makes the air volume smaller than the braid volume
         assert v_air < v_out
@@ -146,8 +157,8 @@ def _paper_eq24_minus_eq20(L, Pc, Pe, p: PlantParams):
     be, ne = p.epam_braid()
     cc = math.cos(math.acos(L / bc))
     ce = math.cos(math.acos(L / be))
-    Fe = be ** 2 * Pe / (4 * math.pi * ne ** 2) * (0.325 * (3 * cc ** 2 - 1) - (3 * ce ** 2 - 1))  # Eq. 24
-    Fc = bc ** 2 * (Pc - Pe) / (4 * math.pi * nc ** 2) * (3 * cc ** 2 - 1)  # Eq. 20
+    Fe = be**2 * Pe / (4 * math.pi * ne**2) * (0.325 * (3 * cc**2 - 1) - (3 * ce**2 - 1))  # Eq. 24
+    Fc = bc**2 * (Pc - Pe) / (4 * math.pi * nc**2) * (3 * cc**2 - 1)  # Eq. 20
     return Fe - Fc  # Eq. 25
 
 
@@ -173,10 +184,15 @@ def test_paper_form_is_eq41_minus_eq45(model, Pc, Pe):
         cc, ce = math.cos(thc), math.cos(the)
         Pac = max(Pc - radial_pr(L, bc, nc, p.cpam_bladder_diameter, p.kr_high, p.kr_low), 0.0)
         Pae = max(Pe - radial_pr(L, be, ne, p.epam_bladder_diameter, p.kr_high, p.kr_low), 0.0)
-        Fe = Pae * (be ** 2 / (4 * math.pi * ne ** 2) * (0.325 * (3 * cc ** 2 - 1) - (3 * ce ** 2 - 1))
-                    + ta * (be / (ne * math.sin(the)) * (2 * ce ** 2 - 1) + math.pi * ta))  # Eq. 41
-        Fc = -(Pac - Pae) * (bc * ta / (nc * math.sin(thc)) * (2 * cc ** 2 - 1)
-                             - bc ** 2 / (4 * math.pi * nc ** 2) * (3 * cc ** 2 - 1) + math.pi * ta ** 2)  # Eq. 45
+        Fe = Pae * (
+            be**2 / (4 * math.pi * ne**2) * (0.325 * (3 * cc**2 - 1) - (3 * ce**2 - 1))
+            + ta * (be / (ne * math.sin(the)) * (2 * ce**2 - 1) + math.pi * ta)
+        )  # Eq. 41
+        Fc = -(Pac - Pae) * (
+            bc * ta / (nc * math.sin(thc)) * (2 * cc**2 - 1)
+            - bc**2 / (4 * math.pi * nc**2) * (3 * cc**2 - 1)
+            + math.pi * ta**2
+        )  # Eq. 45
         assert float(api.force(L, Pc, Pe, p)) == pytest.approx(Fe - Fc, rel=1e-9, abs=1e-9)
 
 
@@ -186,16 +202,26 @@ def test_paper_form_is_eq41_minus_eq45(model, Pc, Pe):
 def test_refined_models_reduce_to_basic(model, form):
     """With K_r = 0 (no radial loss) and no wall thickness the refinements are the basic model."""
     basic = BASE.replace(force_model="basic", force_form=form)
-    red = BASE.replace(force_model=model, force_form=form, kr_high=0.0, kr_low=0.0,
-                       bladder_thickness=0.0, sleeve_thickness=0.0)
+    red = BASE.replace(
+        force_model=model,
+        force_form=form,
+        kr_high=0.0,
+        kr_low=0.0,
+        bladder_thickness=0.0,
+        sleeve_thickness=0.0,
+    )
     Lg, Pc, Pe = np.meshgrid(LENGTHS, [0.0, 30e3, 120e3, 250e3], [0.0, 40e3, 200e3], indexing="ij")
-    for a, b in zip(api.force_terms(Lg.ravel(), Pc.ravel(), Pe.ravel(), red),
-                    api.force_terms(Lg.ravel(), Pc.ravel(), Pe.ravel(), basic)):
+    for a, b in zip(
+        api.force_terms(Lg.ravel(), Pc.ravel(), Pe.ravel(), red),
+        api.force_terms(Lg.ravel(), Pc.ravel(), Pe.ravel(), basic),
+    ):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
     # with the default K_r and t_a they do differ (the reduction test is not vacuous)
     full = BASE.replace(force_model=model, force_form=form)
-    assert not np.allclose(api.force(Lg.ravel(), Pc.ravel(), Pe.ravel(), full),
-                           api.force(Lg.ravel(), Pc.ravel(), Pe.ravel(), basic))
+    assert not np.allclose(
+        api.force(Lg.ravel(), Pc.ravel(), Pe.ravel(), full),
+        api.force(Lg.ravel(), Pc.ravel(), Pe.ravel(), basic),
+    )
 
 
 # --------------------------------------------------------------------------- 5
@@ -283,7 +309,9 @@ def test_virtual_work_balance(model, Pc, Pe):
         dVe = fd(lambda x: api.chamber_volumes(x, p)[1], grid, h)
         # the bladder elasticity is a spring, not pressure-volume work: F_el = -k_el (L - L_el0)
         f_el = -p.elastic_stiffness * (grid - p.elastic_rest_length)
-        np.testing.assert_allclose(api.force(grid, Pc, Pe, p) - f_el, Pe * dVe + Pc * dVc, rtol=1e-7, atol=1e-7)
+        np.testing.assert_allclose(
+            api.force(grid, Pc, Pe, p) - f_el, Pe * dVe + Pc * dVc, rtol=1e-7, atol=1e-7
+        )
     assert DEFAULT.elastic_stiffness > 0  # the second pass really tested the spring term
 
 
@@ -391,8 +419,13 @@ def test_spool_first_order_exact():
 @pytest.mark.parametrize("model,form", ALL_LEVELS)
 def test_static_pressures_round_trip(model, form):
     p = BASE.replace(force_model=model, force_form=form)
-    cases = [(0.175, 552.542, 0.5), (0.175, 863.552, 2.0), (0.185, 1084.0, 1.0), (0.16, 800.0, 0.2),
-             (0.19, 700.0, 3.0)]
+    cases = [
+        (0.175, 552.542, 0.5),
+        (0.175, 863.552, 2.0),
+        (0.185, 1084.0, 1.0),
+        (0.16, 800.0, 0.2),
+        (0.19, 700.0, 3.0),
+    ]
     for L, K, w in cases:
         Pc, Pe, ok = api.static_pressures(L, K, w, p)
         assert ok, (L, K, w, Pc, Pe)

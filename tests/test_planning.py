@@ -61,11 +61,22 @@ def test_planner_holds_still_when_the_target_is_where_the_plant_rests():
     aux = pl.measure(core.state, core.params)
     cfg = CEMConfig(horizon_steps=6, population=16, iterations=2)
     planner = CEMPlanner(cfg, core.mode, core.sub_dt, core.n_sub, 250e3)
-    x, aux2 = pl.step(core.state.copy(), np.array([[0.0, 0.0, core.load[0, 0], 0.0]]), core.params,
-                      core.mode, core.sub_dt, core.n_sub)
+    x, aux2 = pl.step(
+        core.state.copy(),
+        np.array([[0.0, 0.0, core.load[0, 0], 0.0]]),
+        core.params,
+        core.mode,
+        core.sub_dt,
+        core.n_sub,
+    )
     h = cfg.horizon_steps
-    a = planner.plan(x, core.params, np.full((1, h), x[0, pl.S_L]), np.full((1, h), aux2[0, pl.A_STIFF]),
-                     np.full((1, h), core.load[0, 0]))
+    a = planner.plan(
+        x,
+        core.params,
+        np.full((1, h), x[0, pl.S_L]),
+        np.full((1, h), aux2[0, pl.A_STIFF]),
+        np.full((1, h), core.load[0, 0]),
+    )
     assert aux.shape[0] == 1
     assert np.abs(a).max() < 0.2, a
 

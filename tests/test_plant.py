@@ -57,7 +57,9 @@ def _energy_error(dt, t_end=1.0):
         x, aux = plant.step(x, inp, P, dt=dt, n_sub=1)
         traj.append(aux[0, cols])
     traj = np.array(traj)
-    work = np.array([np.trapezoid(traj[:, 0] + patm, traj[:, 2]), np.trapezoid(traj[:, 1] + patm, traj[:, 3])])
+    work = np.array(
+        [np.trapezoid(traj[:, 0] + patm, traj[:, 2]), np.trapezoid(traj[:, 1] + patm, traj[:, 3])]
+    )
     dU = x[0, [plant.S_UC, plant.S_UE]] - U0
     pv_gamma = [(traj[:, i] + patm) * traj[:, i + 2] ** 1.4 for i in (0, 1)]
     return dU, work, pv_gamma
@@ -126,11 +128,14 @@ def test_exhausting_never_goes_below_atmosphere(heat_transfer):
 
 
 # --------------------------------------------------------------------------- 9: equilibrium
-@pytest.mark.parametrize("model,form,L0,K0,load,start", [
-    ("enhanced", "virtual_work", 0.175, 863.552, 0.2, 0.175),
-    ("enhanced", "virtual_work", 0.175, 863.552, 0.2, 0.165),  # starts 1 cm off target
-    ("basic", "paper", 0.185, 552.542, 0.5, 0.185),
-])
+@pytest.mark.parametrize(
+    "model,form,L0,K0,load,start",
+    [
+        ("enhanced", "virtual_work", 0.175, 863.552, 0.2, 0.175),
+        ("enhanced", "virtual_work", 0.175, 863.552, 0.2, 0.165),  # starts 1 cm off target
+        ("basic", "paper", 0.185, 552.542, 0.5, 0.185),
+    ],
+)
 def test_pressure_mode_holds_static_equilibrium(model, form, L0, K0, load, start):
     """PRESSURE mode holding the static_pressures set-points settles at the target length with the
     target stiffness.
@@ -179,10 +184,17 @@ def _random_batch(n, rng):
     models, forms = ("basic", "radial", "enhanced"), ("paper", "virtual_work")
     rows = []
     for i in range(n):
-        q = BASE.replace(cpam_rest_angle=math.radians(rng.uniform(16, 20)), end_mass=rng.uniform(0.01, 0.05),
-                         supply_pressure=rng.uniform(200e3, 300e3), damping=rng.uniform(2, 8),
-                         spool_order=int(rng.integers(1, 3)), coulomb_friction=rng.uniform(0, 0.5),
-                         heat_transfer=rng.uniform(0.0, 0.05), force_model=models[i % 3], force_form=forms[i % 2])
+        q = BASE.replace(
+            cpam_rest_angle=math.radians(rng.uniform(16, 20)),
+            end_mass=rng.uniform(0.01, 0.05),
+            supply_pressure=rng.uniform(200e3, 300e3),
+            damping=rng.uniform(2, 8),
+            spool_order=int(rng.integers(1, 3)),
+            coulomb_friction=rng.uniform(0, 0.5),
+            heat_transfer=rng.uniform(0.0, 0.05),
+            force_model=models[i % 3],
+            force_form=forms[i % 2],
+        )
         rows.append(q.to_array())
     return np.array(rows)
 
@@ -204,7 +216,10 @@ def test_batch_equals_singles_bit_for_bit(mode, per_plant):
     xb, xs = x0.copy(), x0.copy()
     for _ in range(8):
         xb, ab = plant.step(xb, inp, P, mode=mode)
-        outs = [plant.step(xs[i:i + 1], inp[i:i + 1], P[i:i + 1] if per_plant else P, mode=mode) for i in range(n)]
+        outs = [
+            plant.step(xs[i : i + 1], inp[i : i + 1], P[i : i + 1] if per_plant else P, mode=mode)
+            for i in range(n)
+        ]
         xs = np.concatenate([o[0] for o in outs])
         as_ = np.concatenate([o[1] for o in outs])
         assert np.array_equal(xb, xs)
@@ -220,12 +235,14 @@ def test_partial_blocks_equal_singles_bit_for_bit(mode):
     rng = np.random.default_rng(3 + mode)
     for n in (2, plant.BLOCK - 1, plant.BLOCK, 2 * plant.BLOCK + 5):
         P = _random_batch(n, rng)
-        x0 = plant.initial_state(P, rng.uniform(0.155, 0.19, n), rng.uniform(0, 200e3, n), rng.uniform(0, 200e3, n))
+        x0 = plant.initial_state(
+            P, rng.uniform(0.155, 0.19, n), rng.uniform(0, 200e3, n), rng.uniform(0, 200e3, n)
+        )
         cmd = rng.uniform(0, 250e3, (n, 2)) if mode == plant.PRESSURE else rng.uniform(-1, 1, (n, 2))
         inp = np.concatenate([cmd, rng.uniform(0, 0.3, (n, 1)), rng.uniform(-2, 2, (n, 1))], axis=1)
         xb, ab = plant.step(x0, inp, P, mode=mode, n_sub=7)
         for i in range(n):
-            xs, as_ = plant.step(x0[i:i + 1], inp[i:i + 1], P[i:i + 1], mode=mode, n_sub=7)
+            xs, as_ = plant.step(x0[i : i + 1], inp[i : i + 1], P[i : i + 1], mode=mode, n_sub=7)
             assert np.array_equal(xb[i], xs[0]) and np.array_equal(ab[i], as_[0])
 
 
@@ -246,7 +263,9 @@ def test_inlined_min_max_sqrt_match_python():
             got = f(a, b)
             want = (max(a, b), min(a, b), math.sqrt(a) if a >= 0 or math.isnan(a) else math.nan)
             for g, w in zip(got, want):
-                assert (math.isnan(g) and math.isnan(w)) or (g == w and math.copysign(1, g) == math.copysign(1, w))
+                assert (math.isnan(g) and math.isnan(w)) or (
+                    g == w and math.copysign(1, g) == math.copysign(1, w)
+                )
 
 
 def test_step_in_place_buffer_matches_fresh_buffers():
@@ -277,19 +296,22 @@ def test_burst_reported_when_pressure_exceeds_burst():
     assert np.all(auxs[:, 0, plant.A_BURST] == 0.0)
 
 
-@pytest.mark.parametrize("changes,name", [
-    (dict(end_mass=-0.1), "end_mass"),
-    (dict(end_mass=0.0), "end_mass"),
-    (dict(max_length=0.25), "max_length"),  # CPAM thread is 20.5 cm
-    (dict(supply_pressure=float("nan")), "supply_pressure"),
-    (dict(gravity=float("inf")), "gravity"),
-    (dict(damping=-1.0), "damping"),
-    (dict(force_model="fancy"), "force_model"),
-    (dict(force_form="other"), "force_form"),
-    (dict(spool_order=3), "spool_order"),
-    (dict(min_length=0.2), "min_length"),
-    (dict(cpam_rest_angle=math.radians(95)), "cpam_rest_angle"),
-])
+@pytest.mark.parametrize(
+    "changes,name",
+    [
+        (dict(end_mass=-0.1), "end_mass"),
+        (dict(end_mass=0.0), "end_mass"),
+        (dict(max_length=0.25), "max_length"),  # CPAM thread is 20.5 cm
+        (dict(supply_pressure=float("nan")), "supply_pressure"),
+        (dict(gravity=float("inf")), "gravity"),
+        (dict(damping=-1.0), "damping"),
+        (dict(force_model="fancy"), "force_model"),
+        (dict(force_form="other"), "force_form"),
+        (dict(spool_order=3), "spool_order"),
+        (dict(min_length=0.2), "min_length"),
+        (dict(cpam_rest_angle=math.radians(95)), "cpam_rest_angle"),
+    ],
+)
 def test_params_reject_impossible_values_by_name(changes, name):
     with pytest.raises(ValueError, match=name):
         BASE.replace(**changes)
@@ -316,8 +338,14 @@ def test_yaml_unknown_key_rejected_by_name(tmp_path):
 
 
 def test_to_dict_from_dict_round_trip():
-    q = BASE.replace(supply_pressure=275e3, cpam_rest_angle=math.radians(17.3), force_model="radial",
-                     force_form="paper", spool_order=2, end_mass=0.033)
+    q = BASE.replace(
+        supply_pressure=275e3,
+        cpam_rest_angle=math.radians(17.3),
+        force_model="radial",
+        force_form="paper",
+        spool_order=2,
+        end_mass=0.033,
+    )
     d = q.to_dict()
     back = PlantParams.from_dict(d)
     for name in q.__dataclass_fields__:
@@ -397,8 +425,13 @@ def test_choked_fill_rate_and_leak_match_iso6358():
     times the spool opening; the leak is the ISO 6358 flow through leak_conductance."""
     rho0, t0 = 1.185, 293.15
     c, cleak = 1e-11, 2e-12
-    p = BASE.replace(valve_conductance=c, leak_conductance=cleak, supply_temperature=300.0,
-                     supply_pressure=500e3, burst_pressure=600e3)
+    p = BASE.replace(
+        valve_conductance=c,
+        leak_conductance=cleak,
+        supply_temperature=300.0,
+        supply_pressure=500e3,
+        burst_pressure=600e3,
+    )
     P = p.to_array()[None]
     patm, psup = p.atmospheric_pressure, p.atmospheric_pressure + p.supply_pressure
     x = plant.initial_state(P, p.max_length, 0.0, 0.0)
@@ -408,18 +441,26 @@ def test_choked_fill_rate_and_leak_match_iso6358():
     assert (a[plant.A_PC] + patm) / psup < p.valve_critical_ratio  # still choked
     opening = 1.0 - math.exp(-n_sub * dt / p.spool_time_constant)
     choked = c * opening * rho0 * psup * math.sqrt(t0 / p.supply_temperature)
-    leak = float(api.iso6358_flow(a[plant.A_PC] + patm, patm, a[plant.A_TC], cleak,
-                                  p.valve_critical_ratio, p.laminar_ratio))
+    leak = float(
+        api.iso6358_flow(
+            a[plant.A_PC] + patm, patm, a[plant.A_TC], cleak, p.valve_critical_ratio, p.laminar_ratio
+        )
+    )
     assert leak > 1e-3 * choked  # the leak term is resolvable at this tolerance
     assert a[plant.A_MDOT_C] == pytest.approx(choked - leak, rel=1e-4)
     # the closed EPAM chamber only leaks
-    leak_e = float(api.iso6358_flow(a[plant.A_PE] + patm, patm, a[plant.A_TE], cleak,
-                                    p.valve_critical_ratio, p.laminar_ratio))
+    leak_e = float(
+        api.iso6358_flow(
+            a[plant.A_PE] + patm, patm, a[plant.A_TE], cleak, p.valve_critical_ratio, p.laminar_ratio
+        )
+    )
     assert a[plant.A_MDOT_E] == pytest.approx(-leak_e, rel=1e-3, abs=1e-18)
     # air_used is the supply mass drawn, about the integral of the choked flow over the opening
     tau = p.spool_time_constant
     T = n_sub * dt
-    expected_air = c * rho0 * psup * math.sqrt(t0 / p.supply_temperature) * (T - tau * (1 - math.exp(-T / tau)))
+    expected_air = (
+        c * rho0 * psup * math.sqrt(t0 / p.supply_temperature) * (T - tau * (1 - math.exp(-T / tau)))
+    )
     assert a[plant.A_AIR] == pytest.approx(expected_air, rel=2e-2)
 
 
@@ -433,17 +474,23 @@ def _sealed_total_energy(form, dt, t_end=0.2, n_sub=10):
     E = U_c + U_e + M v^2 / 2 - M g L + p_atm (V_c + V_e) + k_el (L - L_el0)^2 / 2 (the atmosphere's
     work is the p_atm term, as the force model uses gauge pressures; the last is the bladder spring).
     Also return int (F - F_virtual_work) dL along the path."""
-    p = BASE.replace(force_form=form, heat_transfer=0.0, leak_conductance=0.0, damping=0.0,
-                     kr_high=0.0, kr_low=0.0)
+    p = BASE.replace(
+        force_form=form, heat_transfer=0.0, leak_conductance=0.0, damping=0.0, kr_high=0.0, kr_low=0.0
+    )
     vw = p.replace(force_form="virtual_work")
     P = p.to_array()[None]
     load = 0.1
     M, patm = p.end_mass + load, p.atmospheric_pressure
 
     def energy(x, a):
-        return (x[0, plant.S_UC] + x[0, plant.S_UE] + 0.5 * M * x[0, plant.S_V] ** 2
-                - M * p.gravity * x[0, plant.S_L] + patm * (a[plant.A_VC] + a[plant.A_VE])
-                + elastic_energy(x[0, plant.S_L], p))
+        return (
+            x[0, plant.S_UC]
+            + x[0, plant.S_UE]
+            + 0.5 * M * x[0, plant.S_V] ** 2
+            - M * p.gravity * x[0, plant.S_L]
+            + patm * (a[plant.A_VC] + a[plant.A_VE])
+            + elastic_energy(x[0, plant.S_L], p)
+        )
 
     x = plant.initial_state(P, 0.17, 120e3, 80e3)  # out of equilibrium: the end oscillates
     a = plant.measure(x, P)[0]
@@ -479,11 +526,14 @@ def test_sealed_plant_paper_form_is_not_energy_consistent():
     np.testing.assert_allclose(dE, extra, atol=0.1 * np.abs(extra).max())
 
 
-@pytest.mark.parametrize("conductance,dt", [
-    (1e-9, 5e-4),  # the default valve at the default sub-step
-    (3e-9, 5e-4),
-    (1e-8, 5e-5),  # a 1 dm^3/(s bar) valve needs a 10x finer sub-step ...
-])
+@pytest.mark.parametrize(
+    "conductance,dt",
+    [
+        (1e-9, 5e-4),  # the default valve at the default sub-step
+        (3e-9, 5e-4),
+        (1e-8, 5e-5),  # a 1 dm^3/(s bar) valve needs a 10x finer sub-step ...
+    ],
+)
 def test_fill_stays_below_supply_for_valve_sizes(conductance, dt):
     p = BASE.replace(valve_conductance=conductance)
     P = p.to_array()[None]
@@ -521,7 +571,12 @@ def test_undamped_sealed_oscillation_keeps_its_energy():
     def energy(x):
         a = plant.measure(x, P)[0]
         air = x[0, plant.S_UC] + x[0, plant.S_UE] + q.atmospheric_pressure * (a[plant.A_VC] + a[plant.A_VE])
-        return 0.5 * m * x[0, plant.S_V] ** 2 + air - m * q.gravity * x[0, plant.S_L] + elastic_energy(x[0, plant.S_L], q)
+        return (
+            0.5 * m * x[0, plant.S_V] ** 2
+            + air
+            - m * q.gravity * x[0, plant.S_L]
+            + elastic_energy(x[0, plant.S_L], q)
+        )
 
     e0 = energy(x)
     swing, drift = [], []

@@ -16,9 +16,16 @@ from cepam_gym.physics import layout as ix
 
 # a v1 parameter set written out here (independent of the shipped presets' fitted values)
 V1 = PlantParams().replace(
-    braid_tension="tension_only", bladder_model="neo_hookean", bladder_shear_modulus=600e3,
-    tube_shear_modulus=400e3, bladder_thickness=0.2e-3, sleeve_thickness=0.1e-3, elastic_stiffness=0.0,
-    cpam_rest_angle=math.radians(26.0), epam_sleeve_free_angle=math.radians(40.0))
+    braid_tension="tension_only",
+    bladder_model="neo_hookean",
+    bladder_shear_modulus=600e3,
+    tube_shear_modulus=400e3,
+    bladder_thickness=0.2e-3,
+    sleeve_thickness=0.1e-3,
+    elastic_stiffness=0.0,
+    cpam_rest_angle=math.radians(26.0),
+    epam_sleeve_free_angle=math.radians(40.0),
+)
 V0_LIKE = V1.replace(braid_tension="bidirectional", bladder_model="spring", elastic_stiffness=0.0)
 LENGTHS = np.linspace(0.151, 0.194, 9)
 
@@ -31,8 +38,10 @@ def neo_hookean_energy(L, p: PlantParams):
     """Both walls' energy from the stretches (thin-wall incompressible neo-Hookean cylinders):
     lam1 = L / L_ref, lam2 = D(L) / D(L_ref), U = mu V_r (lam1^2 + lam2^2 + (lam1 lam2)^-2 - 3) / 2."""
     total = 0.0
-    for b_n, l_ref, d_o in ((p.cpam_braid(), p.cpam_rest_length, p.cpam_bladder_diameter),
-                            (p.epam_braid(), p.epam_bladder_length, p.epam_bladder_diameter)):
+    for b_n, l_ref, d_o in (
+        (p.cpam_braid(), p.cpam_rest_length, p.cpam_bladder_diameter),
+        (p.epam_braid(), p.epam_bladder_length, p.epam_bladder_diameter),
+    ):
         b, n = b_n
 
         def diameter(x):
@@ -41,7 +50,7 @@ def neo_hookean_energy(L, p: PlantParams):
         l1 = L / l_ref
         l2 = diameter(L) / diameter(l_ref)
         v_rubber = math.pi * (d_o - p.bladder_thickness) * p.bladder_thickness * l_ref
-        total += p.bladder_shear_modulus * v_rubber * 0.5 * (l1 ** 2 + l2 ** 2 + (l1 * l2) ** -2 - 3.0)
+        total += p.bladder_shear_modulus * v_rubber * 0.5 * (l1**2 + l2**2 + (l1 * l2) ** -2 - 3.0)
     return total
 
 
@@ -50,7 +59,9 @@ def test_bladder_energy_matches_the_stretches_and_its_derivatives():
         u, du, d2u = (float(v) for v in api.bladder_energy(L, V1))
         assert u == pytest.approx(neo_hookean_energy(L, V1), rel=1e-10)
         assert du == pytest.approx(fd(lambda x: neo_hookean_energy(x, V1), L, 1e-6), rel=1e-6, abs=1e-9)
-        assert d2u == pytest.approx(fd(lambda x: float(api.bladder_energy(x, V1)[1]), L, 1e-6), rel=1e-6, abs=1e-6)
+        assert d2u == pytest.approx(
+            fd(lambda x: float(api.bladder_energy(x, V1)[1]), L, 1e-6), rel=1e-6, abs=1e-6
+        )
     # stress free at each bladder's rest configuration, positive elsewhere
     assert neo_hookean_energy(V1.cpam_rest_length, V1.replace(bladder_shear_modulus=0.0)) == 0.0
     assert float(api.bladder_energy(0.17, V1)[0]) > 0.0
@@ -109,8 +120,9 @@ def test_force_and_stiffness_continuous_at_the_switch(L):
     assert sk2 < 0.6 * sk1
 
 
-@pytest.mark.parametrize("pc,pe", [(0.0, 150e3), (75e3, 50e3), (81e3, 80e3), (80.5e3, 80e3), (250e3, 125e3),
-                                   (175e3, 100e3)])
+@pytest.mark.parametrize(
+    "pc,pe", [(0.0, 150e3), (75e3, 50e3), (81e3, 80e3), (80.5e3, 80e3), (250e3, 125e3), (175e3, 100e3)]
+)
 def test_stiffness_and_pressure_sensitivities_are_exact_derivatives(pc, pe):
     """K = -dF/dL at constant pressures and dF/dP by central differences, the switch included
     (80.5 and 81 kPa against 80: inside the 1 kPa switch at some lengths)."""
@@ -132,7 +144,9 @@ def test_paper_levels_unchanged_by_the_v1_fields():
             a = V0_LIKE.replace(force_model=fm, force_form=ff)
             b = other.replace(force_model=fm, force_form=ff)
             for pc, pe in ((0.0, 150e3), (175e3, 100e3)):
-                np.testing.assert_array_equal(api.force_terms(LENGTHS, pc, pe, a), api.force_terms(LENGTHS, pc, pe, b))
+                np.testing.assert_array_equal(
+                    api.force_terms(LENGTHS, pc, pe, a), api.force_terms(LENGTHS, pc, pe, b)
+                )
 
 
 def test_thicker_walls_contract_less():
@@ -141,8 +155,17 @@ def test_thicker_walls_contract_less():
 
     out = []
     for t_mm in (1.0, 1.5, 2.0):
-        e = Experiment("c", "c", "contraction", "%", 1.0, device="cpam", bladder="tube",
-                       bladder_thickness_mm=t_mm, pc_kpa=500.0)
+        e = Experiment(
+            "c",
+            "c",
+            "contraction",
+            "%",
+            1.0,
+            device="cpam",
+            bladder="tube",
+            bladder_thickness_mm=t_mm,
+            pc_kpa=500.0,
+        )
         out.append(simulate(e, V1).value)
     assert out[0] > out[1] > out[2]
 
@@ -177,17 +200,30 @@ def test_sealed_v1_plant_conserves_energy_with_the_walls():
     """Sealed chambers, no heat, no damping, no radial loss, CPAM taut all the way: air + load +
     atmosphere + wall strain energy is conserved up to the integration error, which halves with
     the sub-step (the walls are a conservative force)."""
+
     def drift(dt, n_sub=10, t_end=0.2):
-        p = V1.replace(heat_transfer=0.0, heat_transfer_coefficient=0.0, leak_conductance=0.0, damping=0.0,
-                       kr_high=0.0, kr_low=0.0, friction_coefficient=0.0)
+        p = V1.replace(
+            heat_transfer=0.0,
+            heat_transfer_coefficient=0.0,
+            leak_conductance=0.0,
+            damping=0.0,
+            kr_high=0.0,
+            kr_low=0.0,
+            friction_coefficient=0.0,
+        )
         P = p.to_array()[None]
         load = 0.1
         M, patm = p.end_mass + load, p.atmospheric_pressure
 
         def energy(x, a):
-            return (x[0, plant.S_UC] + x[0, plant.S_UE] + 0.5 * M * x[0, plant.S_V] ** 2
-                    - M * p.gravity * x[0, plant.S_L] + patm * (a[plant.A_VC] + a[plant.A_VE])
-                    + float(api.bladder_energy(x[0, plant.S_L], p)[0]))
+            return (
+                x[0, plant.S_UC]
+                + x[0, plant.S_UE]
+                + 0.5 * M * x[0, plant.S_V] ** 2
+                - M * p.gravity * x[0, plant.S_L]
+                + patm * (a[plant.A_VC] + a[plant.A_VE])
+                + float(api.bladder_energy(x[0, plant.S_L], p)[0])
+            )
 
         x = plant.initial_state(P, 0.17, 200e3, 60e3)
         a = plant.measure(x, P)[0]
@@ -263,9 +299,9 @@ def test_onoff_dead_time_swallows_short_pulses():
     long_v0 = _pwm_mass_gain(p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), 0.3)
     # open 0.3 T - (d_on - d_off) = 4 ms instead of 6 ms per 20 ms period: about 2/3 of the air
     assert 0.5 * long_v0 < long_v1 < 0.85 * long_v0
-    assert _pwm_mass_gain(p, 1.0) == pytest.approx(_pwm_mass_gain(
-        p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), 1.0), rel=1e-12)  # full duty: no switching
-
+    assert _pwm_mass_gain(p, 1.0) == pytest.approx(
+        _pwm_mass_gain(p.replace(onoff_open_delay=0.0, onoff_close_delay=0.0), 1.0), rel=1e-12
+    )  # full duty: no switching
 
 
 # ------------------------------------------------------------------ friction (Maxwell-slip)
@@ -294,9 +330,11 @@ def test_friction_hysteresis_loop_area_is_the_slid_work_and_grows_with_pressure(
     for pc, pe in ((100e3, 50e3), (200e3, 100e3)):
         L, F = _friction_cycle(row, pc, pe)
         half = (L.size - 1) // 2  # the second cycle
-        work_on_load = float(np.sum(0.5 * (F[half + 1:] + F[half:-1]) * np.diff(L[half:])))
+        work_on_load = float(np.sum(0.5 * (F[half + 1 :] + F[half:-1]) * np.diff(L[half:])))
         fb = p.friction_coefficient * (pc + pe)
-        expected = sum(4 * w * fb * (2e-3 - r * p.friction_presliding) for w, r in zip(WEIGHTS, DELTA_FRACTIONS))
+        expected = sum(
+            4 * w * fb * (2e-3 - r * p.friction_presliding) for w, r in zip(WEIGHTS, DELTA_FRACTIONS)
+        )
         assert -work_on_load == pytest.approx(expected, rel=2e-3)
         assert np.abs(F).max() <= fb * (1 + 1e-12)
         areas.append(-work_on_load)
@@ -314,19 +352,34 @@ def test_friction_only_dissipates_in_the_plant():
     integration error, and falls clearly: the oscillation decays."""
     from cepam_gym.physics.friction import DELTA_FRACTIONS, WEIGHTS
 
-    p = V1.replace(heat_transfer=0.0, heat_transfer_coefficient=0.0, leak_conductance=0.0, damping=0.0,
-                   kr_high=0.0, kr_low=0.0, friction_coefficient=2e-6)  # 0.002 N/kPa
+    p = V1.replace(
+        heat_transfer=0.0,
+        heat_transfer_coefficient=0.0,
+        leak_conductance=0.0,
+        damping=0.0,
+        kr_high=0.0,
+        kr_low=0.0,
+        friction_coefficient=2e-6,
+    )  # 0.002 N/kPa
     P = p.to_array()[None]
     load = 0.1
     M, patm = p.end_mass + load, p.atmospheric_pressure
 
     def energy(x, a):
         fb = p.friction_coefficient * (max(a[plant.A_PC], 0) + max(a[plant.A_PE], 0))
-        stored = sum(0.5 * w * fb * x[0, s] ** 2 / (r * p.friction_presliding)
-                     for w, r, s in zip(WEIGHTS, DELTA_FRACTIONS, (plant.S_Z1, plant.S_Z2, plant.S_Z3)))
-        return (x[0, plant.S_UC] + x[0, plant.S_UE] + 0.5 * M * x[0, plant.S_V] ** 2
-                - M * p.gravity * x[0, plant.S_L] + patm * (a[plant.A_VC] + a[plant.A_VE])
-                + float(api.bladder_energy(x[0, plant.S_L], p)[0]) + stored)
+        stored = sum(
+            0.5 * w * fb * x[0, s] ** 2 / (r * p.friction_presliding)
+            for w, r, s in zip(WEIGHTS, DELTA_FRACTIONS, (plant.S_Z1, plant.S_Z2, plant.S_Z3))
+        )
+        return (
+            x[0, plant.S_UC]
+            + x[0, plant.S_UE]
+            + 0.5 * M * x[0, plant.S_V] ** 2
+            - M * p.gravity * x[0, plant.S_L]
+            + patm * (a[plant.A_VC] + a[plant.A_VE])
+            + float(api.bladder_energy(x[0, plant.S_L], p)[0])
+            + stored
+        )
 
     x = plant.initial_state(P, 0.17, 200e3, 60e3)
     e0 = energy(x, plant.measure(x, P)[0])

@@ -12,17 +12,35 @@ from cepam_gym.params import PlantParams
 from cepam_gym.physics import layout as ix
 
 
-@pytest.mark.parametrize("kwargs, pattern", [
-    ({"randomize": {"valve_conductance_dm3_per_s_bar": [0.05, 0.42]}},
-     r"'valve_conductance_dm3_per_s_bar' at the high end.*unstable"),
-    ({"randomize": {"heat_transfer_w_per_k": [0.01, 100.0]}}, r"'heat_transfer_w_per_k' at the high end.*unstable"),
-    ({"randomize": {"end_mass_g": [-5.0, 20.0]}}, r"'end_mass_g' at the low end.*end_mass must be > 0"),
-    ({"randomize": {"supply_pressure_kpa": [5.0, 250.0]}}, r"'supply_pressure_kpa' at the low end.*no reachable target"),
-    ({"randomize": {"valve_conductance_dm3_per_s_bar": [0.2, 0.35], "heat_transfer_w_per_k": [0.01, 2.0]}},
-     r"combination .*valve_conductance.*heat_transfer.*unstable"),
-    ({"plant": {"heat_transfer_w_per_k": 100.0}}, r"nominal plant.*unstable"),
-    ({"task_options": {"load_range": [0.0, 3.0]}}, r"no reachable target for a load of 3 kg"),
-])
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        (
+            {"randomize": {"valve_conductance_dm3_per_s_bar": [0.05, 0.42]}},
+            r"'valve_conductance_dm3_per_s_bar' at the high end.*unstable",
+        ),
+        (
+            {"randomize": {"heat_transfer_w_per_k": [0.01, 100.0]}},
+            r"'heat_transfer_w_per_k' at the high end.*unstable",
+        ),
+        ({"randomize": {"end_mass_g": [-5.0, 20.0]}}, r"'end_mass_g' at the low end.*end_mass must be > 0"),
+        (
+            {"randomize": {"supply_pressure_kpa": [5.0, 250.0]}},
+            r"'supply_pressure_kpa' at the low end.*no reachable target",
+        ),
+        (
+            {
+                "randomize": {
+                    "valve_conductance_dm3_per_s_bar": [0.2, 0.35],
+                    "heat_transfer_w_per_k": [0.01, 2.0],
+                }
+            },
+            r"combination .*valve_conductance.*heat_transfer.*unstable",
+        ),
+        ({"plant": {"heat_transfer_w_per_k": 100.0}}, r"nominal plant.*unstable"),
+        ({"task_options": {"load_range": [0.0, 3.0]}}, r"no reachable target for a load of 3 kg"),
+    ],
+)
 def test_ranges_checked_when_the_env_is_built(kwargs, pattern):
     with pytest.raises(ValueError, match=pattern):
         gym.make("cepam_gym/CEPAM-v0", **kwargs)
@@ -59,6 +77,7 @@ def _fail_heavy_ends(threshold_kg):
         if np.any(np.atleast_2d(params)[:, ix.M_END] > threshold_kg):
             raise RuntimeError("task 'cepam': found no reachable target in 32 tries (injected)")
         return out
+
     return schedules
 
 
@@ -92,12 +111,18 @@ def test_redraws_exhausted_fall_back_to_the_nominal_plant(monkeypatch):
 
 
 _WIDE = {  # key: (low, high), wide around the nominal plant
-    "supply_pressure_kpa": (120.0, 300.0), "end_mass_g": (5.0, 60.0),
-    "valve_conductance_dm3_per_s_bar": (0.05, 0.6), "heat_transfer_w_per_k": (0.0, 3.0),
-    "elastic_stiffness_n_per_m": (20.0, 600.0), "dead_volume_cpam_cm3": (0.5, 8.0),
-    "dead_volume_epam_cm3": (0.5, 8.0), "damping_ns_per_m": (0.0, 40.0),
-    "spool_time_constant_ms": (1.0, 30.0), "burst_pressure_kpa": (200.0, 400.0),
-    "coulomb_friction_n": (0.0, 2.0), "leak_conductance_dm3_per_s_bar": (0.0, 0.01),
+    "supply_pressure_kpa": (120.0, 300.0),
+    "end_mass_g": (5.0, 60.0),
+    "valve_conductance_dm3_per_s_bar": (0.05, 0.6),
+    "heat_transfer_w_per_k": (0.0, 3.0),
+    "elastic_stiffness_n_per_m": (20.0, 600.0),
+    "dead_volume_cpam_cm3": (0.5, 8.0),
+    "dead_volume_epam_cm3": (0.5, 8.0),
+    "damping_ns_per_m": (0.0, 40.0),
+    "spool_time_constant_ms": (1.0, 30.0),
+    "burst_pressure_kpa": (200.0, 400.0),
+    "coulomb_friction_n": (0.0, 2.0),
+    "leak_conductance_dm3_per_s_bar": (0.0, 0.01),
 }
 
 
@@ -120,9 +145,14 @@ def _narrow_until_built(ranges, **kw):
 
 @pytest.mark.slow
 def test_fuzz_wide_ranges_256_envs_400_steps_no_exception_no_nan():
-    venv, ranges = _narrow_until_built(dict(_WIDE), num_envs=256, max_episode_steps=60,
-                                       sensor_noise={"length_mm": 0.5, "pressure_kpa": 2.0},
-                                       supply_drift_kpa=5.0, action_latency_steps=1)
+    venv, ranges = _narrow_until_built(
+        dict(_WIDE),
+        num_envs=256,
+        max_episode_steps=60,
+        sensor_noise={"length_mm": 0.5, "pressure_kpa": 2.0},
+        supply_drift_kpa=5.0,
+        action_latency_steps=1,
+    )
     assert len(ranges) == len(_WIDE)
     obs, _ = venv.reset(seed=123)
     rng = np.random.default_rng(0)

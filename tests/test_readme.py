@@ -18,12 +18,17 @@ def python_blocks() -> list[str]:
 
 def test_readme_has_the_quick_example_first():
     blocks = python_blocks()
-    assert blocks and "gym.make(\"cepam_gym/CEPAM-v0\")" in blocks[0]
+    assert blocks and 'gym.make("cepam_gym/CEPAM-v0")' in blocks[0]
     assert len(blocks[0].strip().splitlines()) <= 12  # "a ten-line example"
 
 
-@pytest.mark.parametrize("index", [pytest.param(i, marks=pytest.mark.slow) if ".learn(" in block else i
-                                   for i, block in enumerate(python_blocks())])  # training: slow
+@pytest.mark.parametrize(
+    "index",
+    [
+        pytest.param(i, marks=pytest.mark.slow) if ".learn(" in block else i
+        for i, block in enumerate(python_blocks())
+    ],
+)  # training: slow
 def test_readme_python_block_runs(index):
     code = python_blocks()[index]
     if "stable_baselines3" in code:

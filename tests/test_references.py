@@ -7,8 +7,15 @@ import pytest
 
 from cepam_gym.params import PlantParams
 from cepam_gym.tasks import TASKS
-from cepam_gym.tasks.references import (min_jerk, periodic_length, pressure_rate_ratio, project,
-                                        smooth_reference, smooth_steps, stiffness_ramp)
+from cepam_gym.tasks.references import (
+    min_jerk,
+    periodic_length,
+    pressure_rate_ratio,
+    project,
+    smooth_reference,
+    smooth_steps,
+    stiffness_ramp,
+)
 from cepam_gym.tasks.schedules import episode_schedules, stiffness_interval
 
 DT = 0.02

@@ -35,8 +35,10 @@ def fresh_instances(monkeypatch):
 
 
 def test_import_does_not_pull_ray_or_torch():
-    code = ("import sys, cepam_gym, cepam_gym.rllib; "
-            "bad = [m for m in ('ray', 'torch') if m in sys.modules]; assert not bad, bad")
+    code = (
+        "import sys, cepam_gym, cepam_gym.rllib; "
+        "bad = [m for m in ('ray', 'torch') if m in sys.modules]; assert not bad, bad"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
 
@@ -108,8 +110,9 @@ def test_seed_passed_by_rllib_is_rederived_per_runner():
 
 
 def test_env_config_keys_are_passed_to_the_env():
-    env = rllib.make_env({"id": "cepam_gym/CEPAMLength-v0", "seed": 0, "max_episode_steps": 3,
-                          "action_mode": "pressure"})
+    env = rllib.make_env(
+        {"id": "cepam_gym/CEPAMLength-v0", "seed": 0, "max_episode_steps": 3, "action_mode": "pressure"}
+    )
     try:
         assert env.unwrapped.core.obs_dim == 8  # the length task has no stiffness target
         assert env.unwrapped.core.action_mode == "pressure"
@@ -120,14 +123,17 @@ def test_env_config_keys_are_passed_to_the_env():
         env.close()
 
 
-@pytest.mark.parametrize("cfg, match", [
-    ({"sensor_nosie": {"length_mm": 0.2}}, r"unknown key 'sensor_nosie'.*valid keys:.*'sensor_noise'"),
-    ({"task": "length"}, r"unknown key 'task'"),  # the task comes from the id
-    ({"id": "CartPole-v1"}, r"env_config\['id'\]: unknown id 'CartPole-v1'"),
-    ({"seed": -1}, r"env_config\['seed'\] must be a non-negative integer"),
-    ({"seed": 1.5}, r"env_config\['seed'\]"),
-    ({"num_envs": 4}, r"vector_entry_point.*gym_env_vectorize_mode='sync'"),
-])
+@pytest.mark.parametrize(
+    "cfg, match",
+    [
+        ({"sensor_nosie": {"length_mm": 0.2}}, r"unknown key 'sensor_nosie'.*valid keys:.*'sensor_noise'"),
+        ({"task": "length"}, r"unknown key 'task'"),  # the task comes from the id
+        ({"id": "CartPole-v1"}, r"env_config\['id'\]: unknown id 'CartPole-v1'"),
+        ({"seed": -1}, r"env_config\['seed'\] must be a non-negative integer"),
+        ({"seed": 1.5}, r"env_config\['seed'\]"),
+        ({"num_envs": 4}, r"vector_entry_point.*gym_env_vectorize_mode='sync'"),
+    ],
+)
 def test_bad_env_config_rejected(cfg, match):
     with pytest.raises(ValueError, match=match):
         rllib.make_env(cfg)
@@ -159,9 +165,29 @@ def test_register_env_and_rllib_env_context():
 def test_rllib_example_end_to_end(tmp_path):
     pytest.importorskip("ray")
     pytest.importorskip("torch")
-    cmd = [sys.executable, str(ROOT / "examples" / "rllib_ppo.py"), "--num-env-runners", "2",
-           "--iterations", "2", "--train-batch", "200", "--minibatch", "100", "--epochs", "2",
-           "--max-episode-steps", "50", "--hidden", "32", "32", "--seed", "4", "--out", str(tmp_path)]
+    cmd = [
+        sys.executable,
+        str(ROOT / "examples" / "rllib_ppo.py"),
+        "--num-env-runners",
+        "2",
+        "--iterations",
+        "2",
+        "--train-batch",
+        "200",
+        "--minibatch",
+        "100",
+        "--epochs",
+        "2",
+        "--max-episode-steps",
+        "50",
+        "--hidden",
+        "32",
+        "32",
+        "--seed",
+        "4",
+        "--out",
+        str(tmp_path),
+    ]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     assert out.stdout.count("iter ") == 2
@@ -185,9 +211,20 @@ def test_tune_sweep_example_reports_each_trial(tmp_path):
     pytest.importorskip("ray.tune")
     pytest.importorskip("stable_baselines3")
     # one PPO rollout (64 envs x 128 steps) per trial, two trials, two evaluation episodes each
-    cmd = [sys.executable, str(ROOT / "examples" / "tune_sweep.py"), "--config", "quick",
-           "--total-timesteps", "8192", "--eval-episodes", "2", "--grid", "learning_rate=1e-4,3e-4",
-           "--out", str(tmp_path)]
+    cmd = [
+        sys.executable,
+        str(ROOT / "examples" / "tune_sweep.py"),
+        "--config",
+        "quick",
+        "--total-timesteps",
+        "8192",
+        "--eval-episodes",
+        "2",
+        "--grid",
+        "learning_rate=1e-4,3e-4",
+        "--out",
+        str(tmp_path),
+    ]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-3000:]
     scores = [ln for ln in out.stdout.splitlines() if ln.startswith("score ")]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import pytest
 
@@ -27,11 +27,24 @@ def test_main_job_without_training_writes_the_summary(tmp_path, capsys):
 def test_summary_names_a_time_limit_stop_and_the_run_files(tmp_path):
     run = tmp_path / "agent"
     run.mkdir()
-    (run / "run.json").write_text(json.dumps({"seed": 3, "status": "stopped_by_time_limit", "sessions": [
-        {"end_step": 721_000, "total_timesteps": 1_000_000, "wall_s": 360.0}]}))
+    (run / "run.json").write_text(
+        json.dumps(
+            {
+                "seed": 3,
+                "status": "stopped_by_time_limit",
+                "sessions": [{"end_step": 721_000, "total_timesteps": 1_000_000, "wall_s": 360.0}],
+            }
+        )
+    )
     (tmp_path / "t.txt").write_text("suite controller score\nnominal agent 1.2\n")
-    path = write_summary(tmp_path, ["--config", "configs/quick.yaml"], datetime.now(timezone.utc),
-                         [("train an agent", "done", run), ("score", "exit code 2", None)], run, tmp_path / "t.txt")
+    path = write_summary(
+        tmp_path,
+        ["--config", "configs/quick.yaml"],
+        datetime.now(UTC),
+        [("train an agent", "done", run), ("score", "exit code 2", None)],
+        run,
+        tmp_path / "t.txt",
+    )
     text = path.read_text()
     assert "**stopped_by_time_limit** at step 721000 of 1000000" in text
     assert "time limit" in text and "--resume" in text and "`agent`" in text

@@ -40,28 +40,39 @@ def reference_schedule(rng, spec, p, n_steps, dt):
 V0 = preset("balloon_v0")  # the plant of the v0 env ids (its stiffness reaches the narrow band below)
 
 
-@pytest.mark.parametrize("task,options,per_plant", [
-    ("cepam", {}, False),
-    ("cepam", {"load_range": (0.0, 0.45), "pressure_margin": 0.95}, True),
-    ("stiffness", {}, True),
-    # a narrow stiffness band: about one segment in five has no feasible candidate (fallback path)
-    ("cepam", {"stiffness_range": (1500.0, 2500.0)}, False),
-])
+@pytest.mark.parametrize(
+    "task,options,per_plant",
+    [
+        ("cepam", {}, False),
+        ("cepam", {"load_range": (0.0, 0.45), "pressure_margin": 0.95}, True),
+        ("stiffness", {}, True),
+        # a narrow stiffness band: about one segment in five has no feasible candidate (fallback path)
+        ("cepam", {"stiffness_range": (1500.0, 2500.0)}, False),
+    ],
+)
 def test_batched_schedules_equal_the_per_env_reference(task, options, per_plant):
     spec = dataclasses.replace(TASKS[task], **options)
     rng = np.random.default_rng(1)
     n = 24
     if per_plant:
-        params = np.stack([V0.replace(end_mass=rng.uniform(0.015, 0.025),
-                                      cpam_rest_angle=np.radians(rng.uniform(27.5, 30.0))).to_array()
-                           for _ in range(n)])
+        params = np.stack(
+            [
+                V0.replace(
+                    end_mass=rng.uniform(0.015, 0.025), cpam_rest_angle=np.radians(rng.uniform(27.5, 30.0))
+                ).to_array()
+                for _ in range(n)
+            ]
+        )
     else:
         params = V0.to_array()[None]
-    tl, tk, load, initial = S.episode_schedules([np.random.default_rng(50 + i) for i in range(n)],
-                                                spec, params, 500, 0.02)
+    tl, tk, load, initial = S.episode_schedules(
+        [np.random.default_rng(50 + i) for i in range(n)], spec, params, 500, 0.02
+    )
     fallbacks = 0
     for i in range(n):
-        ref = reference_schedule(np.random.default_rng(50 + i), spec, params[i if per_plant else 0], 500, 0.02)
+        ref = reference_schedule(
+            np.random.default_rng(50 + i), spec, params[i if per_plant else 0], 500, 0.02
+        )
         for got, want in zip((tl[i], tk[i], load[i], initial[i]), ref[:4]):
             np.testing.assert_array_equal(got, want)
         fallbacks += ref[4]

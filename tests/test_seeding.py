@@ -7,15 +7,19 @@ import pytest
 
 import cepam_gym  # noqa: F401
 
-NOISY = {"sensor_noise": {"length_mm": 0.3, "velocity_mm_s": 5.0, "pressure_kpa": 2.0},
-         "supply_drift_kpa": 5.0, "randomize": {"end_mass_g": [15.0, 30.0]}}
+NOISY = {
+    "sensor_noise": {"length_mm": 0.3, "velocity_mm_s": 5.0, "pressure_kpa": 2.0},
+    "supply_drift_kpa": 5.0,
+    "randomize": {"end_mass_g": [15.0, 30.0]},
+}
 
 
 @pytest.mark.parametrize("mode", ["next_step", "same_step"])
 def test_vector_element_i_equals_single_env_with_stream_i_noise_and_drift_on(mode):
     n, seed, horizon = 3, 21, 30
-    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon,
-                        autoreset_mode=mode, **NOISY)
+    venv = gym.make_vec(
+        "cepam_gym/CEPAM-v0", num_envs=n, max_episode_steps=horizon, autoreset_mode=mode, **NOISY
+    )
     singles = [gym.make("cepam_gym/CEPAM-v0", max_episode_steps=horizon, stream=i, **NOISY) for i in range(n)]
     obs_v, _ = venv.reset(seed=seed)
     obs_s = np.stack([e.reset(seed=seed)[0] for e in singles])

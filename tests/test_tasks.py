@@ -17,9 +17,20 @@ from cepam_gym.tasks import kernel as tk
 
 def _si_values(rng, n):
     """Random SI values of the rig's OBS_FIELDS, inside the default layout's clip."""
-    return np.stack([rng.uniform(0.15, 0.195, n), rng.uniform(-0.5, 0.5, n), rng.uniform(0, 250e3, n),
-                     rng.uniform(0, 250e3, n), rng.uniform(200e3, 300e3, n), rng.uniform(0.155, 0.19, n),
-                     rng.uniform(200, 2500, n), rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)], axis=1)
+    return np.stack(
+        [
+            rng.uniform(0.15, 0.195, n),
+            rng.uniform(-0.5, 0.5, n),
+            rng.uniform(0, 250e3, n),
+            rng.uniform(0, 250e3, n),
+            rng.uniform(200e3, 300e3, n),
+            rng.uniform(0.155, 0.19, n),
+            rng.uniform(200, 2500, n),
+            rng.uniform(-1, 1, n),
+            rng.uniform(-1, 1, n),
+        ],
+        axis=1,
+    )
 
 
 @pytest.mark.parametrize("task", ["cepam", "length"])
@@ -69,8 +80,17 @@ def test_compiled_encoder_matches_the_layout(env_id):
     p = core.params[0]
     from cepam_gym.physics import layout as ix
 
-    values = [info["length"], info["velocity"], info["pressure_c"], info["pressure_e"],
-              p[ix.P_SUP] - p[ix.P_ATM], info["target_length"], info["target_stiffness"], 0.0, 0.0]
+    values = [
+        info["length"],
+        info["velocity"],
+        info["pressure_c"],
+        info["pressure_e"],
+        p[ix.P_SUP] - p[ix.P_ATM],
+        info["target_length"],
+        info["target_stiffness"],
+        0.0,
+        0.0,
+    ]
     assert np.array_equal(obs, core.obs_layout.encode(values))
 
 
@@ -100,8 +120,18 @@ def test_rig_reward_terms_are_the_shared_function():
     a = np.array([0.3, -0.7])
     _, r, _, _, info = env.step(a)
     terms = np.zeros(tk.N_TERMS)
-    total = tk.reward_terms(info["length"], info["target_length"], info["stiffness"], info["target_stiffness"],
-                            a[0], a[1], info["air_used"], False, core.task_vec, terms)
+    total = tk.reward_terms(
+        info["length"],
+        info["target_length"],
+        info["stiffness"],
+        info["target_stiffness"],
+        a[0],
+        a[1],
+        info["air_used"],
+        False,
+        core.task_vec,
+        terms,
+    )
     assert terms.tolist() == [info[f"reward_{t}"] for t in tk.REWARD_TERMS]
     assert total == r
 
@@ -126,6 +156,9 @@ def test_array_wrappers_are_used_module_qualified():
     """physics.api reuses the kernels' names (its documented convention): nobody imports them
     unqualified, so ``chamber_volumes`` never means two things in one module."""
     src = Path(__file__).resolve().parents[1] / "src" / "cepam_gym"
-    offenders = [str(f.relative_to(src)) for f in src.rglob("*.py")
-                 if re.search(r"^\s*from\s+(\S*physics\.api|\.api)\s+import", f.read_text(), re.M)]
+    offenders = [
+        str(f.relative_to(src))
+        for f in src.rglob("*.py")
+        if re.search(r"^\s*from\s+(\S*physics\.api|\.api)\s+import", f.read_text(), re.M)
+    ]
     assert offenders == []

@@ -47,13 +47,25 @@ def _env():
 
 
 def _start(*args) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "cepam_gym.cli", "train", "--quiet", *map(str, args)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(), cwd=ROOT)
+    return subprocess.Popen(
+        [sys.executable, "-m", "cepam_gym.cli", "train", "--quiet", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=_env(),
+        cwd=ROOT,
+    )
 
 
 def _run(*args, timeout=120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "cepam_gym.cli", "train", "--quiet", *map(str, args)],
-                          capture_output=True, text=True, env=_env(), cwd=ROOT, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "cepam_gym.cli", "train", "--quiet", *map(str, args)],
+        capture_output=True,
+        text=True,
+        env=_env(),
+        cwd=ROOT,
+        timeout=timeout,
+    )
 
 
 def _wait_for(cond, proc, timeout=90.0):
@@ -180,7 +192,9 @@ def test_lock_without_flock_detects_a_stale_pid(tmp_path, monkeypatch):
         return real_import(name, *a, **k)
 
     monkeypatch.setattr(builtins, "__import__", no_fcntl)
-    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True
+    )
     (tmp_path / ".train.lock").write_text(f"pid {int(dead.stdout)} since then\n")
     lock = RunLock(tmp_path)
     lock.acquire()  # the stale lock is taken over

@@ -48,7 +48,9 @@ def test_preview_columns_equal_the_schedule(env_id):
         k = min(core.t_idx[0], n - 1)  # the step the target columns show
         for j in range(1, PREVIEW_STEPS + 1):
             kk = min(k + j, n - 1)
-            assert d[f"target_length_+{j}"] == pytest.approx(core.target_l[0, kk], rel=1e-6)  # float32 columns
+            assert d[f"target_length_+{j}"] == pytest.approx(
+                core.target_l[0, kk], rel=1e-6
+            )  # float32 columns
             if track_k:
                 assert d[f"target_stiffness_+{j}"] == pytest.approx(core.target_k[0, kk], rel=1e-6)
         assert d["target_length"] == pytest.approx(core.target_l[0, k], rel=1e-6)
@@ -75,7 +77,10 @@ def test_v1_references_are_reachable_and_start_at_rest_on_the_reference(env_id):
         w = (p[ix.M_END] + core.load[i]) * p[ix.GRAV]
         k_lo, k_hi = stiffness_interval(core.target_l[i], w, w, p, core.task)
         assert np.all(core.target_k[i] >= k_lo - 1e-9) and np.all(core.target_k[i] <= k_hi + 1e-9)
-        assert pressure_rate_ratio(core.target_l[i], core.target_k[i], core.load[i], p, core.control_dt).max() <= 1.0
+        assert (
+            pressure_rate_ratio(core.target_l[i], core.target_k[i], core.load[i], p, core.control_dt).max()
+            <= 1.0
+        )
     # the episode starts at rest where the reference starts: no jump at t = 0
     np.testing.assert_allclose(core.state[:, 0], core.target_l[:, 0], atol=1e-12)
 

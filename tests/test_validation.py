@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import re
 from pathlib import Path
 
@@ -14,10 +15,8 @@ import pytest
 import yaml
 
 from cepam_gym import validation as v
-from cepam_gym.validation.cli import validate_main
 from cepam_gym.params import PlantParams, preset
-
-import os
+from cepam_gym.validation.cli import validate_main
 
 # The paper's plain text is not part of the project (its copyright is the authors'); a reader who
 # has it points CEPAM_PAPER_TEXT at it and the quotes in data/reported.yaml are checked against it.
@@ -25,9 +24,38 @@ PAPER = Path(os.environ.get("CEPAM_PAPER_TEXT", "")) if os.environ.get("CEPAM_PA
 JSON_KEYS = {"name", "unit", "reported", "model", "rel_error", "model_level"}
 
 # Every number of docs/model.md section 5 (the reproduction targets)
-REPORTED_TARGETS = [14.1, 27.69, 16.1, 14.3, 26.67, 22.46, 24.1, 727, 19.5, 23, 53.33, 15.5,
-                         23.3, 55.33, 640, 30, 552.542, 863.552, 1060.361, 1387.296, 1084, 21.56,
-                         20.24, 21.79, 7.08, 6.23, 7.12, 5.132, 4.54, 5.15]
+REPORTED_TARGETS = [
+    14.1,
+    27.69,
+    16.1,
+    14.3,
+    26.67,
+    22.46,
+    24.1,
+    727,
+    19.5,
+    23,
+    53.33,
+    15.5,
+    23.3,
+    55.33,
+    640,
+    30,
+    552.542,
+    863.552,
+    1060.361,
+    1387.296,
+    1084,
+    21.56,
+    20.24,
+    21.79,
+    7.08,
+    6.23,
+    7.12,
+    5.132,
+    4.54,
+    5.15,
+]
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +77,10 @@ def test_every_reported_target_is_in_the_data_file(experiments):
         assert e.figure or e.device == "cepam", e.id  # only section V's 19.5 cm has no figure
 
 
-@pytest.mark.skipif(PAPER is None or not PAPER.is_file(),
-                    reason="set CEPAM_PAPER_TEXT to the paper's plain text to check the quotes")
+@pytest.mark.skipif(
+    PAPER is None or not PAPER.is_file(),
+    reason="set CEPAM_PAPER_TEXT to the paper's plain text to check the quotes",
+)
 def test_quotes_are_the_papers_words(experiments):
     def norm(s: str) -> str:
         return re.sub(r"\s+", " ", s.replace("\u2013", "-").replace("\u2014", "-")).strip().lower()
@@ -127,13 +157,16 @@ def test_table_reads_the_conditions_from_the_data_file(tmp_path, experiments):
     assert v.simulate(edited, p).value > v.simulate(orig, p).value * 1.05  # more Pc, stiffer
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"measured": "width"}, "measured must be one of"),
-    ({"unit": "mm"}, "unit of a stiffness must be 'N/m'"),
-    ({"device": "cpam2"}, "device must be one of"),
-    ({"value": -3}, "value must be a positive number"),
-    ({"bogus": 1}, "unknown key"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"measured": "width"}, "measured must be one of"),
+        ({"unit": "mm"}, "unit of a stiffness must be 'N/m'"),
+        ({"device": "cpam2"}, "device must be one of"),
+        ({"value": -3}, "value must be a positive number"),
+        ({"bogus": 1}, "unknown key"),
+    ],
+)
 def test_bad_data_file_names_the_entry(tmp_path, change, message):
     doc = yaml.safe_load(v.REPORTED_PATH.read_text())
     doc["experiments"][2].update(change)
@@ -174,16 +207,23 @@ def test_tube_rows_use_the_tube_wall(experiments):
     tube2 = {e.id: e for e in experiments}["cpam_tube2_contraction_500"]
     p = v.experiment_params(tube2, PlantParams())
     assert p.bladder_thickness == pytest.approx(2e-3)
-    assert v.experiment_params(dataclasses.replace(tube2, bladder="balloon"), PlantParams()).bladder_thickness \
+    assert (
+        v.experiment_params(dataclasses.replace(tube2, bladder="balloon"), PlantParams()).bladder_thickness
         == PlantParams().bladder_thickness
+    )
 
 
 def test_cli_writes_table_and_plots(tmp_path, capsys):
     assert validate_main(["--out-dir", str(tmp_path)]) == 0
     text = capsys.readouterr().out
     assert "CE-PAM stiffness, Pe=50 Pc=75 kPa" in text and "not computable" in text
-    for name in ("validate.txt", "validate.json", "validate_cepam.png", "validate_single_muscles.png",
-                 "validate_thickness.png"):
+    for name in (
+        "validate.txt",
+        "validate.json",
+        "validate_cepam.png",
+        "validate_single_muscles.png",
+        "validate_thickness.png",
+    ):
         assert (tmp_path / name).stat().st_size > 0, name
     rows = json.loads((tmp_path / "validate.json").read_text())
     assert np.isfinite([r["model"] for r in rows if r["model"] is not None]).all()

@@ -29,8 +29,13 @@ def report(prog: str, e: BaseException) -> int:
 
 
 def user_error_types() -> tuple[type[BaseException], ...]:
-    types: list[type[BaseException]] = [ValueError, OSError, EOFError, zipfile.BadZipFile,
-                                        pickle.UnpicklingError]
+    types: list[type[BaseException]] = [
+        ValueError,
+        OSError,
+        EOFError,
+        zipfile.BadZipFile,
+        pickle.UnpicklingError,
+    ]
     try:
         import yaml
 
@@ -73,8 +78,10 @@ def load_error(path, e: BaseException, what: str = "file") -> ValueError:
     """A ``ValueError`` naming a ``what`` at ``path`` that could not be loaded (corrupted, truncated,
     or not what it should be), chained to the loader's exception."""
     reason = " ".join((str(e) or type(e).__name__).split())
-    return ValueError(f"cannot load the {what} {path}: {type(e).__name__}: {reason} "
-                      "(corrupted or truncated? re-create it or point at another)")
+    return ValueError(
+        f"cannot load the {what} {path}: {type(e).__name__}: {reason} "
+        "(corrupted or truncated? re-create it or point at another)"
+    )
 
 
 def guarded_load(path, what: str, loader, *args, **kwargs):

@@ -26,8 +26,10 @@ def _drop_stale_caches() -> None:
     try:
         plant_src = (_PKG / "plant.py").read_text()
         text = (_PKG / "physics" / "layout.py").read_text() + "\n".join(
-            re.findall(r"^(?:STATE_FIELDS|S_L|N_STATE|AUX_FIELDS|N_AUX|INPUT_FIELDS|N_INPUT).*$",
-                       plant_src, re.M))
+            re.findall(
+                r"^(?:STATE_FIELDS|S_L|N_STATE|AUX_FIELDS|N_AUX|INPUT_FIELDS|N_INPUT).*$", plant_src, re.M
+            )
+        )
         stamp = hashlib.sha1(text.encode()).hexdigest()
         path = _PKG / "__pycache__" / "numba_layout.stamp"
         if path.exists() and path.read_text() == stamp:
@@ -92,9 +94,14 @@ def strided_tuple(typingctx, arr, start, n, stride):
     (a view inside a loop is reference-counted, which keeps LLVM from vectorising the loop). The
     plant uses it to hand one plant's column of a structure-of-arrays block to the physics
     functions, which index it like a parameter row (``p[ix.BC]``)."""
-    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.dtype == types.float64
-            and isinstance(start, types.Integer) and isinstance(n, types.IntegerLiteral)
-            and isinstance(stride, types.IntegerLiteral)):
+    if not (
+        isinstance(arr, types.Array)
+        and arr.ndim == 1
+        and arr.dtype == types.float64
+        and isinstance(start, types.Integer)
+        and isinstance(n, types.IntegerLiteral)
+        and isinstance(stride, types.IntegerLiteral)
+    ):
         return None
     count, step = n.literal_value, stride.literal_value
     ret = types.UniTuple(types.float64, count)
@@ -102,8 +109,9 @@ def strided_tuple(typingctx, arr, start, n, stride):
     def codegen(context, builder, signature, args):
         ary = context.make_array(signature.args[0])(context, builder, args[0])
         base = builder.gep(ary.data, [args[1]])
-        vals = [builder.load(builder.gep(base, [ir.Constant(ir.IntType(64), k * step)]))
-                for k in range(count)]
+        vals = [
+            builder.load(builder.gep(base, [ir.Constant(ir.IntType(64), k * step)])) for k in range(count)
+        ]
         return context.make_tuple(builder, ret, vals)
 
     return ret(arr, start, n, stride), codegen

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from datetime import UTC
 
 
 def fresh_dir(path):
@@ -31,18 +32,23 @@ def _run(argv: list[str]) -> int:
 
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
     ap.add_argument("--out-dir", default="runs/main")
-    ap.add_argument("--config", default="quick",
-                    help="training config: a shipped one by name (quick, cepam_ppo, ...) or a YAML file")
+    ap.add_argument(
+        "--config",
+        default="quick",
+        help="training config: a shipped one by name (quick, cepam_ppo, ...) or a YAML file",
+    )
     ap.add_argument("--episodes", type=int, default=20, help="benchmark episodes per suite")
-    ap.add_argument("--no-train", action="store_true", help="skip training: plant, reproduction, baseline only")
+    ap.add_argument(
+        "--no-train", action="store_true", help="skip training: plant, reproduction, baseline only"
+    )
     args = ap.parse_args(argv)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    from datetime import datetime, timezone
+    from datetime import datetime
 
     from .run_summary import write_summary
 
-    started, steps = datetime.now(timezone.utc), []
+    started, steps = datetime.now(UTC), []
     where = {"run_dir": None, "table": None}
     try:
         return _run_steps(args, out, steps, where)
@@ -53,7 +59,6 @@ def _run(argv: list[str]) -> int:
 
 def _run_steps(args, out, steps: list, where: dict) -> int:
     """The steps of :func:`_run`, each recorded in ``steps`` for the summary."""
-    from pathlib import Path
 
     from . import demo
     from .validation.cli import validate_main
@@ -69,16 +74,29 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
         from .bench import cli as bench_cli
 
         steps.append(["baseline on the nominal and randomized suites", "failed", out / "bench"])
-        code = bench_cli.main(["--controller", "baseline", "--suite", "nominal", "--suite", "randomized",
-                               "--episodes", str(args.episodes), "--out-dir", str(out / "bench")])
+        code = bench_cli.main(
+            [
+                "--controller",
+                "baseline",
+                "--suite",
+                "nominal",
+                "--suite",
+                "randomized",
+                "--episodes",
+                str(args.episodes),
+                "--out-dir",
+                str(out / "bench"),
+            ]
+        )
         steps[-1][1] = "done" if not code else f"exit code {code}"
         where["table"] = out / "bench" / "table.txt"
         return code
     try:
         train, evaluate = _plugin_command("train"), _plugin_command("eval")
     except ImportError as e:
-        print(f"cepam-gym run: training needs the [train] extra ({e}); `make run` installs it",
-              file=sys.stderr)
+        print(
+            f"cepam-gym run: training needs the [train] extra ({e}); `make run` installs it", file=sys.stderr
+        )
         return 2
     print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
     run_dir = fresh_dir(out / "agent")
@@ -89,8 +107,18 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
     if code:
         return code
     steps.append(["score the agent beside the baseline (nominal, randomized)", "failed", run_dir / "eval"])
-    code = evaluate(["--run", str(run_dir), "--suite", "nominal", "--suite", "randomized",
-                     "--episodes", str(args.episodes)])
+    code = evaluate(
+        [
+            "--run",
+            str(run_dir),
+            "--suite",
+            "nominal",
+            "--suite",
+            "randomized",
+            "--episodes",
+            str(args.episodes),
+        ]
+    )
     steps[-1][1] = "done" if not code else f"exit code {code}"
     where["table"] = run_dir / "eval" / "table.txt"
     return code
@@ -107,8 +135,10 @@ def _plugin_command(name: str):
 
     found = entry_points(group=PLUGIN_GROUP, name=name)
     if not found:
-        raise ImportError(f"no package provides the command {name!r} (entry-point group {PLUGIN_GROUP}); "
-                          "pip install 'cepam-gym[train]'")
+        raise ImportError(
+            f"no package provides the command {name!r} (entry-point group {PLUGIN_GROUP}); "
+            "pip install 'cepam-gym[train]'"
+        )
     return next(iter(found)).load()
 
 
@@ -138,8 +168,14 @@ def _rollout(argv: list[str]) -> int:
             for k, v in info.items():
                 if k.startswith("reward_"):
                     terms[k] = terms.get(k, 0.0) + v
-        rows.append({"id": env_id, "steps": steps, "return": round(total, 2),
-                     **{k: round(v, 2) for k, v in terms.items()}})
+        rows.append(
+            {
+                "id": env_id,
+                "steps": steps,
+                "return": round(total, 2),
+                **{k: round(v, 2) for k, v in terms.items()},
+            }
+        )
         print(f"{env_id:32s} random policy: {steps} steps, return {total:9.2f}")
         env.close()
     out = Path(args.out_dir)
@@ -172,24 +208,30 @@ def main(argv: list[str] | None = None) -> int:
 
 def _dispatch(argv: list[str]) -> int:
     commands = {"run": _run, "rollout": _rollout}
-    lazy = {"demo": "cepam_gym.demo", "validate": "cepam_gym.validation.cli:validate_main",
-            "bench": "cepam_gym.bench.cli", "video": "cepam_gym.mujoco.video",
-            "calibrate": "cepam_gym.validation.cli:calibrate_main"}
+    lazy = {
+        "demo": "cepam_gym.demo",
+        "validate": "cepam_gym.validation.cli:validate_main",
+        "bench": "cepam_gym.bench.cli",
+        "video": "cepam_gym.mujoco.video",
+        "calibrate": "cepam_gym.validation.cli:calibrate_main",
+    }
     plugins = ("train", "eval")
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,rollout,video} "
-              "[options] [--debug]\n"
-              "  bench     score controllers on the benchmark suites\n"
-              "  train     train an agent from a YAML config (--config quick, or a file)\n"
-              "  eval      score a trained agent beside the baseline (--run DIR)\n"
-              "  run       the main job on the default config\n"
-              "  demo      plant step response plot\n"
-              "  validate  the paper's reported numbers beside the model's\n"
-              "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
-              "  rollout   random-action episodes of every registered id\n"
-              "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)\n"
-              "A user error (bad config, missing or corrupted file) is one line on stderr and exit code 2;\n"
-              "--debug (or CEPAM_GYM_DEBUG=1) shows its traceback.")
+        print(
+            "usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,rollout,video} "
+            "[options] [--debug]\n"
+            "  bench     score controllers on the benchmark suites\n"
+            "  train     train an agent from a YAML config (--config quick, or a file)\n"
+            "  eval      score a trained agent beside the baseline (--run DIR)\n"
+            "  run       the main job on the default config\n"
+            "  demo      plant step response plot\n"
+            "  validate  the paper's reported numbers beside the model's\n"
+            "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
+            "  rollout   random-action episodes of every registered id\n"
+            "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)\n"
+            "A user error (bad config, missing or corrupted file) is one line on stderr and exit code 2;\n"
+            "--debug (or CEPAM_GYM_DEBUG=1) shows its traceback."
+        )
         return 0
     cmd, rest = argv[0], argv[1:]
     if cmd in commands:

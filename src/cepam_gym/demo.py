@@ -57,9 +57,24 @@ def simulate(params: PlantParams | None = None, duration: float = DURATION) -> d
     x = plant.initial_state(P, params.min_length)
     aux = plant.measure(x, P)
     n = int(round(duration / (DT * N_SUB)))
-    rows = {k: [] for k in ("time", "length", "pressure_c", "pressure_e", "stiffness",
-                            "stiffness_closed", "spool_c", "spool_e", "command_c", "command_e",
-                            "load_mass", "burst", "end_stop")}
+    rows = {
+        k: []
+        for k in (
+            "time",
+            "length",
+            "pressure_c",
+            "pressure_e",
+            "stiffness",
+            "stiffness_closed",
+            "spool_c",
+            "spool_e",
+            "command_c",
+            "command_e",
+            "load_mass",
+            "burst",
+            "end_stop",
+        )
+    }
 
     def record(x, aux, u):
         rows["time"].append(x[0, plant.S_T])
@@ -139,10 +154,20 @@ def step_response(params: PlantParams | None = None, out_dir: str | Path = "runs
             a.axvline(row[0], color="grey", lw=0.5, alpha=0.5)
     for row in SCRIPT[1:]:
         if row[5] != "hold":
-            ax[0].annotate(row[5], (row[0], 1.02), xycoords=("data", "axes fraction"), fontsize=7,
-                           rotation=20, va="bottom", ha="left")
-    fig.suptitle(f"CE-PAM step response (proportional valves, {1 / (DT * N_SUB):.0f} Hz control, "
-                 f"force model {params.force_model}/{params.force_form})", fontsize=10)
+            ax[0].annotate(
+                row[5],
+                (row[0], 1.02),
+                xycoords=("data", "axes fraction"),
+                fontsize=7,
+                rotation=20,
+                va="bottom",
+                ha="left",
+            )
+    fig.suptitle(
+        f"CE-PAM step response (proportional valves, {1 / (DT * N_SUB):.0f} Hz control, "
+        f"force model {params.force_model}/{params.force_form})",
+        fontsize=10,
+    )
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -152,8 +177,12 @@ def step_response(params: PlantParams | None = None, out_dir: str | Path = "runs
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m cepam_gym.demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out-dir", default="runs/demo", help="directory for step_response.png")
-    ap.add_argument("--preset", default=None, choices=preset_names(),
-                    help="named parameter set (default: the dataclass defaults = balloon)")
+    ap.add_argument(
+        "--preset",
+        default=None,
+        choices=preset_names(),
+        help="named parameter set (default: the dataclass defaults = balloon)",
+    )
     args = ap.parse_args(argv)
     params = preset(args.preset) if args.preset else PlantParams()
     print(step_response(params, args.out_dir))

@@ -45,23 +45,34 @@ class PlantParams:
     cpam_rest_length: float = _f(0.195, "cm", "CPAM length unpressurised (section II)")
     cpam_rest_diameter: float = _f(0.005, "mm", "CPAM braid diameter at rest (section II)")
     cpam_rest_angle: float = _f(
-        math.radians(20.3), "deg",
+        math.radians(20.3),
+        "deg",
         "CPAM braid angle at rest (only '< 54.7 deg' reported); fitted to every reported number "
         "(plant v1, docs/calibration.md); on its lower bound, which keeps the CPAM within twice its "
-        "5 mm over the stroke", calibrate=True)
+        "5 mm over the stroke",
+        calibrate=True,
+    )
     epam_sleeve_free_length: float = _f(0.30, "cm", "EPAM sleeve length before compression (section III)")
     epam_sleeve_free_diameter: float = _f(0.010, "mm", "EPAM sleeve diameter before compression")
     epam_sleeve_free_angle: float = _f(
-        math.radians(33.18), "deg",
+        math.radians(33.18),
+        "deg",
         "EPAM free-sleeve braid angle (not reported); fitted like the CPAM's (+/- 3.2 deg; >= 26.6 deg "
         "keeps the sleeve within twice its 10 mm). Unequal angles: the paper's relations Eq. 6-7 "
-        "then hold only approximately", calibrate=True)
+        "then hold only approximately",
+        calibrate=True,
+    )
     cpam_bladder_diameter: float = _f(0.005, "mm", "D_oc of Eq. 32")
     epam_bladder_diameter: float = _f(0.010, "mm", "D_oe of Eq. 28")
-    bladder_thickness: float = _f(0.0001043, "mm", "t_b of Eq. 35 (balloon: < 1 mm) and the wall of the "
-                                  "strain energy; fitted (+/- 0.03 mm)", calibrate=True)
-    sleeve_thickness: float = _f(0.00005, "mm", "t_s of Eq. 35 (not reported); fitted, on its 0.05 mm lower bound",
-                                 calibrate=True)
+    bladder_thickness: float = _f(
+        0.0001043,
+        "mm",
+        "t_b of Eq. 35 (balloon: < 1 mm) and the wall of the strain energy; fitted (+/- 0.03 mm)",
+        calibrate=True,
+    )
+    sleeve_thickness: float = _f(
+        0.00005, "mm", "t_s of Eq. 35 (not reported); fitted, on its 0.05 mm lower bound", calibrate=True
+    )
     kr_high: float = _f(2.0e6, "kpa_per_m", "K_r for D sin(theta) < D_o/2 (Eq. 27)")
     kr_low: float = _f(5.0e5, "kpa_per_m", "K_r for D sin(theta) > D_o/2 (Eq. 27)")
     paper_length_ratio: float = _f(1.3, "", "the 1.3 of Eq. 5 that the paper form carries into Eq. 22")
@@ -69,23 +80,47 @@ class PlantParams:
     force_form: str = _f("virtual_work", "", "virtual_work (energy-consistent) | paper (Eq. 22, 15)")
     min_length: float = _f(0.15, "cm", "lower end stop: the CE-PAM's nominal length (section VIII)")
     max_length: float = _f(0.195, "cm", "upper end stop: the CPAM's rest length (section V)")
-    elastic_stiffness: float = _f(0.0, "n_per_m", "v0 bladder spring (not in the paper; bladder_model = "
-                                  "spring only; v0 fitted 166 N/m, preset balloon_v0)", calibrate=True)
+    elastic_stiffness: float = _f(
+        0.0,
+        "n_per_m",
+        "v0 bladder spring (not in the paper; bladder_model = "
+        "spring only; v0 fitted 166 N/m, preset balloon_v0)",
+        calibrate=True,
+    )
     elastic_rest_length: float = _f(0.15, "cm", "rest length of that elasticity")
     # --- plant v1 statics (docs/physics.md, "Plant v1"); preset balloon_v0 sets them to v0 ---
-    braid_tension: str = _f("tension_only", "", "bidirectional (v0: the CPAM braid also pushes) | "
-                            "tension_only (v1: a slack braid adds no force)")
-    slack_width: float = _f(1e3, "kpa", "tension_only: pressure width of the CPAM braid's smooth slack switch")
-    bladder_model: str = _f("neo_hookean", "", "spring (v0: elastic_stiffness) | neo_hookean (v1: strain "
-                            "energy of each bladder wall, Klute and Hannaford 2000)")
-    bladder_shear_modulus: float = _f(1000e3, "kpa", "neo_hookean: shear modulus mu of the bladder rubber "
-                                      "(wall thickness: bladder_thickness)", calibrate=True)
+    braid_tension: str = _f(
+        "tension_only",
+        "",
+        "bidirectional (v0: the CPAM braid also pushes) | tension_only (v1: a slack braid adds no force)",
+    )
+    slack_width: float = _f(
+        1e3, "kpa", "tension_only: pressure width of the CPAM braid's smooth slack switch"
+    )
+    bladder_model: str = _f(
+        "neo_hookean",
+        "",
+        "spring (v0: elastic_stiffness) | neo_hookean (v1: strain "
+        "energy of each bladder wall, Klute and Hannaford 2000)",
+    )
+    bladder_shear_modulus: float = _f(
+        1000e3,
+        "kpa",
+        "neo_hookean: shear modulus mu of the bladder rubber (wall thickness: bladder_thickness)",
+        calibrate=True,
+    )
     epam_bladder_length: float = _f(0.15, "cm", "EPAM bladder length, its stress-free length (section III)")
-    tube_shear_modulus: float = _f(426.9e3, "kpa", "neo_hookean: shear modulus of the rubber-tube bladders of "
-                                   "sections II, III, X (the reproduction's tube rows; preset rubber_tube)",
-                                   calibrate=True)
+    tube_shear_modulus: float = _f(
+        426.9e3,
+        "kpa",
+        "neo_hookean: shear modulus of the rubber-tube bladders of "
+        "sections II, III, X (the reproduction's tube rows; preset rubber_tube)",
+        calibrate=True,
+    )
     # --- air supply, valves, chambers (docs/model.md section 4) ---
-    supply_pressure: float = _f(250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon")
+    supply_pressure: float = _f(
+        250e3, "kpa", "supply pressure (gauge): the highest the paper used on the balloon"
+    )
     atmospheric_pressure: float = _f(units.P_ATM, "kpa_abs", "atmosphere (absolute)")
     supply_temperature: float = _f(293.15, "k", "supply air temperature")
     ambient_temperature: float = _f(293.15, "k", "ambient and wall temperature")
@@ -99,25 +134,44 @@ class PlantParams:
     onoff_conductance: float = _f(1e-9, "dm3_per_s_bar", "on/off solenoid valve sonic conductance")
     onoff_switch_time: float = _f(0.003, "ms", "on/off valve switching lag")
     friction_coefficient: float = _f(
-        2e-6, "n_per_kpa", "v1: braid-bladder dry friction, break-away force per kPa of Pc+ + Pe+ "
-        "(Maxwell-slip, Tondu and Lopez 2000; assumed, not identified); 0 = v0")
-    friction_presliding: float = _f(0.0005, "mm", "v1: presliding displacement of the slowest "
-                                    "Maxwell-slip element (the others: 0.1 and 0.4 of it)")
-    onoff_open_delay: float = _f(0.004, "ms", "v1: on/off valve dead time from the command's rising edge "
-                                 "to opening (solenoid pull-in); 0 = v0")
-    onoff_close_delay: float = _f(0.002, "ms", "v1: dead time from the falling edge to closing; a pulse "
-                                  "shorter than open - close delay passes no air. 0 = v0")
+        2e-6,
+        "n_per_kpa",
+        "v1: braid-bladder dry friction, break-away force per kPa of Pc+ + Pe+ "
+        "(Maxwell-slip, Tondu and Lopez 2000; assumed, not identified); 0 = v0",
+    )
+    friction_presliding: float = _f(
+        0.0005,
+        "mm",
+        "v1: presliding displacement of the slowest Maxwell-slip element (the others: 0.1 and 0.4 of it)",
+    )
+    onoff_open_delay: float = _f(
+        0.004,
+        "ms",
+        "v1: on/off valve dead time from the command's rising edge to opening (solenoid pull-in); 0 = v0",
+    )
+    onoff_close_delay: float = _f(
+        0.002,
+        "ms",
+        "v1: dead time from the falling edge to closing; a pulse "
+        "shorter than open - close delay passes no air. 0 = v0",
+    )
     pwm_frequency: float = _f(50.0, "hz", "PWM frequency of the on/off valves")
     dead_volume_cpam: float = _f(2e-6, "cm3", "port and tubing volume of the CPAM chamber")
     dead_volume_epam: float = _f(2e-6, "cm3", "port and tubing volume of the annulus")
-    heat_transfer: float = _f(0.02, "w_per_k", "v0: wall heat transfer hA of each chamber (used when "
-                              "heat_transfer_coefficient = 0)")
+    heat_transfer: float = _f(
+        0.02, "w_per_k", "v0: wall heat transfer hA of each chamber (used when heat_transfer_coefficient = 0)"
+    )
     heat_transfer_coefficient: float = _f(
-        10.0, "w_per_m2_k", "v1: wall heat transfer coefficient h; each chamber's hA is h times its wall "
-        "area at mid-stroke (CPAM: its bladder; annulus: the EPAM bladder and the CPAM's outside). 0 = v0")
+        10.0,
+        "w_per_m2_k",
+        "v1: wall heat transfer coefficient h; each chamber's hA is h times its wall "
+        "area at mid-stroke (CPAM: its bladder; annulus: the EPAM bladder and the CPAM's outside). 0 = v0",
+    )
     burst_pressure: float = _f(300e3, "kpa", "balloon burst pressure (gauge), about 250-300 kPa")
     polytropic_exponent: float = _f(1.4, "", "exponent of the closed-chamber stiffness (1.4 adiabatic)")
-    regulator_gain: float = _f(1.0 / 20e3, "per_kpa", "set-point mode: spool opening per kPa of pressure error")
+    regulator_gain: float = _f(
+        1.0 / 20e3, "per_kpa", "set-point mode: spool opening per kPa of pressure error"
+    )
     # --- load mechanics ---
     end_mass: float = _f(0.02, "g", "moving mass of the free end cap")
     damping: float = _f(5.0, "ns_per_m", "viscous damping of the free end")
@@ -144,18 +198,49 @@ class PlantParams:
             raise ValueError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
         if self.spool_order not in (1, 2):
             raise ValueError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
-        positive = ("cpam_rest_length", "cpam_rest_diameter", "epam_sleeve_free_length",
-                    "epam_sleeve_free_diameter", "min_length", "atmospheric_pressure",
-                    "supply_temperature", "ambient_temperature", "spool_time_constant",
-                    "onoff_switch_time", "pwm_frequency", "end_mass", "burst_pressure",
-                    "polytropic_exponent", "slack_width", "epam_bladder_length", "friction_presliding")
-        nonneg = ("bladder_thickness", "sleeve_thickness", "kr_high", "kr_low", "elastic_stiffness",
-                  "supply_pressure", "valve_conductance", "leak_conductance", "onoff_conductance",
-                  "dead_volume_cpam", "dead_volume_epam", "heat_transfer", "damping",
-                  "coulomb_friction", "regulator_gain", "spool_damping",
-                  "bladder_shear_modulus", "tube_shear_modulus",
-                  "heat_transfer_coefficient", "onoff_open_delay", "onoff_close_delay",
-                  "friction_coefficient")
+        positive = (
+            "cpam_rest_length",
+            "cpam_rest_diameter",
+            "epam_sleeve_free_length",
+            "epam_sleeve_free_diameter",
+            "min_length",
+            "atmospheric_pressure",
+            "supply_temperature",
+            "ambient_temperature",
+            "spool_time_constant",
+            "onoff_switch_time",
+            "pwm_frequency",
+            "end_mass",
+            "burst_pressure",
+            "polytropic_exponent",
+            "slack_width",
+            "epam_bladder_length",
+            "friction_presliding",
+        )
+        nonneg = (
+            "bladder_thickness",
+            "sleeve_thickness",
+            "kr_high",
+            "kr_low",
+            "elastic_stiffness",
+            "supply_pressure",
+            "valve_conductance",
+            "leak_conductance",
+            "onoff_conductance",
+            "dead_volume_cpam",
+            "dead_volume_epam",
+            "heat_transfer",
+            "damping",
+            "coulomb_friction",
+            "regulator_gain",
+            "spool_damping",
+            "bladder_shear_modulus",
+            "tube_shear_modulus",
+            "heat_transfer_coefficient",
+            "onoff_open_delay",
+            "onoff_close_delay",
+            "friction_coefficient",
+        )
         for name in positive:
             if not getattr(self, name) > 0.0:
                 raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
@@ -165,15 +250,23 @@ class PlantParams:
         for name in ("cpam_rest_angle", "epam_sleeve_free_angle"):
             a = getattr(self, name)
             if not 0.0 < a < math.pi / 2:
-                raise ValueError(f"parameter {name} must be between 0 and 90 deg, got {math.degrees(a):.3g} deg")
+                raise ValueError(
+                    f"parameter {name} must be between 0 and 90 deg, got {math.degrees(a):.3g} deg"
+                )
         if not self.cpam_rest_angle < math.acos(1 / math.sqrt(3)):
-            raise ValueError("cpam_rest_angle must be below 54.7 deg (a contractor's braid), got "
-                             f"{math.degrees(self.cpam_rest_angle):.3g} deg")
+            raise ValueError(
+                "cpam_rest_angle must be below 54.7 deg (a contractor's braid), got "
+                f"{math.degrees(self.cpam_rest_angle):.3g} deg"
+            )
         if not 0.0 <= self.valve_critical_ratio < self.laminar_ratio < 1.0:
-            raise ValueError("need 0 <= valve_critical_ratio < laminar_ratio < 1, got "
-                             f"{self.valve_critical_ratio} and {self.laminar_ratio}")
+            raise ValueError(
+                "need 0 <= valve_critical_ratio < laminar_ratio < 1, got "
+                f"{self.valve_critical_ratio} and {self.laminar_ratio}"
+            )
         if not self.min_length < self.max_length:
-            raise ValueError(f"min_length ({self.min_length} m) must be below max_length ({self.max_length} m)")
+            raise ValueError(
+                f"min_length ({self.min_length} m) must be below max_length ({self.max_length} m)"
+            )
         if self.end_mass <= 0:
             raise ValueError("end_mass must be > 0")
         self._check_geometry()
@@ -187,7 +280,8 @@ class PlantParams:
                 raise ValueError(
                     f"{name} braid thread ({b * 100:.3g} cm) is not longer than max_length "
                     f"({self.max_length * 100:.3g} cm): the braid cannot reach that length; "
-                    "change the braid angle or the end stops")
+                    "change the braid angle or the end stops"
+                )
         lengths = np.linspace(self.min_length, self.max_length, 64)
         dc = bc * np.sqrt(1 - (lengths / bc) ** 2) / (np.pi * nc)
         de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
@@ -197,7 +291,8 @@ class PlantParams:
             i = int(np.argmax(de - 2 * ta <= dc))
             raise ValueError(
                 f"the CPAM (outer diameter {dc[i] * 1e3:.3g} mm) does not fit inside the EPAM "
-                f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm")
+                f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm"
+            )
 
     # --------------------------------------------------------------- derived
     # the braid inversion is physics.muscle.braid_from_rest, run as Python here (``py_func``: the
@@ -208,8 +303,9 @@ class PlantParams:
 
     def epam_braid(self) -> tuple[float, float]:
         """Thread length b_e [m] and turns n_e of the EPAM sleeve (Eq. 11-12, free sleeve)."""
-        return braid_from_rest.py_func(self.epam_sleeve_free_length, self.epam_sleeve_free_diameter,
-                                       self.epam_sleeve_free_angle)
+        return braid_from_rest.py_func(
+            self.epam_sleeve_free_length, self.epam_sleeve_free_diameter, self.epam_sleeve_free_angle
+        )
 
     @property
     def pressure_cap(self) -> float:
@@ -234,7 +330,9 @@ class PlantParams:
         paper = self.force_form == "paper"
         p[ix.KAPPA] = self.paper_length_ratio if paper else 1.0
         p[ix.LAMBDA] = 1.0 if paper else 0.0
-        p[ix.K_EL] = self.elastic_stiffness if self.bladder_model == "spring" else 0.0  # v1: the walls' energy replaces it
+        p[ix.K_EL] = (
+            self.elastic_stiffness if self.bladder_model == "spring" else 0.0
+        )  # v1: the walls' energy replaces it
         p[ix.L_EL0] = self.elastic_rest_length
         p[ix.L_MIN] = self.min_length
         p[ix.L_MAX] = self.max_length
@@ -275,7 +373,7 @@ class PlantParams:
         fill_derived(p)
         return p
 
-    def replace(self, **changes: Any) -> "PlantParams":
+    def replace(self, **changes: Any) -> PlantParams:
         """A copy with SI-valued fields changed (validated)."""
         return dataclasses.replace(self, **changes)
 
@@ -290,8 +388,9 @@ class PlantParams:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], base: "PlantParams | None" = None,
-                  where: str = "plant parameters") -> "PlantParams":
+    def from_dict(
+        cls, data: dict[str, Any], base: PlantParams | None = None, where: str = "plant parameters"
+    ) -> PlantParams:
         """Build from unit-named keys (``supply_kpa: 300``); ``preset: NAME`` picks the base."""
         data = dict(data or {})
         if "preset" in data:
@@ -302,8 +401,10 @@ class PlantParams:
         for key, value in data.items():
             if key not in keys:
                 hint = [k for k in keys if k.split("_")[0] == key.split("_")[0]][:6]
-                raise ValueError(f"unknown key {key!r} in {where}" + (f"; did you mean one of {hint}?" if hint else
-                                 f"; valid keys: {sorted(keys)}"))
+                raise ValueError(
+                    f"unknown key {key!r} in {where}"
+                    + (f"; did you mean one of {hint}?" if hint else f"; valid keys: {sorted(keys)}")
+                )
             name = keys[key]
             f = cls.__dataclass_fields__[name]
             unit = f.metadata["unit"]
@@ -326,11 +427,15 @@ class PlantParams:
         for key, name in self.edge_keys().items():
             v = getattr(self, name)
             unit = self.__dataclass_fields__[name].metadata["unit"]
-            out[key] = v if isinstance(v, (str, int)) and not isinstance(v, float) else float(v / units.EDGE_UNITS[unit])
+            out[key] = (
+                v
+                if isinstance(v, (str, int)) and not isinstance(v, float)
+                else float(v / units.EDGE_UNITS[unit])
+            )
         return out
 
     @classmethod
-    def from_yaml(cls, path: str | Path) -> "PlantParams":
+    def from_yaml(cls, path: str | Path) -> PlantParams:
         import yaml
 
         path = Path(path)
@@ -355,8 +460,9 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
     q = p.T
     ta = q[ix.TA]
     for b_i, n_i, inv_b, qq, tbn, tan, dk, inv_pnb in (
-            (ix.BC, ix.NC, ix.INV_BC, ix.QC, ix.TBN_C, ix.TAN_C, ix.DK_C, ix.INV_PNB_C),
-            (ix.BE, ix.NE, ix.INV_BE, ix.QE, ix.TBN_E, ix.TAN_E, ix.DK_E, ix.INV_PNB_E)):
+        (ix.BC, ix.NC, ix.INV_BC, ix.QC, ix.TBN_C, ix.TAN_C, ix.DK_C, ix.INV_PNB_C),
+        (ix.BE, ix.NE, ix.INV_BE, ix.QE, ix.TBN_E, ix.TAN_E, ix.DK_E, ix.INV_PNB_E),
+    ):
         b, n = q[b_i], q[n_i]
         q[inv_b] = 1.0 / b
         q[qq] = 1.0 / (4.0 * math.pi * n * n)
@@ -365,8 +471,10 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
         q[dk] = b / (math.pi * n)
         q[inv_pnb] = 1.0 / (math.pi * n * b)
     q[ix.PTA2] = math.pi * ta * ta
-    for lref, inv_l, inv_d, el, b_i, dk, d_o in ((ix.LREF_C, ix.INV_LREF_C, ix.INV_DREF_C, ix.EL_C, ix.BC, ix.DK_C, ix.DOC),
-                                                 (ix.LREF_E, ix.INV_LREF_E, ix.INV_DREF_E, ix.EL_E, ix.BE, ix.DK_E, ix.DOE)):
+    for lref, inv_l, inv_d, el, b_i, dk, d_o in (
+        (ix.LREF_C, ix.INV_LREF_C, ix.INV_DREF_C, ix.EL_C, ix.BC, ix.DK_C, ix.DOC),
+        (ix.LREF_E, ix.INV_LREF_E, ix.INV_DREF_E, ix.EL_E, ix.BE, ix.DK_E, ix.DOE),
+    ):
         u = q[lref] / q[b_i]
         q[inv_l] = 1.0 / q[lref]
         q[inv_d] = 1.0 / (q[dk] * np.sqrt(1.0 - u * u))  # braid diameter at the bladder's rest length

@@ -31,13 +31,32 @@ from .physics import layout as ix
 from .physics.air import chamber_rates, pressure_abs, pressure_abs_inv, state_from_pressure, temperature
 from .physics.friction import friction_force, friction_slip
 from .physics.load import load_constants, load_step_k
-from .physics.muscle import chamber_volumes, closed_chamber_stiffness, cpam_terms, epam_terms, force_from_slopes
+from .physics.muscle import (
+    chamber_volumes,
+    closed_chamber_stiffness,
+    cpam_terms,
+    epam_terms,
+    force_from_slopes,
+)
 from .physics.valve import spool_step
 
 # ---------------------------------------------------------------- layouts
-STATE_FIELDS = ("length", "velocity", "mass_c", "energy_c", "mass_e", "energy_e",
-                "spool_c", "spool_e", "spool_rate_c", "spool_rate_e", "time",
-                "slip_1", "slip_2", "slip_3")
+STATE_FIELDS = (
+    "length",
+    "velocity",
+    "mass_c",
+    "energy_c",
+    "mass_e",
+    "energy_e",
+    "spool_c",
+    "spool_e",
+    "spool_rate_c",
+    "spool_rate_e",
+    "time",
+    "slip_1",
+    "slip_2",
+    "slip_3",
+)
 S_L, S_V, S_MC, S_UC, S_ME, S_UE, S_SC, S_SE, S_SRC, S_SRE, S_T, S_Z1, S_Z2, S_Z3 = range(14)
 N_STATE = 14
 N_STATE_V0 = 11  # the v0 plant's columns (the slip deflections of plant v1 stay 0 without friction)
@@ -46,18 +65,51 @@ INPUT_FIELDS = ("command_c", "command_e", "load_mass", "external_force")
 I_CMD_C, I_CMD_E, I_LOAD, I_FEXT = range(4)
 N_INPUT = 4
 
-AUX_FIELDS = ("force", "stiffness", "stiffness_closed", "pressure_c", "pressure_e",
-              "temperature_c", "temperature_e", "volume_c", "volume_e", "mass_flow_c",
-              "mass_flow_e", "air_used", "max_pressure", "burst", "end_stop", "finite")
-(A_FORCE, A_STIFF, A_STIFF_CLOSED, A_PC, A_PE, A_TC, A_TE, A_VC, A_VE, A_MDOT_C, A_MDOT_E,
- A_AIR, A_PMAX, A_BURST, A_STOP, A_FINITE) = range(16)
+AUX_FIELDS = (
+    "force",
+    "stiffness",
+    "stiffness_closed",
+    "pressure_c",
+    "pressure_e",
+    "temperature_c",
+    "temperature_e",
+    "volume_c",
+    "volume_e",
+    "mass_flow_c",
+    "mass_flow_e",
+    "air_used",
+    "max_pressure",
+    "burst",
+    "end_stop",
+    "finite",
+)
+(
+    A_FORCE,
+    A_STIFF,
+    A_STIFF_CLOSED,
+    A_PC,
+    A_PE,
+    A_TC,
+    A_TE,
+    A_VC,
+    A_VE,
+    A_MDOT_C,
+    A_MDOT_E,
+    A_AIR,
+    A_PMAX,
+    A_BURST,
+    A_STOP,
+    A_FINITE,
+) = range(16)
 N_AUX = 16
 
 PROPORTIONAL, ONOFF, PRESSURE = 0, 1, 2
 MODES = {"valve": PROPORTIONAL, "pwm": ONOFF, "pressure": PRESSURE}
 
 _MIN_MASS = 1e-15  # kg: keeps T = U/(m cv) defined if a chamber were ever emptied
-_PARALLEL_MIN_BATCH = 256  # below this thread start-up (and, on a busy 2-core VM, OpenMP wake-up) costs more than it saves
+_PARALLEL_MIN_BATCH = (
+    256  # below this thread start-up (and, on a busy 2-core VM, OpenMP wake-up) costs more than it saves
+)
 
 
 @jit_inline
@@ -121,7 +173,8 @@ def volumes_at(L, p):
 @jit_inline
 def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc, se, src, sre, valves):
     """First half of a sub-step at fixed length (``inv_vol = 1 / chamber volume``): chamber
-    pressures, spool update, valve flows and wall heat. Returns ``(pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)`` with gauge
+    pressures, spool update, valve flows and wall heat. Returns
+    ``(pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)`` with gauge
     pressures [Pa] and rates [kg/s, W]; the ``p dV`` work is left to :func:`substep_air`."""
     tau, cvalve, order, zeta, decay = valves
     patm = p[ix.P_ATM]
@@ -135,12 +188,38 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
     vk = (p[ix.B_CRIT], p[ix.INV_1MB], p[ix.R_LAM], p[ix.LAM_K])
     cleak = p[ix.C_LEAK]
-    dmc, duc, supc = chamber_rates(pca, tc, sqrt(ix.T0 / tc), 0.0, cvalve * fmax(sc, 0.0),
-                                   cvalve * fmax(-sc, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
-                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA_C])
-    dme, due, supe = chamber_rates(pea, te, sqrt(ix.T0 / te), 0.0, cvalve * fmax(se, 0.0),
-                                   cvalve * fmax(-se, 0.0) + cleak, p[ix.P_SUP], p[ix.T_SUP],
-                                   p[ix.K_SUP], patm, p[ix.T_AMB], p[ix.K_AMB], vk, p[ix.HA_E])
+    dmc, duc, supc = chamber_rates(
+        pca,
+        tc,
+        sqrt(ix.T0 / tc),
+        0.0,
+        cvalve * fmax(sc, 0.0),
+        cvalve * fmax(-sc, 0.0) + cleak,
+        p[ix.P_SUP],
+        p[ix.T_SUP],
+        p[ix.K_SUP],
+        patm,
+        p[ix.T_AMB],
+        p[ix.K_AMB],
+        vk,
+        p[ix.HA_C],
+    )
+    dme, due, supe = chamber_rates(
+        pea,
+        te,
+        sqrt(ix.T0 / te),
+        0.0,
+        cvalve * fmax(se, 0.0),
+        cvalve * fmax(-se, 0.0) + cleak,
+        p[ix.P_SUP],
+        p[ix.T_SUP],
+        p[ix.K_SUP],
+        patm,
+        p[ix.T_AMB],
+        p[ix.K_AMB],
+        vk,
+        p[ix.HA_E],
+    )
     return pc, pe, sc, se, src, sre, dmc, duc, dme, due, fmax(supc, 0.0) + fmax(supe, 0.0)
 
 
@@ -176,15 +255,39 @@ def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
 
 
 @jit_inline
-def substep_forces(mode, inp, p, t, dt, L, mc, uc, me, ue, inv_vol_c, inv_vol_e, dvc, dvac, dvae,
-                   sc, se, src, sre, valves, z1, z2, z3):
+def substep_forces(
+    mode,
+    inp,
+    p,
+    t,
+    dt,
+    L,
+    mc,
+    uc,
+    me,
+    ue,
+    inv_vol_c,
+    inv_vol_e,
+    dvc,
+    dvac,
+    dvae,
+    sc,
+    se,
+    src,
+    sre,
+    valves,
+    z1,
+    z2,
+    z3,
+):
     """Pre-mechanics half of a sub-step at length ``L`` (``inv_vol`` = 1 / chamber volumes and
     ``dvc, dvac, dvae`` the volume slopes at ``L``, from :func:`volumes_at`): pressures, spools,
     valve flows (:func:`substep_rates`) and the push force at ``L``, the friction of the slip
     deflections ``z1..z3`` included (:mod:`cepam_gym.physics.friction`; 0 in a v0 row). Returns
     ``(force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, supply_flow)``."""
     pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_rates(
-        mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc, se, src, sre, valves)
+        mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc, se, src, sre, valves
+    )
     force, _k, _g, _h = force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, 0.0, 0.0, 0.0)
     force += friction_force(p, pc, pe, z1, z2, z3)
     return force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup
@@ -249,22 +352,58 @@ def _lane_substep(W, i, mode, dt):
     """
     p = strided_tuple(W, _w(_W_P, i), _NP, BLOCK)
     inp = strided_tuple(W, _w(_W_IN, i), N_INPUT, BLOCK)
-    valves = (W[_w(_W_VALVES, i)], W[_w(_W_VALVES + 1, i)], W[_w(_W_VALVES + 2, i)],
-              W[_w(_W_VALVES + 3, i)], W[_w(_W_VALVES + 4, i)])
+    valves = (
+        W[_w(_W_VALVES, i)],
+        W[_w(_W_VALVES + 1, i)],
+        W[_w(_W_VALVES + 2, i)],
+        W[_w(_W_VALVES + 3, i)],
+        W[_w(_W_VALVES + 4, i)],
+    )
     L = W[_w(S_L, i)]
     vol_c = W[_w(_W_VC, i)]
     vol_e = W[_w(_W_VE, i)]
     mc, uc, me, ue = W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)]
     z1, z2, z3 = W[_w(S_Z1, i)], W[_w(S_Z2, i)], W[_w(S_Z3, i)]
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_forces(
-        mode, inp, p, W[_w(S_T, i)], dt, L, mc, uc, me, ue, W[_w(_W_INVC, i)], W[_w(_W_INVE, i)],
-        W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)],
-        W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves, z1, z2, z3)
-    W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)],
-                                                          pc, pe, sup, dt)
+        mode,
+        inp,
+        p,
+        W[_w(S_T, i)],
+        dt,
+        L,
+        mc,
+        uc,
+        me,
+        ue,
+        W[_w(_W_INVC, i)],
+        W[_w(_W_INVE, i)],
+        W[_w(_W_DVC, i)],
+        W[_w(_W_DVAC, i)],
+        W[_w(_W_DVAE, i)],
+        W[_w(S_SC, i)],
+        W[_w(S_SE, i)],
+        W[_w(S_SRC, i)],
+        W[_w(S_SRE, i)],
+        valves,
+        z1,
+        z2,
+        z3,
+    )
+    W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(
+        W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], pc, pe, sup, dt
+    )
     L_old = L
-    L, v, stop = load_step_k(L, W[_w(S_V, i)], force + W[_w(_W_FEXT, i)], W[_w(_W_DTM, i)],
-                             W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)], p[ix.L_MIN], p[ix.L_MAX], dt)
+    L, v, stop = load_step_k(
+        L,
+        W[_w(S_V, i)],
+        force + W[_w(_W_FEXT, i)],
+        W[_w(_W_DTM, i)],
+        W[_w(_W_DVF, i)],
+        W[_w(_W_DAMP, i)],
+        p[ix.L_MIN],
+        p[ix.L_MAX],
+        dt,
+    )
     if p[ix.FR_C] > 0.0:
         W[_w(S_Z1, i)], W[_w(S_Z2, i)], W[_w(S_Z3, i)] = friction_slip(p, L - L_old, z1, z2, z3)
     vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)
@@ -275,7 +414,12 @@ def _lane_substep(W, i, mode, dt):
     W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)] = mc, uc, me, ue
     W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)] = sc, se, src, sre
     W[_w(S_T, i)] += dt
-    W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = vol_c_new, vol_e_new, inv_c, inv_e
+    W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = (
+        vol_c_new,
+        vol_e_new,
+        inv_c,
+        inv_e,
+    )
     W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
     W[_w(_W_DMC, i)], W[_w(_W_DME, i)] = dmc, dme
 
@@ -321,9 +465,16 @@ def advance_block(state, inputs, params, lo, n, mode, dt, n_sub, out, aux, W):
         mass = p[ix.M_END] + inputs[r, I_LOAD]
         # gravity and external force, down (extension) positive
         W[_w(_W_FEXT, i)] = mass * p[ix.GRAV] + inputs[r, I_FEXT]
-        W[_w(_W_DTM, i)], W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)] = load_constants(mass, p[ix.DAMP], p[ix.F_COUL], dt)
+        W[_w(_W_DTM, i)], W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)] = load_constants(
+            mass, p[ix.DAMP], p[ix.F_COUL], dt
+        )
         vol_c, vol_e, dvc, dvac, dvae = volumes_at(state[r, S_L], p)
-        W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = vol_c, vol_e, 1.0 / vol_c, 1.0 / vol_e
+        W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = (
+            vol_c,
+            vol_e,
+            1.0 / vol_c,
+            1.0 / vol_e,
+        )
         W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
         W[_w(_W_AIR, i)] = 0.0
         W[_w(_W_PMAX, i)] = -np.inf
@@ -338,8 +489,16 @@ def advance_block(state, inputs, params, lo, n, mode, dt, n_sub, out, aux, W):
         a = aux[r]
         for f in range(N_STATE):
             x[f] = W[_w(f, i)]
-        end_of_step(x, p, W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], W[_w(_W_DMC, i)], W[_w(_W_DME, i)],
-                    W[_w(_W_STOP, i)], a)
+        end_of_step(
+            x,
+            p,
+            W[_w(_W_PMAX, i)],
+            W[_w(_W_AIR, i)],
+            W[_w(_W_DMC, i)],
+            W[_w(_W_DME, i)],
+            W[_w(_W_STOP, i)],
+            a,
+        )
 
 
 @jit
@@ -382,12 +541,14 @@ def _step_parallel(state, inputs, params, mode, dt, n_sub, out, aux):
     n = state.shape[0]
     for b in prange((n + BLOCK - 1) // BLOCK):
         lo = b * BLOCK
-        advance_block(state, inputs, params, lo, min(BLOCK, n - lo), mode, dt, n_sub, out, aux,
-                      np.empty(W_SIZE))
+        advance_block(
+            state, inputs, params, lo, min(BLOCK, n - lo), mode, dt, n_sub, out, aux, np.empty(W_SIZE)
+        )
 
 
-def step(state, inputs, params, mode: int = PROPORTIONAL, dt: float = 5e-4, n_sub: int = 40,
-         out=None, aux=None):
+def step(
+    state, inputs, params, mode: int = PROPORTIONAL, dt: float = 5e-4, n_sub: int = 40, out=None, aux=None
+):
     """Advance a batch of plants by ``n_sub`` sub-steps of ``dt`` s; returns ``(new_state, aux)``.
 
     ``state`` (N, N_STATE), ``inputs`` (N, N_INPUT), ``params`` (N or 1, N_PARAMS). Pass ``out`` and
@@ -419,8 +580,11 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
     Arguments broadcast over the batch given by ``params`` (N or 1 rows) and the arguments.
     """
     params = np.atleast_2d(np.asarray(params, dtype=float))
-    L, pc, pe = np.broadcast_arrays(np.atleast_1d(length).astype(float), np.atleast_1d(pressure_c).astype(float),
-                                    np.atleast_1d(pressure_e).astype(float))
+    L, pc, pe = np.broadcast_arrays(
+        np.atleast_1d(length).astype(float),
+        np.atleast_1d(pressure_c).astype(float),
+        np.atleast_1d(pressure_e).astype(float),
+    )
     n = max(L.shape[0], params.shape[0])
     L, pc, pe = (np.broadcast_to(a, (n,)) for a in (L, pc, pe))
     temp = np.broadcast_to(params[:, ix.T_AMB] if temperature is None else np.atleast_1d(temperature), (n,))
@@ -479,7 +643,8 @@ def check_stability(params, dt: float, limit: float = 1.2) -> None:
             f"sub-step {dt * 1e3:.3g} ms is too long for the valve conductance, heat transfer and "
             f"chamber volume (stability number {worst:.2f} > {limit}): use sub_dt <= "
             f"{dt * limit / worst * 1e3:.3g} ms, a smaller valve_conductance or heat_transfer, "
-            "or a larger dead volume")
+            "or a larger dead volume"
+        )
 
 
 def measure(state, params):

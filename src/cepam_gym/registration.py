@@ -38,5 +38,9 @@ def register_envs() -> None:
         )
     for env_id, entry_point in MUJOCO_ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS,
-                         kwargs={"plant": V0_PLANT})
+            gym.register(
+                id=env_id,
+                entry_point=entry_point,
+                max_episode_steps=MAX_EPISODE_STEPS,
+                kwargs={"plant": V0_PLANT},
+            )

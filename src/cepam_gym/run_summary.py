@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import platform
 import sys
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 _PACKAGES = ("cepam-gym", "numpy", "numba", "scipy", "gymnasium", "stable-baselines3", "torch", "mujoco")
@@ -31,35 +31,63 @@ def _rel(path: Path, out: Path) -> str:
         return str(path)
 
 
-def write_summary(out: Path, argv: list[str], started: datetime, steps: list[tuple[str, str, Path | None]],
-                  run_dir: Path | None, table: Path | None) -> Path:
+def write_summary(
+    out: Path,
+    argv: list[str],
+    started: datetime,
+    steps: list[tuple[str, str, Path | None]],
+    run_dir: Path | None,
+    table: Path | None,
+) -> Path:
     """``steps``: (what, status, output path) per step of the job, in order."""
     out = Path(out)
-    ended = datetime.now(timezone.utc)
-    lines = ["# cepam-gym run: summary", "",
-             f"`cepam-gym run {' '.join(argv)}` ran from {started.isoformat(timespec='seconds')} to "
-             f"{ended.isoformat(timespec='seconds')} ({(ended - started).total_seconds():.0f} s), "
-             f"in `{Path.cwd()}` on {platform.node() or 'this machine'} ({platform.platform()}).", "",
-             "Versions: " + ", ".join(f"{k} {v}" for k, v in versions().items()) + ".", "",
-             "## What ran and where its output is", "", "| step | status | output |", "|---|---|---|"]
+    ended = datetime.now(UTC)
+    lines = [
+        "# cepam-gym run: summary",
+        "",
+        f"`cepam-gym run {' '.join(argv)}` ran from {started.isoformat(timespec='seconds')} to "
+        f"{ended.isoformat(timespec='seconds')} ({(ended - started).total_seconds():.0f} s), "
+        f"in `{Path.cwd()}` on {platform.node() or 'this machine'} ({platform.platform()}).",
+        "",
+        "Versions: " + ", ".join(f"{k} {v}" for k, v in versions().items()) + ".",
+        "",
+        "## What ran and where its output is",
+        "",
+        "| step | status | output |",
+        "|---|---|---|",
+    ]
     for what, status, path in steps:
         where = "-" if path is None else f"`{_rel(path, out)}`"
         lines.append(f"| {what} | {status} | {where} |")
     if run_dir is not None and (run_dir / "run.json").is_file():
         run = json.loads((run_dir / "run.json").read_text())
         last = run.get("sessions", [{}])[-1]
-        lines += ["", "## Training", "",
-                  f"Status **{run.get('status')}** at step {last.get('end_step')} of "
-                  f"{last.get('total_timesteps', '?')} ({last.get('wall_s', '?')} s of training); "
-                  f"seed {run.get('seed')}. Run directory `{_rel(run_dir, out)}`: `config.yaml` (reproduces the "
-                  "run), `run.json`, `model.zip` (final), `best_model.zip` (best periodic evaluation), "
-                  "`checkpoints/`, `evaluations.json`, `tb/` and `logs/` (TensorBoard, CSV)."]
+        lines += [
+            "",
+            "## Training",
+            "",
+            f"Status **{run.get('status')}** at step {last.get('end_step')} of "
+            f"{last.get('total_timesteps', '?')} ({last.get('wall_s', '?')} s of training); "
+            f"seed {run.get('seed')}. Run directory `{_rel(run_dir, out)}`: `config.yaml` (reproduces the "
+            "run), `run.json`, `model.zip` (final), `best_model.zip` (best periodic evaluation), "
+            "`checkpoints/`, `evaluations.json`, `tb/` and `logs/` (TensorBoard, CSV).",
+        ]
         if run.get("status") == "stopped_by_time_limit":
-            lines.append("The time limit of the config stopped training early: the scores below are of a "
-                         f"shorter run; continue with `cepam-gym train --out {run_dir} --resume`.")
+            lines.append(
+                "The time limit of the config stopped training early: the scores below are of a "
+                f"shorter run; continue with `cepam-gym train --out {run_dir} --resume`."
+            )
     if table is not None and table.is_file():
-        lines += ["", "## Scores (lower is better)", "", f"From `{_rel(table, out)}`:", "", "```",
-                  table.read_text().rstrip(), "```"]
+        lines += [
+            "",
+            "## Scores (lower is better)",
+            "",
+            f"From `{_rel(table, out)}`:",
+            "",
+            "```",
+            table.read_text().rstrip(),
+            "```",
+        ]
     path = out / "summary.md"
     path.write_text("\n".join(lines) + "\n")
     return path

@@ -32,12 +32,21 @@ def add_normalized(rows: list[dict]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="cepam-gym bench", description=__doc__)
-    ap.add_argument("--controller", action="append", default=None,
-                    help=f"one of {', '.join(controller_names())}, or a trained agent's run directory "
-                         "(repeatable)")
-    ap.add_argument("--suite", action="append", default=None,
-                    help=f"one of {list(SUITES)} or 'all' (repeatable; default all)")
-    ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)")
+    ap.add_argument(
+        "--controller",
+        action="append",
+        default=None,
+        help=f"one of {', '.join(controller_names())}, or a trained agent's run directory (repeatable)",
+    )
+    ap.add_argument(
+        "--suite",
+        action="append",
+        default=None,
+        help=f"one of {list(SUITES)} or 'all' (repeatable; default all)",
+    )
+    ap.add_argument(
+        "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
+    )
     ap.add_argument("--json", action="store_true", help="print one JSON object per suite and controller")
     ap.add_argument("--out-dir", default="runs/bench", help="where the table and plots go (without --json)")
     args = ap.parse_args(argv)

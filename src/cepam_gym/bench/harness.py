@@ -24,8 +24,15 @@ def _env_facts(venv) -> tuple[int, float, bool]:
     return int(n_steps), float(dt), bool(getattr(task, "track_stiffness", True))
 
 
-def record(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int,
-           max_steps: int | None = None, spec: TraceSpec = RIG) -> tuple[dict, bool]:
+def record(
+    make_policy,
+    env_id: str,
+    env_kwargs: dict,
+    episodes: int,
+    seed: int,
+    max_steps: int | None = None,
+    spec: TraceSpec = RIG,
+) -> tuple[dict, bool]:
     """Run the policy ``make_policy(venv)`` builds (an object with ``reset``/``act``) on
     ``episodes`` seeded episodes in one batched env; return ``(traces, tracks_stiffness)`` with
     the traces :func:`~cepam_gym.bench.metrics.score_traces` scores; ``spec.info_keys`` says which
@@ -59,14 +66,20 @@ def record(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int,
     return tr, track_k
 
 
-def run_suite(controller_spec: str, suite: Suite | str, episodes: int | None = None,
-              max_steps: int | None = None) -> tuple[dict, dict]:
+def run_suite(
+    controller_spec: str, suite: Suite | str, episodes: int | None = None, max_steps: int | None = None
+) -> tuple[dict, dict]:
     """Run ``episodes`` seeded episodes of a suite under the controller ``controller_spec`` names
     (:func:`cepam_gym.control.make_controller`); return ``(metrics, traces)``."""
     suite = SUITES[suite] if isinstance(suite, str) else suite
-    tr, track_k = record(lambda venv: make_controller(controller_spec, venv), suite.env_id,
-                         suite.env_kwargs, episodes or suite.episodes, suite.seed, max_steps,
-                         suite.traces)
-    metrics = {"suite": suite.name, "controller": controller_spec,
-               **score_traces(tr, track_k, suite.traces)}
+    tr, track_k = record(
+        lambda venv: make_controller(controller_spec, venv),
+        suite.env_id,
+        suite.env_kwargs,
+        episodes or suite.episodes,
+        suite.seed,
+        max_steps,
+        suite.traces,
+    )
+    metrics = {"suite": suite.name, "controller": controller_spec, **score_traces(tr, track_k, suite.traces)}
     return metrics, tr

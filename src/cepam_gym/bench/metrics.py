@@ -36,8 +36,16 @@ LENGTH_BAND = 1e-3  # m: "settled" means within 1 mm ...
 STIFFNESS_BAND = 0.05  # ... and within 5 % of the stiffness target
 MIN_STEP = 2e-3  # m: overshoot is measured on target changes of at least 2 mm
 
-_TRACE_COLUMNS = ("length", "target_length", "stiffness", "target_stiffness", "pressure_c",
-                  "pressure_e", "load_mass", "air_used")
+_TRACE_COLUMNS = (
+    "length",
+    "target_length",
+    "stiffness",
+    "target_stiffness",
+    "pressure_c",
+    "pressure_e",
+    "load_mass",
+    "air_used",
+)
 
 
 @dataclass(frozen=True)
@@ -73,13 +81,26 @@ RIG = TraceSpec()
 # the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
 RIG_V1 = TraceSpec(allowance_s=0.5)
 JOINT = TraceSpec(
-    quantity="angle", unit="deg", scale=180.0 / np.pi, band=np.deg2rad(2.0), min_step=np.deg2rad(5.0),
+    quantity="angle",
+    unit="deg",
+    scale=180.0 / np.pi,
+    band=np.deg2rad(2.0),
+    min_step=np.deg2rad(5.0),
     score_norm=10.0,
-    info_keys={"length": "angle", "target_length": "target_angle", "stiffness": "joint_stiffness",
-               "target_stiffness": "target_stiffness", "pressure_c": "pressure_c",
-               "pressure_e": "pressure_e", "load_mass": "external_torque", "air_used": "air_used"},
-    plot_quantity=("angle", "deg", 180.0 / np.pi), plot_stiffness=("joint stiffness", "N m/rad", 1.0),
-    plot_load=("external torque", "mN m", 1000.0))
+    info_keys={
+        "length": "angle",
+        "target_length": "target_angle",
+        "stiffness": "joint_stiffness",
+        "target_stiffness": "target_stiffness",
+        "pressure_c": "pressure_c",
+        "pressure_e": "pressure_e",
+        "load_mass": "external_torque",
+        "air_used": "air_used",
+    },
+    plot_quantity=("angle", "deg", 180.0 / np.pi),
+    plot_stiffness=("joint stiffness", "N m/rad", 1.0),
+    plot_load=("external torque", "mN m", 1000.0),
+)
 
 
 def _rms(x, mask):
@@ -140,8 +161,10 @@ def normalized_score(score: float, zero_score: float, oracle_score: float) -> fl
     raw scores are better; a controller better than the oracle scores above 100)."""
     span = zero_score - oracle_score
     if not (np.isfinite(span) and span > 0):
-        raise ValueError(f"normalization needs the zero controller ({zero_score}) to score worse "
-                         f"(higher) than the oracle ({oracle_score})")
+        raise ValueError(
+            f"normalization needs the zero controller ({zero_score}) to score worse "
+            f"(higher) than the oracle ({oracle_score})"
+        )
     return float(100.0 * (zero_score - score) / span)
 
 
@@ -171,16 +194,14 @@ def settling_and_overshoot(tr: dict, track_stiffness: bool, spec: TraceSpec = RI
             if abs(step) >= spec.min_step:
                 beyond = (tr["length"][s:e, n] - tl[s]) * np.sign(step)
                 over.append(100.0 * max(beyond.max(), 0.0) / abs(step))
-    return (float(np.mean(settle)) if settle else float("nan"),
-            float(np.mean(over)) if over else 0.0)
+    return (float(np.mean(settle)) if settle else float("nan"), float(np.mean(over)) if over else 0.0)
 
 
 def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) -> dict:
     alive = tr["alive"]
     tracked = tracking_mask(tr, track_stiffness, spec)
     e_len = tr["length"] - tr["target_length"]
-    out = {"episodes": int(alive.shape[1]),
-           spec.rmse_key: spec.scale * _rms(e_len, tracked)}
+    out = {"episodes": int(alive.shape[1]), spec.rmse_key: spec.scale * _rms(e_len, tracked)}
     if track_stiffness:
         rel = (tr["stiffness"] - tr["target_stiffness"]) / tr["target_stiffness"]
         out["stiffness_rmse_pct"] = 100.0 * _rms(rel, tracked)

@@ -6,17 +6,27 @@ from pathlib import Path
 
 import numpy as np
 
-COLUMNS = (("length_rmse_mm", "len RMSE mm"), ("angle_rmse_deg", "ang RMS deg"),
-           ("stiffness_rmse_pct", "K RMSE %"),
-           ("settling_time_s", "settle s"), ("overshoot_pct", "overshoot %"),
-           ("cvar10_return", "CVaR10 ret"), ("failure_rate", "fail"),
-           ("air_g_per_episode", "air g/ep"), ("score", "score"), ("normalized", "normalized"))
+COLUMNS = (
+    ("length_rmse_mm", "len RMSE mm"),
+    ("angle_rmse_deg", "ang RMS deg"),
+    ("stiffness_rmse_pct", "K RMSE %"),
+    ("settling_time_s", "settle s"),
+    ("overshoot_pct", "overshoot %"),
+    ("cvar10_return", "CVaR10 ret"),
+    ("failure_rate", "fail"),
+    ("air_g_per_episode", "air g/ep"),
+    ("score", "score"),
+    ("normalized", "normalized"),
+)
 
 
 def table(rows: list[dict]) -> str:
     # the tracking-error columns only when some row has them (rig suites: mm, joint suite: deg)
-    cols = [(k, t) for k, t in COLUMNS
-            if k not in ("length_rmse_mm", "angle_rmse_deg", "normalized") or any(k in r for r in rows)]
+    cols = [
+        (k, t)
+        for k, t in COLUMNS
+        if k not in ("length_rmse_mm", "angle_rmse_deg", "normalized") or any(k in r for r in rows)
+    ]
     head = f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in cols)
     lines = [head, "-" * len(head)]
     for r in rows:
@@ -72,7 +82,10 @@ def plot_bars(rows: list[dict], path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(8, 4))
     w = 0.8 / max(len(ctls), 1)
     for j, c in enumerate(ctls):
-        vals = [next((r["score"] for r in rows if r["suite"] == s and str(r["controller"]) == c), np.nan) for s in suites]
+        vals = [
+            next((r["score"] for r in rows if r["suite"] == s and str(r["controller"]) == c), np.nan)
+            for s in suites
+        ]
         ax.bar(np.arange(len(suites)) + j * w, vals, w, label=c)
     ax.set_xticks(np.arange(len(suites)) + 0.4 - w / 2, suites)
     ax.set_ylabel("combined score (lower is better)")

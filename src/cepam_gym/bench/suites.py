@@ -67,38 +67,108 @@ class Suite:
         return REFERENCE_SCORES.get(self.name)
 
 
-SUITES: dict[str, Suite] = {s.name: s for s in (
-    Suite("nominal", "cepam_gym/CEPAM-v0", {"task_options": {"load_kinds": ["step"]}}, seed=1000,
-          doc="default parameters, no noise, load steps"),
-    Suite("randomized", "cepam_gym/CEPAM-v0",
-          {"randomize": RANDOMIZE, "supply_drift_kpa": 5.0,
-           "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0}}, seed=2000,
-          doc="domain-randomized plant, sensor noise, supply drift, all load profiles"),
-    Suite("stiffness-at-fixed-length", "cepam_gym/CEPAMStiffness-v0", {}, seed=3000,
-          doc="paper section XII: 17.5 cm, changing stiffness"),
-    Suite("stress", "cepam_gym/CEPAM-v0",
-          {"task_options": {"load_range": [0.0, 0.45], "load_kinds": ["step", "random"],
-                            "pressure_margin": 0.95, "segment_duration": [1.0, 2.0]}}, seed=4000,
-          doc="large load steps, near-limit targets, fast target changes"),
-    Suite("joint", "cepam_gym/CEPAMJoint-v0", {}, seed=5000, traces=JOINT, extra="mujoco",
-          doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques"),
-    # v1: planned references announced 0.2 s ahead; the headline error leaves out 0.5 s after a
-    # jump of the target (RIG_V1); seeds fixed per suite
-    Suite("nominal-v1", "cepam_gym/CEPAM-v1", {"task_options": {"load_kinds": ["step"]}}, seed=11000,
-          traces=RIG_V1, doc="v1 references with preview, default parameters, no noise, load steps"),
-    Suite("randomized-v1", "cepam_gym/CEPAM-v1",
-          {"randomize": RANDOMIZE_V1, "supply_drift_kpa": 5.0, "sensor_noise": NOISE}, seed=12000,
-          traces=RIG_V1, doc="v1 references with preview, domain-randomized plant, sensor noise, supply drift"),
-    Suite("tracking-v1", "cepam_gym/CEPAM-v1",
-          {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
-          seed=13000, traces=RIG_V1, doc="smooth references only (sines, chirps, minimum-jerk moves), constant load"),
-    Suite("stiffness-at-fixed-length-v1", "cepam_gym/CEPAMStiffness-v1", {}, seed=14000, traces=RIG_V1,
-          doc="paper section XII: 17.5 cm, stiffness ramps and moves"),
-    Suite("stress-v1", "cepam_gym/CEPAM-v1",
-          {"task_options": {"load_range": [0.0, 0.45], "load_kinds": ["step", "random"],
-                            "pressure_margin": 0.95, "segment_duration": [1.0, 2.0]}}, seed=15000,
-          traces=RIG_V1, doc="v1 with large load steps, near-limit targets, fast changes"),
-)}
+SUITES: dict[str, Suite] = {
+    s.name: s
+    for s in (
+        Suite(
+            "nominal",
+            "cepam_gym/CEPAM-v0",
+            {"task_options": {"load_kinds": ["step"]}},
+            seed=1000,
+            doc="default parameters, no noise, load steps",
+        ),
+        Suite(
+            "randomized",
+            "cepam_gym/CEPAM-v0",
+            {
+                "randomize": RANDOMIZE,
+                "supply_drift_kpa": 5.0,
+                "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0},
+            },
+            seed=2000,
+            doc="domain-randomized plant, sensor noise, supply drift, all load profiles",
+        ),
+        Suite(
+            "stiffness-at-fixed-length",
+            "cepam_gym/CEPAMStiffness-v0",
+            {},
+            seed=3000,
+            doc="paper section XII: 17.5 cm, changing stiffness",
+        ),
+        Suite(
+            "stress",
+            "cepam_gym/CEPAM-v0",
+            {
+                "task_options": {
+                    "load_range": [0.0, 0.45],
+                    "load_kinds": ["step", "random"],
+                    "pressure_margin": 0.95,
+                    "segment_duration": [1.0, 2.0],
+                }
+            },
+            seed=4000,
+            doc="large load steps, near-limit targets, fast target changes",
+        ),
+        Suite(
+            "joint",
+            "cepam_gym/CEPAMJoint-v0",
+            {},
+            seed=5000,
+            traces=JOINT,
+            extra="mujoco",
+            doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques",
+        ),
+        # v1: planned references announced 0.2 s ahead; the headline error leaves out 0.5 s after a
+        # jump of the target (RIG_V1); seeds fixed per suite
+        Suite(
+            "nominal-v1",
+            "cepam_gym/CEPAM-v1",
+            {"task_options": {"load_kinds": ["step"]}},
+            seed=11000,
+            traces=RIG_V1,
+            doc="v1 references with preview, default parameters, no noise, load steps",
+        ),
+        Suite(
+            "randomized-v1",
+            "cepam_gym/CEPAM-v1",
+            {"randomize": RANDOMIZE_V1, "supply_drift_kpa": 5.0, "sensor_noise": NOISE},
+            seed=12000,
+            traces=RIG_V1,
+            doc="v1 references with preview, domain-randomized plant, sensor noise, supply drift",
+        ),
+        Suite(
+            "tracking-v1",
+            "cepam_gym/CEPAM-v1",
+            {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
+            seed=13000,
+            traces=RIG_V1,
+            doc="smooth references only (sines, chirps, minimum-jerk moves), constant load",
+        ),
+        Suite(
+            "stiffness-at-fixed-length-v1",
+            "cepam_gym/CEPAMStiffness-v1",
+            {},
+            seed=14000,
+            traces=RIG_V1,
+            doc="paper section XII: 17.5 cm, stiffness ramps and moves",
+        ),
+        Suite(
+            "stress-v1",
+            "cepam_gym/CEPAM-v1",
+            {
+                "task_options": {
+                    "load_range": [0.0, 0.45],
+                    "load_kinds": ["step", "random"],
+                    "pressure_margin": 0.95,
+                    "segment_duration": [1.0, 2.0],
+                }
+            },
+            seed=15000,
+            traces=RIG_V1,
+            doc="v1 with large load steps, near-limit targets, fast changes",
+        ),
+    )
+}
 
 
 def available(name: str) -> bool:
@@ -113,5 +183,4 @@ def available(name: str) -> bool:
 # measured with `cepam-gym bench --controller zero --controller oracle --suite NAME` (the ends of
 # the normalized score: 0 and 100). Re-measure when a suite, the plant or the oracle changes; a
 # test checks them on a few episodes. The joint suite has none (the oracle drives the rig envs).
-REFERENCE_SCORES: dict[str, tuple[float, float]] = {
-}
+REFERENCE_SCORES: dict[str, tuple[float, float]] = {}

@@ -39,13 +39,22 @@ class InverseStaticController:
     observations. Build it from an env (single, vector or SB3 adapter) so it knows the
     observation scaling, the action mode and the nominal parameters."""
 
-    def __init__(self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5,
-                 load_filter_s: float = 0.15):
+    def __init__(
+        self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5, load_filter_s: float = 0.15
+    ):
         core = core_of(env)
         self.task = core.task
         self.layout = core.obs_layout
-        self._configure(core.nominal, core.nominal.to_array(), core.action_mode, core.control_dt,
-                        gap_fraction, kp, ki, load_filter_s)
+        self._configure(
+            core.nominal,
+            core.nominal.to_array(),
+            core.action_mode,
+            core.control_dt,
+            gap_fraction,
+            kp,
+            ki,
+            load_filter_s,
+        )
 
     def _configure(self, nominal, params_row, mode, dt, gap_fraction, kp, ki, load_filter_s) -> None:
         """Plant model, loop gains and filter shared by every controller built on this one."""
@@ -121,7 +130,9 @@ class InverseStaticController:
         u = ff + self.kp * err / scale + self.ki * integral
         saturated = np.abs(u) >= 1.0
         # conditional integration: integrate only while not pushing further into saturation
-        integral = np.where(saturated & (np.sign(err) == np.sign(u)), integral, integral + err / scale * self.dt)
+        integral = np.where(
+            saturated & (np.sign(err) == np.sign(u)), integral, integral + err / scale * self.dt
+        )
         return np.clip(u, -1.0, 1.0), integral
 
     # --------------------------------------------------------------------- act

@@ -31,15 +31,17 @@ class JointInverseStaticController(InverseStaticController):
        flow plus PI), or the set-points themselves in ``"pressure"`` mode.
     """
 
-    def __init__(self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5,
-                 load_filter_s: float = 0.15):
+    def __init__(
+        self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5, load_filter_s: float = 0.15
+    ):
         j = find_joint_env(env)
         self.geometry = j.geometry
         self.setpoint_max = j.setpoint_max
         self.layout = j.obs_layout
         self.task = j.task.muscle_spec(j.geometry, j.nominal_row)
-        self._configure(j.nominal, j.nominal_row.copy(), j.action_mode, j.control_dt,
-                        gap_fraction, kp, ki, load_filter_s)
+        self._configure(
+            j.nominal, j.nominal_row.copy(), j.action_mode, j.control_dt, gap_fraction, kp, ki, load_filter_s
+        )
 
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
@@ -47,7 +49,7 @@ class JointInverseStaticController(InverseStaticController):
         p, g = self.params, self.geometry
         v = self.layout.decode(obs)
         th, pc, pe, th_t = v["angle"], v["pressure_c"], v["pressure_e"], v["target_angle"]
-        k_t = v["target_stiffness"] / g.lever_arm ** 2
+        k_t = v["target_stiffness"] / g.lever_arm**2
         L = g.length(th, p)
         r, grav = g.lever_arm, p[ix.GRAV]
         tau_now = -r * (api.force(L, pc, pe, p) + p[ix.M_END] * grav) - g.gravity_torque(th, grav)

@@ -43,9 +43,14 @@ class ModelPredictiveController(InverseStaticController):
 
             cfg = dataclasses.replace(cfg, **overrides)
         self.cfg = cfg
-        self.planner = CEMPlanner(cfg, core.mode, core.sub_dt, core.n_sub,
-                                  float(core.task_vec[tk.T_SETPOINT_MAX]),
-                                  track_stiffness=self.task.track_stiffness)
+        self.planner = CEMPlanner(
+            cfg,
+            core.mode,
+            core.sub_dt,
+            core.n_sub,
+            float(core.task_vec[tk.T_SETPOINT_MAX]),
+            track_stiffness=self.task.track_stiffness,
+        )
         self._mode_id = core.mode
 
     def reset(self, indices=None) -> None:
@@ -56,8 +61,12 @@ class ModelPredictiveController(InverseStaticController):
     def estimate_state(self, obs: np.ndarray, L, pc, pe) -> np.ndarray:
         """Plant states (N, N_STATE) of the nominal model from measured quantities."""
         p = self.params
-        x = pl.initial_state(p[None], np.clip(L, p[ix.L_MIN], p[ix.L_MAX]), np.maximum(pc, -0.9 * p[ix.P_ATM]),
-                             np.maximum(pe, -0.9 * p[ix.P_ATM]))
+        x = pl.initial_state(
+            p[None],
+            np.clip(L, p[ix.L_MIN], p[ix.L_MAX]),
+            np.maximum(pc, -0.9 * p[ix.P_ATM]),
+            np.maximum(pe, -0.9 * p[ix.P_ATM]),
+        )
         x[:, pl.S_V] = self.layout.value(obs, "velocity")
         if self._mode_id == pl.PROPORTIONAL:
             x[:, pl.S_SC] = self.layout.value(obs, "previous_action_c")
@@ -75,6 +84,11 @@ class ModelPredictiveController(InverseStaticController):
         h = self.cfg.horizon_steps
         K_ref = K_t if K_t is not None else np.full_like(L_t, 1000.0)
         ones = np.ones((obs.shape[0], h))
-        a = self.planner.plan(self.estimate_state(obs, L, pc, pe), p[None], L_t[:, None] * ones,
-                              K_ref[:, None] * ones, load[:, None] * ones).astype(np.float32)
+        a = self.planner.plan(
+            self.estimate_state(obs, L, pc, pe),
+            p[None],
+            L_t[:, None] * ones,
+            K_ref[:, None] * ones,
+            load[:, None] * ones,
+        ).astype(np.float32)
         return a[0] if single else a

@@ -36,9 +36,14 @@ class OracleController:
 
             cfg = dataclasses.replace(cfg, **overrides)
         self.cfg = cfg
-        self.planner = CEMPlanner(cfg, core.mode, core.sub_dt, core.n_sub,
-                                  float(core.task_vec[tk.T_SETPOINT_MAX]),
-                                  track_stiffness=core.task.track_stiffness)
+        self.planner = CEMPlanner(
+            cfg,
+            core.mode,
+            core.sub_dt,
+            core.n_sub,
+            float(core.task_vec[tk.T_SETPOINT_MAX]),
+            track_stiffness=core.task.track_stiffness,
+        )
 
     def reset(self, indices=None) -> None:
         self.planner.reset(indices)

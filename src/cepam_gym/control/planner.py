@@ -51,7 +51,9 @@ class CEMConfig:
             if int(v) != v or v < 1:
                 raise ValueError(f"CEMConfig.{name} must be a positive integer, got {v!r}")
         if self.elites > self.population:
-            raise ValueError(f"CEMConfig.elites ({self.elites}) must not exceed population ({self.population})")
+            raise ValueError(
+                f"CEMConfig.elites ({self.elites}) must not exceed population ({self.population})"
+            )
         if not (0 < self.min_std <= self.init_std):
             raise ValueError(f"CEMConfig needs 0 < min_std <= init_std, got {self.min_std}, {self.init_std}")
 
@@ -62,8 +64,15 @@ class CEMPlanner:
     ``mode``, ``sub_dt``, ``n_sub``: the env's valve mode and integration; ``setpoint_max`` [Pa]:
     the pressure a command of +1 means in ``pressure`` mode (as the env maps it)."""
 
-    def __init__(self, cfg: CEMConfig, mode: int, sub_dt: float, n_sub: int, setpoint_max: float,
-                 track_stiffness: bool = True):
+    def __init__(
+        self,
+        cfg: CEMConfig,
+        mode: int,
+        sub_dt: float,
+        n_sub: int,
+        setpoint_max: float,
+        track_stiffness: bool = True,
+    ):
         self.cfg = cfg
         self.mode, self.sub_dt, self.n_sub = int(mode), float(sub_dt), int(n_sub)
         self.setpoint_max = float(setpoint_max)
@@ -126,7 +135,7 @@ class CEMPlanner:
                 samples[:, 1] = 0.0  # ... and so are closed valves (hold the air as it is)
             cost = self.rollout_cost(xs, prow, samples.reshape(n * p, h, 2), tl, tk, ld).reshape(n, p)
             order = np.argsort(cost, axis=1)
-            chosen = np.take_along_axis(samples, order[:, :cfg.elites, None, None], axis=1)  # (N, E, H, 2)
+            chosen = np.take_along_axis(samples, order[:, : cfg.elites, None, None], axis=1)  # (N, E, H, 2)
             best = chosen[:, 0]
             mean = chosen.mean(axis=1)
             std = np.maximum(chosen.std(axis=1).mean(axis=1, keepdims=True), cfg.min_std)

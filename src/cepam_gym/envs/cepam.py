@@ -16,17 +16,41 @@ from ..tasks import kernel as tk
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 
-INFO_KEYS = ("length", "velocity", "stiffness", "stiffness_closed", "force", "pressure_c",
-             "pressure_e", "temperature_c", "temperature_e", "air_used", "load_mass",
-             "target_length", "target_stiffness")
+INFO_KEYS = (
+    "length",
+    "velocity",
+    "stiffness",
+    "stiffness_closed",
+    "force",
+    "pressure_c",
+    "pressure_e",
+    "temperature_c",
+    "temperature_e",
+    "air_used",
+    "load_mass",
+    "target_length",
+    "target_stiffness",
+)
 # info keys read from aux, in the order tasks.kernel.env_step_single writes them
-_AUX_INFO = dict(zip(("stiffness", "stiffness_closed", "force", "pressure_c", "pressure_e",
-                      "temperature_c", "temperature_e", "air_used"), tk.AUX_INFO))
+_AUX_INFO = dict(
+    zip(
+        (
+            "stiffness",
+            "stiffness_closed",
+            "force",
+            "pressure_c",
+            "pressure_e",
+            "temperature_c",
+            "temperature_e",
+            "air_used",
+        ),
+        tk.AUX_INFO,
+    )
+)
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
 # keys of a step's info in the order of CEPAMBatch.info_row (single env)
-_STEP_KEYS = ("length", "velocity", *_AUX_INFO, "load_mass", "target_length", "target_stiffness",
-              *_TERM_KEYS)
+_STEP_KEYS = ("length", "velocity", *_AUX_INFO, "load_mass", "target_length", "target_stiffness", *_TERM_KEYS)
 assert len(_STEP_KEYS) == tk.N_INFO and set(INFO_KEYS) <= set(_STEP_KEYS)
 
 
@@ -217,10 +241,15 @@ _DOC = """
 
 class CEPAMEnv(gym.Env, EzPickle):
     __doc__ = "CE-PAM length and stiffness regulation under changing loads (single env)." + _DOC
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50, "termination_reasons": TERMINATION_NAMES}
+    metadata = {
+        "render_modes": ["rgb_array", "human"],
+        "render_fps": 50,
+        "termination_reasons": TERMINATION_NAMES,
+    }
 
-    def __init__(self, task: str = "cepam", render_mode: str | None = None, renderer: str = "numpy",
-                 **kwargs: Any):
+    def __init__(
+        self, task: str = "cepam", render_mode: str | None = None, renderer: str = "numpy", **kwargs: Any
+    ):
         EzPickle.__init__(self, task=task, render_mode=render_mode, renderer=renderer, **kwargs)
         _check_renderer(renderer)
         self.renderer = renderer
@@ -230,7 +259,9 @@ class CEPAMEnv(gym.Env, EzPickle):
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
         self.render_mode = render_mode
         self._renderer = None
         self._mujoco = None
@@ -307,8 +338,10 @@ def _autoreset_mode(mode) -> AutoresetMode:
         return _AUTORESET_MODES[mode.lower()]
     if isinstance(mode, str) and mode in [m.value for m in _AUTORESET_MODES.values()]:
         return AutoresetMode(mode)  # "NextStep", "SameStep"
-    raise ValueError(f"autoreset_mode must be one of {list(_AUTORESET_MODES)} (or gymnasium's "
-                     f"AutoresetMode.NEXT_STEP / SAME_STEP), got {mode!r}")
+    raise ValueError(
+        f"autoreset_mode must be one of {list(_AUTORESET_MODES)} (or gymnasium's "
+        f"AutoresetMode.NEXT_STEP / SAME_STEP), got {mode!r}"
+    )
 
 
 def _with_masks(info: dict[str, Any], present: np.ndarray, absent_keys=()) -> dict[str, Any]:
@@ -326,10 +359,12 @@ def _with_masks(info: dict[str, Any], present: np.ndarray, absent_keys=()) -> di
 
 
 class CEPAMVectorEnv(VectorEnv, EzPickle):
-    __doc__ = ("N CE-PAM envs stepped by one compiled kernel (``gym.make_vec(id, num_envs=N)``). "
-               "Same spaces, rewards and kwargs as the single env; env i of a vector env seeded "
-               "``s`` follows exactly the single env made with ``stream=i`` and seeded ``s`` "
-               "(a vector env's ``stream`` kwarg offsets its envs' streams)." + """
+    __doc__ = (
+        "N CE-PAM envs stepped by one compiled kernel (``gym.make_vec(id, num_envs=N)``). "
+        "Same spaces, rewards and kwargs as the single env; env i of a vector env seeded "
+        "``s`` follows exactly the single env made with ``stream=i`` and seeded ``s`` "
+        "(a vector env's ``stream`` kwarg offsets its envs' streams)."
+        + """
 
     ## Vector conventions (Gymnasium 1.x)
 
@@ -346,15 +381,36 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
       ``metadata["termination_reasons"]`` (0 ``"none"``, 1 ``"burst"``, 2 ``"non_finite_state"``).
     * ``call``, ``get_attr`` and ``set_attr``: the N envs share one Python object, so these act on
       it and return its value once per env.
-    """ + _DOC)
-    metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP, "render_fps": 50,
-                "termination_reasons": TERMINATION_NAMES}
+    """
+        + _DOC
+    )
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+        "render_fps": 50,
+        "termination_reasons": TERMINATION_NAMES,
+    }
 
-    def __init__(self, num_envs: int = 1, task: str = "cepam", max_episode_steps: int | None = 500,
-                 render_mode: str | None = None, renderer: str = "numpy",
-                 autoreset_mode: str | AutoresetMode = "next_step", **kwargs: Any):
-        EzPickle.__init__(self, num_envs=num_envs, task=task, max_episode_steps=max_episode_steps,
-                          render_mode=render_mode, renderer=renderer, autoreset_mode=autoreset_mode, **kwargs)
+    def __init__(
+        self,
+        num_envs: int = 1,
+        task: str = "cepam",
+        max_episode_steps: int | None = 500,
+        render_mode: str | None = None,
+        renderer: str = "numpy",
+        autoreset_mode: str | AutoresetMode = "next_step",
+        **kwargs: Any,
+    ):
+        EzPickle.__init__(
+            self,
+            num_envs=num_envs,
+            task=task,
+            max_episode_steps=max_episode_steps,
+            render_mode=render_mode,
+            renderer=renderer,
+            autoreset_mode=autoreset_mode,
+            **kwargs,
+        )
         _check_renderer(renderer)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
@@ -362,8 +418,12 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self._mujoco = None
         self.core = CEPAMBatch(num_envs, task=task, **kwargs)
         self.num_envs = self.core.num_envs
-        if max_episode_steps is not None and (int(max_episode_steps) != max_episode_steps or max_episode_steps < 1):
-            raise ValueError(f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}")
+        if max_episode_steps is not None and (
+            int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
+        ):
+            raise ValueError(
+                f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}"
+            )
         self.max_episode_steps = max_episode_steps
         self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.single_observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
@@ -456,8 +516,10 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             if len(values) != self.num_envs:
                 raise ValueError(f"set_attr: {len(values)} values for {self.num_envs} envs")
             if any(v is not values[0] and v != values[0] for v in values[1:]):
-                raise ValueError(f"set_attr({name!r}): the envs of a native vector env share one "
-                                 "object, so per-env values must be equal")
+                raise ValueError(
+                    f"set_attr({name!r}): the envs of a native vector env share one "
+                    "object, so per-env values must be equal"
+                )
             values = values[0]
         setattr(self, name, values)
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,9 @@ def resolve_params(plant: PlantParams | str | Mapping[str, Any] | None) -> Plant
         return preset(plant)
     if isinstance(plant, Mapping):
         return PlantParams.from_dict(dict(plant), where="env kwarg 'plant'")
-    raise TypeError(f"plant must be a PlantParams, preset name, YAML path or dict, got {type(plant).__name__}")
+    raise TypeError(
+        f"plant must be a PlantParams, preset name, YAML path or dict, got {type(plant).__name__}"
+    )
 
 
 def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tuple[int, int]:
@@ -56,8 +59,9 @@ def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tu
     if not (control_dt > 0 and sub_dt > 0):
         raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
     if control_dt > _MAX_CONTROL_DT:
-        raise ValueError(f"control_dt is in seconds and at most {_MAX_CONTROL_DT:g} s, got {control_dt} "
-                         "(20 ms is 0.02)")
+        raise ValueError(
+            f"control_dt is in seconds and at most {_MAX_CONTROL_DT:g} s, got {control_dt} (20 ms is 0.02)"
+        )
     n_sub = round(control_dt / sub_dt)
     if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
         raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
@@ -102,13 +106,18 @@ def _check_threads(num_threads) -> int | None:
 
     top = numba.config.NUMBA_NUM_THREADS
     if isinstance(num_threads, bool) or int(num_threads) != num_threads or not 1 <= num_threads <= top:
-        raise ValueError(f"num_threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS) or None, "
-                         f"got {num_threads!r}")
+        raise ValueError(
+            f"num_threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS) or None, got {num_threads!r}"
+        )
     return int(num_threads)
 
 
-def sample_params(nominal: PlantParams, randomize: Mapping[str, tuple[float, float]],
-                  rng: np.random.Generator, nominal_row: np.ndarray | None = None) -> np.ndarray:
+def sample_params(
+    nominal: PlantParams,
+    randomize: Mapping[str, tuple[float, float]],
+    rng: np.random.Generator,
+    nominal_row: np.ndarray | None = None,
+) -> np.ndarray:
     """A parameter row for a new episode: ``nominal`` (its row ``nominal_row`` itself when given
     and nothing is randomised) with each key of ``randomize`` drawn uniformly from its range."""
     if not randomize:
@@ -125,8 +134,9 @@ def as_actions(actions, num_envs: int) -> np.ndarray:
         if a.size == 2 and num_envs == 1:
             a = a.reshape(1, 2)
         else:
-            raise ValueError(f"action must have shape {(2,) if num_envs == 1 else (num_envs, 2)}, "
-                             f"got {np.shape(actions)}")
+            raise ValueError(
+                f"action must have shape {(2,) if num_envs == 1 else (num_envs, 2)}, got {np.shape(actions)}"
+            )
     if not np.isfinite(a).all():
         raise ValueError(f"action contains NaN or inf: {actions!r}")
     return a
@@ -148,13 +158,25 @@ def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
 class CEPAMBatch:
     """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`."""
 
-    def __init__(self, num_envs: int = 1, task: str | TaskSpec = "cepam", plant=None,
-                 action_mode: str = "valve", control_dt: float = 0.02, sub_dt: float = 5e-4,
-                 episode_seconds: float = 10.0, reward_weights: Mapping[str, float] | None = None,
-                 randomize: Mapping[str, Any] | None = None, sensor_noise: Mapping[str, float] | None = None,
-                 action_latency_steps: int = 0, supply_drift_kpa: float = 0.0,
-                 task_options: Mapping[str, Any] | None = None, stream: int = 0,
-                 num_threads: int | None = None, preview_steps: int = 0):
+    def __init__(
+        self,
+        num_envs: int = 1,
+        task: str | TaskSpec = "cepam",
+        plant=None,
+        action_mode: str = "valve",
+        control_dt: float = 0.02,
+        sub_dt: float = 5e-4,
+        episode_seconds: float = 10.0,
+        reward_weights: Mapping[str, float] | None = None,
+        randomize: Mapping[str, Any] | None = None,
+        sensor_noise: Mapping[str, float] | None = None,
+        action_latency_steps: int = 0,
+        supply_drift_kpa: float = 0.0,
+        task_options: Mapping[str, Any] | None = None,
+        stream: int = 0,
+        num_threads: int | None = None,
+        preview_steps: int = 0,
+    ):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
@@ -163,8 +185,7 @@ class CEPAMBatch:
                 raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
             task = TASKS[task]
         if task_options:
-            opts = check_kwargs(TaskSpec, task_options, "task_options",
-                                exclude=("name", "weights", "scales"))
+            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
             opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)
         if reward_weights:
@@ -178,10 +199,12 @@ class CEPAMBatch:
         self.nominal = resolve_params(plant)
         self._check_task_units()
         if self.nominal.supply_pressure > self.nominal.burst_pressure:
-            warnings.warn(f"supply_pressure ({self.nominal.supply_pressure / 1e3:g} kPa) is above "
-                          f"burst_pressure ({self.nominal.burst_pressure / 1e3:g} kPa): a fully open supply "
-                          "valve bursts the bladder (the episode then terminates, reason 'burst')",
-                          stacklevel=3)
+            warnings.warn(
+                f"supply_pressure ({self.nominal.supply_pressure / 1e3:g} kPa) is above "
+                f"burst_pressure ({self.nominal.burst_pressure / 1e3:g} kPa): a fully open supply "
+                "valve bursts the bladder (the episode then terminates, reason 'burst')",
+                stacklevel=3,
+            )
         self.randomize = check_randomize(randomize)
         self.randomizer = Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
         self.noise_sd = _check_noise(sensor_noise)
@@ -195,9 +218,15 @@ class CEPAMBatch:
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
-        if isinstance(preview_steps, bool) or int(preview_steps) != preview_steps or not 0 <= preview_steps <= 100:
-            raise ValueError(f"preview_steps must be an integer in [0, 100] (control steps announced), "
-                             f"got {preview_steps!r}")
+        if (
+            isinstance(preview_steps, bool)
+            or int(preview_steps) != preview_steps
+            or not 0 <= preview_steps <= 100
+        ):
+            raise ValueError(
+                f"preview_steps must be an integer in [0, 100] (control steps announced), "
+                f"got {preview_steps!r}"
+            )
         self.preview_steps = int(preview_steps)
         self.obs_layout = rig_layout(task, self.nominal, self.preview_steps)
         self.task_vec = self._task_vector()
@@ -214,7 +243,12 @@ class CEPAMBatch:
             self.state, self.aux, self.inputs, self.params = v["state"], v["aux"], v["inputs"], v["params"]
             self.target_l, self.target_k, self.load = v["target_l"], v["target_k"], v["load"]
             self.t_idx, self.prev_action, self.rewards = v["t_idx"], v["actions"], v["rewards"]
-            self.terms, self.reasons, self.noise, self.info_row = v["terms"], v["reasons"], v["noise"], v["info"]
+            self.terms, self.reasons, self.noise, self.info_row = (
+                v["terms"],
+                v["reasons"],
+                v["noise"],
+                v["info"],
+            )
             self.params[:] = nominal_row
             v["task"][:] = self.task_vec
             self.task_vec = v["task"]
@@ -238,20 +272,40 @@ class CEPAMBatch:
         # prev_action doubles as the buffer of the action being applied (clipped in place by the
         # kernel), so after a step it holds a_{t-1}; the kernel's arguments are bound once
         self._single_action = self.prev_action
-        self._kernel_args = (self.state, self.prev_action, self.params, self.mode, self.sub_dt,
-                             self.n_sub, self.target_l, self.target_k, self.load, self.t_idx,
-                             self.task_vec, self.noise, self.inputs, self.obs, self.rewards,
-                             self.terms, self.aux, self.reasons)
+        self._kernel_args = (
+            self.state,
+            self.prev_action,
+            self.params,
+            self.mode,
+            self.sub_dt,
+            self.n_sub,
+            self.target_l,
+            self.target_k,
+            self.load,
+            self.t_idx,
+            self.task_vec,
+            self.noise,
+            self.inputs,
+            self.obs,
+            self.rewards,
+            self.terms,
+            self.aux,
+            self.reasons,
+        )
 
     def _check_task_units(self) -> None:
         """Task ranges in SI against the plant: lengths [m] within the end stops."""
         lo, hi = self.nominal.min_length, self.nominal.max_length
         t = self.task
-        for name, vals in (("length_range", t.length_range),
-                           ("fixed_length", () if t.fixed_length is None else (t.fixed_length,))):
+        for name, vals in (
+            ("length_range", t.length_range),
+            ("fixed_length", () if t.fixed_length is None else (t.fixed_length,)),
+        ):
             if any(not lo <= v <= hi for v in vals):
-                raise ValueError(f"task {name} is in metres and must lie within the end stops "
-                                 f"[{lo:g}, {hi:g}] m, got {vals}")
+                raise ValueError(
+                    f"task {name} is in metres and must lie within the end stops "
+                    f"[{lo:g}, {hi:g}] m, got {vals}"
+                )
 
     def step_single(self, x0: float, x1: float) -> tuple[float, int]:
         """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
@@ -262,8 +316,13 @@ class CEPAMBatch:
 
     def _task_vector(self) -> np.ndarray:
         t = self.task
-        return tk.task_vector(dataclasses.astuple(t.weights), t.scales, self.obs_layout,
-                              self.nominal.pressure_cap, t.track_stiffness)
+        return tk.task_vector(
+            dataclasses.astuple(t.weights),
+            t.scales,
+            self.obs_layout,
+            self.nominal.pressure_cap,
+            t.track_stiffness,
+        )
 
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
@@ -308,19 +367,33 @@ class CEPAMBatch:
         ``indices`` (scalars or per-env arrays); call right after :meth:`reset`. Used by the
         benchmark harness and for evaluation at chosen operating points."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices)
-        for arr, val, name in ((self.target_l, target_length, "target_length"),
-                               (self.target_k, target_stiffness, "target_stiffness"),
-                               (self.load, load_mass, "load_mass")):
+        for arr, val, name in (
+            (self.target_l, target_length, "target_length"),
+            (self.target_k, target_stiffness, "target_stiffness"),
+            (self.load, load_mass, "load_mass"),
+        ):
             if val is None:
                 continue
             try:
                 v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
             except (TypeError, ValueError):
-                raise ValueError(f"{name} must be a number or one per env ({len(idx)}), got {val!r}") from None
+                raise ValueError(
+                    f"{name} must be a number or one per env ({len(idx)}), got {val!r}"
+                ) from None
             self._check_pin(name, v)
             arr[idx] = v[:, None]
-        tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
-                   self.prev_action, self.task_vec, self.noise, self.obs)
+        tk.observe(
+            self.state,
+            self.aux,
+            self.params,
+            self.target_l,
+            self.target_k,
+            self.t_idx,
+            self.prev_action,
+            self.task_vec,
+            self.noise,
+            self.obs,
+        )
 
     def _check_pin(self, name: str, v: np.ndarray) -> None:
         """Units and ranges of a pinned target (SI: m, N/m, kg), ``ValueError`` naming it."""
@@ -329,8 +402,10 @@ class CEPAMBatch:
         if name == "target_length":
             lo, hi = self.nominal.min_length, self.nominal.max_length
             if ((v < lo) | (v > hi)).any():
-                raise ValueError(f"target_length is in metres and must lie within the end stops "
-                                 f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)")
+                raise ValueError(
+                    f"target_length is in metres and must lie within the end stops "
+                    f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)"
+                )
         elif name == "target_stiffness":
             if (v <= 0).any():
                 raise ValueError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
@@ -338,8 +413,9 @@ class CEPAMBatch:
             if (v < 0).any():
                 raise ValueError(f"load_mass must be >= 0 kg, got {v.tolist()}")
             if (v > _MAX_LOAD_KG).any():
-                raise ValueError(f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} "
-                                 "(200 g is 0.2)")
+                raise ValueError(
+                    f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} (200 g is 0.2)"
+                )
 
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
@@ -357,11 +433,22 @@ class CEPAMBatch:
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
-        tk.observe(self.state, self.aux, self.params, self.target_l, self.target_k, self.t_idx,
-                   self.prev_action, self.task_vec, self.noise, self.obs)
+        tk.observe(
+            self.state,
+            self.aux,
+            self.params,
+            self.target_l,
+            self.target_k,
+            self.t_idx,
+            self.prev_action,
+            self.task_vec,
+            self.noise,
+            self.obs,
+        )
 
     def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
-        """:func:`~cepam_gym.tasks.references.planned_schedules` of the envs ``idx``. A plant for which the task finds no
+        """:func:`~cepam_gym.tasks.references.planned_schedules` of the envs ``idx``. A plant for
+        which the task finds no
         reachable target (``RuntimeError``) is redrawn with its schedule, env by env from its own
         stream (the generators are rewound first, so every env draws as it would alone)."""
         states = [r.bit_generator.state for r in rngs]
@@ -375,8 +462,9 @@ class CEPAMBatch:
         for j, (i, rng) in enumerate(zip(idx, rngs)):
             for attempt in range(MAX_REDRAWS + 2):
                 try:
-                    one = planned_schedules([rng], self.task, self.params[i:i + 1], self.n_steps,
-                                            self.control_dt)
+                    one = planned_schedules(
+                        [rng], self.task, self.params[i : i + 1], self.n_steps, self.control_dt
+                    )
                     break
                 except RuntimeError:
                     if attempt == MAX_REDRAWS + 1:
@@ -401,9 +489,9 @@ class CEPAMBatch:
             z = self._next_normals(idx)
             if self.has_noise:
                 if idx is None:
-                    self.noise[:] = z[:, :tk.N_NOISE] * self.noise_sd
+                    self.noise[:] = z[:, : tk.N_NOISE] * self.noise_sd
                 else:
-                    self.noise[idx] = z[:, :tk.N_NOISE] * self.noise_sd
+                    self.noise[idx] = z[:, : tk.N_NOISE] * self.noise_sd
             return z[:, tk.N_NOISE]
         return None
 
@@ -437,7 +525,9 @@ class CEPAMBatch:
             nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
             rows = slice(None) if active is None else active
             walk = z * self.supply_drift * np.sqrt(self.control_dt)
-            self.params[rows, ix.P_SUP] = np.clip(self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal)
+            self.params[rows, ix.P_SUP] = np.clip(
+                self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal
+            )
         if self.num_threads == 1:
             tk._env_step_serial(*self._kernel_args)  # no parallel region at all
         else:

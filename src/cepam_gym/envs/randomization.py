@@ -16,7 +16,7 @@ nominal plant (checked when the env was built) is used.
 from __future__ import annotations
 
 import itertools
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -52,22 +52,27 @@ def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
     """Why this parameter row cannot run the task (``None`` if it can)."""
     s = float(pl.stability_number(row, sub_dt)[0])
     if s > STABILITY_LIMIT:
-        return (f"the integration is unstable at sub_dt {sub_dt * 1e3:.3g} ms (stability number "
-                f"{s:.2f} > {STABILITY_LIMIT}; valve conductance and heat transfer against the "
-                "smallest chamber volume)")
+        return (
+            f"the integration is unstable at sub_dt {sub_dt * 1e3:.3g} ms (stability number "
+            f"{s:.2f} > {STABILITY_LIMIT}; valve conductance and heat transfer against the "
+            "smallest chamber volume)"
+        )
     load = unreachable_load(row, task)
     if load is not None:
-        return (f"task {task.name!r} has no reachable target for a load of {load:.3g} kg (its "
-                "pressures cannot hold it between the contact pressure and "
-                f"{task.pressure_margin:g} x min(supply, burst))")
+        return (
+            f"task {task.name!r} has no reachable target for a load of {load:.3g} kg (its "
+            "pressures cannot hold it between the contact pressure and "
+            f"{task.pressure_margin:g} x min(supply, burst))"
+        )
     return None
 
 
 class Randomizer:
     """Checked ranges of ``randomize`` and the per-env draws (see the module doc)."""
 
-    def __init__(self, ranges: Mapping[str, tuple[float, float]], nominal: PlantParams,
-                 task: TaskSpec, sub_dt: float):
+    def __init__(
+        self, ranges: Mapping[str, tuple[float, float]], nominal: PlantParams, task: TaskSpec, sub_dt: float
+    ):
         self.ranges = dict(ranges)
         self.nominal = nominal
         self.nominal_row = nominal.to_array()

@@ -21,7 +21,7 @@ _PX_PER_M = 1500.0  # 19.5 cm -> 292 px
 def _rect(img, x0, y0, x1, y1, color):
     x0, x1 = sorted((int(round(x0)), int(round(x1))))
     y0, y1 = sorted((int(round(y0)), int(round(y1))))
-    img[max(y0, 0):min(y1, H), max(x0, 0):min(x1, W)] = color
+    img[max(y0, 0) : min(y1, H), max(x0, 0) : min(x1, W)] = color
 
 
 def draw(core, i: int) -> np.ndarray:
@@ -61,4 +61,3 @@ def draw(core, i: int) -> np.ndarray:
         yk = base - 300 * np.clip(tk_ / kmax, 0, 1)
         _rect(img, 275, yk - 1, 305, yk + 1, (0, 170, 0))
     return img
-

@@ -71,8 +71,7 @@ def _require_ray():
     return ray_register_env
 
 
-def env_seed(base_seed: int | None, worker_index: int = 0, vector_index: int = 0,
-             instance: int = 0) -> int:
+def env_seed(base_seed: int | None, worker_index: int = 0, vector_index: int = 0, instance: int = 0) -> int:
     """The seed of one env: base seed (``None``: fresh OS entropy) spawned by the indices.
 
     63 bits: a non-negative int64, as Gymnasium's and numpy's seeding take it."""
@@ -87,8 +86,9 @@ def valid_keys(env_id: str) -> tuple[str, ...]:
     """env_config keys accepted for ``env_id``: the env's constructor kwargs plus EXTRA_KEYS."""
     register_envs()
     if env_id not in ENV_IDS and env_id not in MUJOCO_ENV_IDS:
-        raise ValueError(f"env_config['id']: unknown id {env_id!r}; "
-                         f"valid: {sorted(ENV_IDS) + sorted(MUJOCO_ENV_IDS)}")
+        raise ValueError(
+            f"env_config['id']: unknown id {env_id!r}; valid: {sorted(ENV_IDS) + sorted(MUJOCO_ENV_IDS)}"
+        )
     if env_id in ENV_IDS:
         from ..envs.cepam import CEPAMEnv
         from ..envs.core import CEPAMBatch
@@ -101,8 +101,12 @@ def valid_keys(env_id: str) -> tuple[str, ...]:
 
         sources = (load_env_creator(MUJOCO_ENV_IDS[env_id]).__init__,)  # imports the [mujoco] extra
         fixed = set()
-    names = {p.name for f in sources for p in inspect.signature(f).parameters.values()
-             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    names = {
+        p.name
+        for f in sources
+        for p in inspect.signature(f).parameters.values()
+        if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    }
     return tuple(sorted(names - {"self"} - fixed)) + EXTRA_KEYS
 
 
@@ -111,10 +115,12 @@ def check_env_config(env_config: Mapping[str, Any]) -> tuple[str, int | None, di
     if not isinstance(env_config, Mapping):
         raise TypeError(f"env_config must be a mapping, got {type(env_config).__name__}")
     if "num_envs" in env_config:
-        raise ValueError("env_config['num_envs']: got RLlib's gym_env_vectorize_mode='vector_entry_point', "
-                         "which drops the EnvContext (worker_index), so runners could not be seeded "
-                         "apart; use the default gym_env_vectorize_mode='sync' and "
-                         "env_runners(num_envs_per_env_runner=n)")
+        raise ValueError(
+            "env_config['num_envs']: got RLlib's gym_env_vectorize_mode='vector_entry_point', "
+            "which drops the EnvContext (worker_index), so runners could not be seeded "
+            "apart; use the default gym_env_vectorize_mode='sync' and "
+            "env_runners(num_envs_per_env_runner=n)"
+        )
     env_id = env_config.get("id", DEFAULT_ID)
     if not isinstance(env_id, str):
         raise TypeError(f"env_config['id'] must be a string, got {env_id!r}")
@@ -122,8 +128,9 @@ def check_env_config(env_config: Mapping[str, Any]) -> tuple[str, int | None, di
     unknown = sorted(set(env_config) - set(allowed), key=str)
     if unknown:
         more = f" (and {unknown[1:]})" if unknown[1:] else ""
-        raise ValueError(f"env_config: unknown key {unknown[0]!r}{more} for {env_id}; "
-                         f"valid keys: {list(allowed)}")
+        raise ValueError(
+            f"env_config: unknown key {unknown[0]!r}{more} for {env_id}; valid keys: {list(allowed)}"
+        )
     seed = env_config.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
         raise ValueError(f"env_config['seed'] must be a non-negative integer or None, got {seed!r}")
@@ -137,8 +144,9 @@ class RunnerSeeded(gym.Wrapper):
     ``runner_seed`` is the seed of the first reset when RLlib passes none; a seed passed to
     ``reset`` is re-derived with the same indices."""
 
-    def __init__(self, env: gym.Env, base_seed: int | None, worker_index: int, vector_index: int,
-                 instance: int):
+    def __init__(
+        self, env: gym.Env, base_seed: int | None, worker_index: int, vector_index: int, instance: int
+    ):
         super().__init__(env)
         self.worker_index, self.vector_index, self.instance = worker_index, vector_index, instance
         self.runner_seed = env_seed(base_seed, worker_index, vector_index, instance)

@@ -12,7 +12,8 @@ try:
 except ImportError as e:  # pragma: no cover - exercised only without the extra
     raise ImportError(
         "cepam_gym.integrations.sb3 needs stable-baselines3: pip install 'cepam-gym[train]' "
-        "(install torch==2.13.0 first for the CPU build)") from e
+        "(install torch==2.13.0 first for the CPU build)"
+    ) from e
 
 from ..envs.cepam import CEPAMVectorEnv
 
@@ -27,8 +28,10 @@ class SB3VecEnv(VecEnv):
         from gymnasium.vector import AutoresetMode
 
         if getattr(venv, "autoreset_mode", None) != AutoresetMode.SAME_STEP:
-            raise ValueError("SB3VecEnv needs a vector env made with autoreset_mode='same_step', got "
-                             f"{getattr(venv, 'autoreset_mode', None)!r}")
+            raise ValueError(
+                "SB3VecEnv needs a vector env made with autoreset_mode='same_step', got "
+                f"{getattr(venv, 'autoreset_mode', None)!r}"
+            )
         self.venv = venv
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
         self._actions = None
@@ -59,8 +62,11 @@ class SB3VecEnv(VecEnv):
     @staticmethod
     def _per_env(infos: dict) -> list[dict[str, Any]]:
         """Gymnasium's dict of arrays as SB3's list of per-env dicts (masked-out keys dropped)."""
-        keys = [k for k, v in infos.items() if not k.startswith("_") and isinstance(v, np.ndarray)
-                and v.dtype != object and k != "final_obs"]
+        keys = [
+            k
+            for k, v in infos.items()
+            if not k.startswith("_") and isinstance(v, np.ndarray) and v.dtype != object and k != "final_obs"
+        ]
         full = [k for k in keys if "_" + k not in infos or infos["_" + k].all()]
         cols = [infos[k].tolist() for k in full]
         n = len(next(iter(infos.values()))) if infos else 0
@@ -93,8 +99,13 @@ class SB3VecEnv(VecEnv):
         return list(frames) if frames is not None else [None] * self.num_envs
 
 
-def make_sb3_vec_env(env_id: str = "cepam_gym/CEPAM-v0", num_envs: int = 8, seed: int | None = None,
-                     monitor: bool = True, **kwargs: Any):
+def make_sb3_vec_env(
+    env_id: str = "cepam_gym/CEPAM-v0",
+    num_envs: int = 8,
+    seed: int | None = None,
+    monitor: bool = True,
+    **kwargs: Any,
+):
     """SB3 VecEnv of ``num_envs`` plants of a registered id (``VecMonitor`` records episodes)."""
     import gymnasium as gym
 

@@ -14,16 +14,19 @@ def require_mujoco():
     Picks the headless ``egl`` back-end when ``MUJOCO_GL`` is unset and no display is available
     (set ``MUJOCO_GL=osmesa`` yourself for software rendering without EGL).
     """
-    if "mujoco" not in sys.modules and "MUJOCO_GL" not in os.environ \
-            and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) \
-            and sys.platform.startswith("linux"):
+    if (
+        "mujoco" not in sys.modules
+        and "MUJOCO_GL" not in os.environ
+        and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+        and sys.platform.startswith("linux")
+    ):
         os.environ["MUJOCO_GL"] = "egl"
     try:
         import mujoco
     except ImportError as e:
         raise ImportError(
-            f"this feature needs MuJoCo, which is not installed ({e}); install the extra with "
-            f"{INSTALL_HINT}") from e
+            f"this feature needs MuJoCo, which is not installed ({e}); install the extra with {INSTALL_HINT}"
+        ) from e
     return mujoco
 
 
@@ -36,7 +39,8 @@ def make_renderer(mujoco, model, height: int, width: int):
         raise RuntimeError(
             f"MuJoCo could not open an OpenGL context for offscreen rendering (MUJOCO_GL={gl}): {e}. "
             "Headless: MUJOCO_GL=egl (GPU or Mesa EGL), or MUJOCO_GL=osmesa after installing "
-            "libosmesa6; with a display: MUJOCO_GL=glfw") from e
+            "libosmesa6; with a display: MUJOCO_GL=glfw"
+        ) from e
 
 
 _SCENE = """  <visual>

@@ -46,8 +46,18 @@ def _settle(x, dt, vol_c, vol_e, acc):
     if acc[PEND] == 0.0:
         return
     x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE] = pl.substep_air(
-        x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE], acc[PEND_DMC], acc[PEND_DUC],
-        acc[PEND_DME], acc[PEND_DUE], acc[PEND_VC] / vol_c, acc[PEND_VE] / vol_e, dt)
+        x[pl.S_MC],
+        x[pl.S_UC],
+        x[pl.S_ME],
+        x[pl.S_UE],
+        acc[PEND_DMC],
+        acc[PEND_DUC],
+        acc[PEND_DME],
+        acc[PEND_DUE],
+        acc[PEND_VC] / vol_c,
+        acc[PEND_VE] / vol_e,
+        dt,
+    )
     acc[PEND] = 0.0
 
 
@@ -56,8 +66,9 @@ def _slip(x, p, length):
     """The braid-bladder friction elements follow the imposed motion from ``x[S_L]`` to
     ``length`` (plant v1; nothing to do in v0 rows), as in the plant's own sub-step."""
     if p[ix.FR_C] > 0.0:
-        x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3] = pl.friction_slip(p, length - x[pl.S_L], x[pl.S_Z1],
-                                                            x[pl.S_Z2], x[pl.S_Z3])
+        x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3] = pl.friction_slip(
+            p, length - x[pl.S_L], x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3]
+        )
 
 
 @jit
@@ -77,9 +88,30 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     x[pl.S_L] = length
     x[pl.S_V] = velocity
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_forces(
-        mode, inp, p, x[pl.S_T], dt, length, x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE],
-        1.0 / vol_c, 1.0 / vol_e, dvc, dvac, dvae, x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE],
-        pl.valve_setup(mode, p, dt), x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3])
+        mode,
+        inp,
+        p,
+        x[pl.S_T],
+        dt,
+        length,
+        x[pl.S_MC],
+        x[pl.S_UC],
+        x[pl.S_ME],
+        x[pl.S_UE],
+        1.0 / vol_c,
+        1.0 / vol_e,
+        dvc,
+        dvac,
+        dvae,
+        x[pl.S_SC],
+        x[pl.S_SE],
+        x[pl.S_SRC],
+        x[pl.S_SRE],
+        pl.valve_setup(mode, p, dt),
+        x[pl.S_Z1],
+        x[pl.S_Z2],
+        x[pl.S_Z3],
+    )
     x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE] = sc, se, src, sre
     x[pl.S_T] += dt
     acc[PEND], acc[PEND_DMC], acc[PEND_DUC], acc[PEND_DME], acc[PEND_DUE] = 1.0, dmc, duc, dme, due
@@ -107,8 +139,7 @@ def finish_step(x, p, dt, length, velocity, acc, aux):
     _slip(x, p, length)
     x[pl.S_L] = length
     x[pl.S_V] = velocity
-    pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME],
-                   end_stop(length, p), aux)
+    pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME], end_stop(length, p), aux)
 
 
 class PlantLink:

@@ -13,8 +13,9 @@ termination, action mapping and observation machinery as the rig envs. Frames:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import astuple
-from typing import Any, Mapping
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -22,15 +23,27 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from .. import plant as pl
-from ..envs.core import (as_actions, check_action_mode, check_randomize, check_timing, resolve_params,
-                         sample_params)
+from ..envs.core import (
+    as_actions,
+    check_action_mode,
+    check_randomize,
+    check_timing,
+    resolve_params,
+    sample_params,
+)
 from ..physics import layout as ix
 from ..tasks import kernel as tk
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
 from ._mj import require_mujoco
 from .joint_sim import JointSimulator
-from .joint_task import (JointGeometry, JointRewardWeights, JointTask, apply_reset_options, joint_layout,
-                         joint_schedules)
+from .joint_task import (
+    JointGeometry,
+    JointRewardWeights,
+    JointTask,
+    apply_reset_options,
+    joint_layout,
+    joint_schedules,
+)
 from .joint_view import JointView
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
@@ -136,22 +149,45 @@ _DOC = """
     * v0: initial release.
 """
 
+
 class CEPAMJointEnv(gym.Env, EzPickle):
     __doc__ = "A hinge driven by a CE-PAM: joint angle and joint stiffness under external torques." + _DOC
-    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 50,
-                "termination_reasons": ("none", "burst", "non_finite_state")}
+    metadata = {
+        "render_modes": ["rgb_array", "human"],
+        "render_fps": 50,
+        "termination_reasons": ("none", "burst", "non_finite_state"),
+    }
 
-    def __init__(self, plant=None, action_mode: str = "valve", control_dt: float = 0.02,
-                 sub_dt: float = 5e-4, episode_seconds: float = 10.0,
-                 joint: Mapping[str, float] | JointGeometry | None = None,
-                 task_options: Mapping[str, Any] | None = None,
-                 reward_weights: Mapping[str, float] | None = None,
-                 randomize: Mapping[str, Any] | None = None, render_mode: str | None = None,
-                 width: int = 480, height: int = 480):
-        EzPickle.__init__(self, plant=plant, action_mode=action_mode, control_dt=control_dt,
-                          sub_dt=sub_dt, episode_seconds=episode_seconds, joint=joint,
-                          task_options=task_options, reward_weights=reward_weights,
-                          randomize=randomize, render_mode=render_mode, width=width, height=height)
+    def __init__(
+        self,
+        plant=None,
+        action_mode: str = "valve",
+        control_dt: float = 0.02,
+        sub_dt: float = 5e-4,
+        episode_seconds: float = 10.0,
+        joint: Mapping[str, float] | JointGeometry | None = None,
+        task_options: Mapping[str, Any] | None = None,
+        reward_weights: Mapping[str, float] | None = None,
+        randomize: Mapping[str, Any] | None = None,
+        render_mode: str | None = None,
+        width: int = 480,
+        height: int = 480,
+    ):
+        EzPickle.__init__(
+            self,
+            plant=plant,
+            action_mode=action_mode,
+            control_dt=control_dt,
+            sub_dt=sub_dt,
+            episode_seconds=episode_seconds,
+            joint=joint,
+            task_options=task_options,
+            reward_weights=reward_weights,
+            randomize=randomize,
+            render_mode=render_mode,
+            width=width,
+            height=height,
+        )
         self.mujoco = require_mujoco()
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
@@ -162,22 +198,26 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.geometry = JointGeometry.from_kwargs(joint)
         opts = check_kwargs(JointTask, task_options, "task_options", exclude=("scales",))
         self.task = JointTask(**{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()})
-        self.weights = JointRewardWeights(**check_kwargs(JointRewardWeights, reward_weights,
-                                                         "reward_weights", "terms"))
+        self.weights = JointRewardWeights(
+            **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
+        )
         self.nominal_row = self.nominal.to_array()
         pl.check_stability(self.nominal_row[None], self.sub_dt)
         self.task.check_range(self.geometry, self.nominal_row)
         self.angle_max = self.geometry.max_angle(self.nominal_row)
         self.setpoint_max = self.nominal.pressure_cap
         self.obs_layout = joint_layout(self.task, self.angle_max, self.nominal.supply_pressure)
-        self.task_vec = tk.task_vector(astuple(self.weights), self.task.scales, self.obs_layout,
-                                       self.setpoint_max)
+        self.task_vec = tk.task_vector(
+            astuple(self.weights), self.task.scales, self.obs_layout, self.setpoint_max
+        )
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         clip = self.obs_layout.clip
         self.observation_space = spaces.Box(-clip, clip, (self.obs_layout.size,), np.float32)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.control_dt)}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
         self.view = JointView(self)
@@ -193,8 +233,9 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self._reset_done = False
 
     def _build(self, p) -> None:
-        sim = self.sim = JointSimulator(self.mujoco, self.geometry, p, self.mode, self.sub_dt,
-                                        self.width, self.height)
+        sim = self.sim = JointSimulator(
+            self.mujoco, self.geometry, p, self.mode, self.sub_dt, self.width, self.height
+        )
         self.model, self.data, self.link, self.geom_ids = sim.model, sim.data, sim.link, sim.geom_ids
         self.view.model_changed()
 
@@ -207,8 +248,9 @@ class CEPAMJointEnv(gym.Env, EzPickle):
             self.task.check_range(self.geometry, p)
             self.params = p.copy()
             self._build(p)
-        *schedules, initial = joint_schedules(self.np_random, self.task, self.geometry, p,
-                                              self.n_steps, self.control_dt)
+        *schedules, initial = joint_schedules(
+            self.np_random, self.task, self.geometry, p, self.n_steps, self.control_dt
+        )
         a0, k0 = apply_reset_options(options, schedules, initial, self.geometry, p)
         self.target_angle, self.target_stiffness, self.external_torque = schedules
         self.aux[:] = self.sim.reset(a0, k0, self.external_torque[0])
@@ -233,9 +275,18 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.prev_action[:] = a
         th, om = self.joint_state()
         burst = self.aux[pl.A_BURST] != 0.0
-        reward = tk.reward_terms(th, float(self.target_angle[k]), self.joint_stiffness(),
-                                 float(self.target_stiffness[k]), a[0], a[1], self.aux[pl.A_AIR], burst,
-                                 self.task_vec, self.terms)
+        reward = tk.reward_terms(
+            th,
+            float(self.target_angle[k]),
+            self.joint_stiffness(),
+            float(self.target_stiffness[k]),
+            a[0],
+            a[1],
+            self.aux[pl.A_AIR],
+            burst,
+            self.task_vec,
+            self.terms,
+        )
         self.t_idx += 1
         finite = self.aux[pl.A_FINITE] != 0.0 and math.isfinite(th) and math.isfinite(om)
         reason = tk.termination(finite, burst)
@@ -259,9 +310,19 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         th, om = self.joint_state()
         k = min(self.t_idx, self.n_steps - 1)
         p, aux = self.params, self.aux
-        return self.obs_layout.encode([th, om, aux[pl.A_PC], aux[pl.A_PE], p[ix.P_SUP] - p[ix.P_ATM],
-                                       self.target_angle[k], self.target_stiffness[k],
-                                       self.prev_action[0], self.prev_action[1]])
+        return self.obs_layout.encode(
+            [
+                th,
+                om,
+                aux[pl.A_PC],
+                aux[pl.A_PE],
+                p[ix.P_SUP] - p[ix.P_ATM],
+                self.target_angle[k],
+                self.target_stiffness[k],
+                self.prev_action[0],
+                self.prev_action[1],
+            ]
+        )
 
     def _info(self, scored: bool, k: int | None = None) -> dict[str, Any]:
         if k is None:

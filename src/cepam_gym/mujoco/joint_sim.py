@@ -26,8 +26,16 @@ class JointSimulator:
     """MuJoCo model and data of the hinge for plant parameter row ``p`` and the plant it carries
     (``link``: state ``link.x``, valve inputs ``link.inp``)."""
 
-    def __init__(self, mujoco, geometry: JointGeometry, p: np.ndarray, mode: int, sub_dt: float,
-                 width: int = 480, height: int = 480):
+    def __init__(
+        self,
+        mujoco,
+        geometry: JointGeometry,
+        p: np.ndarray,
+        mode: int,
+        sub_dt: float,
+        width: int = 480,
+        height: int = 480,
+    ):
         self.mujoco, self.geometry, self.p = mujoco, geometry, p
         self.model = mujoco.MjModel.from_xml_string(joint_xml(geometry, p, sub_dt, width, height))
         self.data = mujoco.MjData(self.model)
@@ -41,7 +49,7 @@ class JointSimulator:
         g, p, mj = self.geometry, self.p, self.mujoco
         L0 = float(g.length(angle, p))
         w0 = g.equivalent_weight(angle, external_torque, p)
-        pc, pe, _ = api.static_pressures(L0, joint_stiffness / g.lever_arm ** 2, w0, p)
+        pc, pe, _ = api.static_pressures(L0, joint_stiffness / g.lever_arm**2, w0, p)
         cap = pressure_cap_of(p)
         pc, pe = float(np.clip(pc, 0.0, cap)), float(np.clip(pe, 0.0, cap))
         mj.mj_resetData(self.model, self.data)
@@ -76,7 +84,7 @@ class JointSimulator:
 
     def joint_stiffness(self, aux) -> float:
         """``K r^2`` [N m/rad]: the muscle's stiffness at constant pressures through the pinion."""
-        return float(aux[pl.A_STIFF] * self.geometry.lever_arm ** 2)
+        return float(aux[pl.A_STIFF] * self.geometry.lever_arm**2)
 
     def measure(self, aux) -> dict[str, float]:
         """The mechanism's quantities (SI) with the plant's ``aux``: angle, rate, muscle length,
@@ -86,10 +94,14 @@ class JointSimulator:
         g, p = self.geometry, self.p
         ks = self.joint_stiffness(aux)
         return {
-            "angle": th, "angular_velocity": om,
-            "muscle_length": float(self.link.x[pl.S_L]), "muscle_force": float(aux[pl.A_FORCE]),
+            "angle": th,
+            "angular_velocity": om,
+            "muscle_length": float(self.link.x[pl.S_L]),
+            "muscle_force": float(aux[pl.A_FORCE]),
             "muscle_torque": float(-g.lever_arm * aux[pl.A_FORCE]),
-            "stiffness": float(aux[pl.A_STIFF]), "joint_stiffness": ks,
+            "stiffness": float(aux[pl.A_STIFF]),
+            "joint_stiffness": ks,
             "joint_stiffness_total": ks + float(g.link_mass * p[ix.GRAV] * g.link_com * math.cos(th)),
-            "pressure_c": float(aux[pl.A_PC]), "pressure_e": float(aux[pl.A_PE]),
+            "pressure_c": float(aux[pl.A_PC]),
+            "pressure_e": float(aux[pl.A_PE]),
         }

@@ -11,8 +11,8 @@ mechanism and the coupling."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Mapping
 
 import numpy as np
 
@@ -47,10 +47,12 @@ class JointGeometry:
         if self.joint_damping < 0:
             raise ValueError(f"joint geometry joint_damping must be >= 0, got {self.joint_damping}")
         if self.link_com > self.link_length:
-            raise ValueError(f"link_com ({self.link_com} m) must not exceed link_length ({self.link_length} m)")
+            raise ValueError(
+                f"link_com ({self.link_com} m) must not exceed link_length ({self.link_length} m)"
+            )
 
     @classmethod
-    def from_kwargs(cls, joint: Mapping[str, float] | "JointGeometry" | None) -> "JointGeometry":
+    def from_kwargs(cls, joint: Mapping[str, float] | JointGeometry | None) -> JointGeometry:
         if joint is None:
             return cls()
         if isinstance(joint, JointGeometry):
@@ -82,8 +84,10 @@ class JointGeometry:
         """The downward force [N] on the muscle's free end that the joint's loads amount to (what
         the rig's hanging weight is): ``m_end g + (tau_ext + m g l_c sin theta) / r``."""
         g = p[ix.GRAV]
-        return p[ix.M_END] * g + (np.asarray(external_torque, dtype=float)
-                                  + self.gravity_torque(angle, g)) / self.lever_arm
+        return (
+            p[ix.M_END] * g
+            + (np.asarray(external_torque, dtype=float) + self.gravity_torque(angle, g)) / self.lever_arm
+        )
 
 
 @dataclass(frozen=True)
@@ -99,8 +103,7 @@ class JointTask:
     # one unit of the angle reward term: 10 deg, the error the joint benchmark scores as 1 (as 20 %
     # of stiffness is, which JointRewardWeights.stiffness = 5 prices alike); angular velocity per
     # 5 rad/s and joint stiffness per 1 N m/rad in the observation
-    scales: TaskScales = TaskScales(tracking_unit=math.radians(10.0), velocity_scale=5.0,
-                                    stiffness_scale=1.0)
+    scales: TaskScales = TaskScales(tracking_unit=math.radians(10.0), velocity_scale=5.0, stiffness_scale=1.0)
 
     def __post_init__(self):
         lo, hi = self.angle_range
@@ -109,30 +112,42 @@ class JointTask:
         if not 0 < self.stiffness_range[0] < self.stiffness_range[1]:
             raise ValueError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
         if not 0 <= self.torque_range[0] <= self.torque_range[1]:
-            raise ValueError(f"torque_range must be 0 <= low <= high (extension torques), got {self.torque_range}")
+            raise ValueError(
+                f"torque_range must be 0 <= low <= high (extension torques), got {self.torque_range}"
+            )
         # the fields shared with the rig's TaskSpec are checked by TaskSpec itself
-        TaskSpec("joint", load_kinds=tuple(self.load_kinds), segment_duration=tuple(self.segment_duration),
-                 pressure_margin=self.pressure_margin)
+        TaskSpec(
+            "joint",
+            load_kinds=tuple(self.load_kinds),
+            segment_duration=tuple(self.segment_duration),
+            pressure_margin=self.pressure_margin,
+        )
 
     def check_range(self, geom: JointGeometry, p) -> None:
         """``ValueError`` when the target angles exceed the joint's range for plant row ``p``."""
         amax = geom.max_angle(p)
         if self.angle_range[1] > amax:
-            raise ValueError(f"task angle_range {self.angle_range} rad exceeds the joint's range "
-                             f"[0, {amax:.3g}] rad (muscle end stops through lever_arm {geom.lever_arm} m)")
+            raise ValueError(
+                f"task angle_range {self.angle_range} rad exceeds the joint's range "
+                f"[0, {amax:.3g}] rad (muscle end stops through lever_arm {geom.lever_arm} m)"
+            )
 
     def muscle_spec(self, geom: JointGeometry, p) -> TaskSpec:
         """The same task seen by the muscle (lengths, stiffness K = K_joint / r^2), for the
         plant-side helpers (:func:`~cepam_gym.tasks.schedules.stiffness_interval`,
         :func:`~cepam_gym.tasks.schedules.load_profile`). Its ``load_range`` holds the *torque*
         range [N m]: it only shapes the external-torque profile."""
-        r2 = geom.lever_arm ** 2
+        r2 = geom.lever_arm**2
         l_hi, l_lo = (float(geom.length(a, p)) for a in self.angle_range)
-        return TaskSpec("joint", length_range=(l_lo, l_hi),
-                        stiffness_range=(self.stiffness_range[0] / r2, self.stiffness_range[1] / r2),
-                        load_range=tuple(self.torque_range), load_kinds=tuple(self.load_kinds),
-                        segment_duration=tuple(self.segment_duration),
-                        pressure_margin=self.pressure_margin)
+        return TaskSpec(
+            "joint",
+            length_range=(l_lo, l_hi),
+            stiffness_range=(self.stiffness_range[0] / r2, self.stiffness_range[1] / r2),
+            load_range=tuple(self.torque_range),
+            load_kinds=tuple(self.load_kinds),
+            segment_duration=tuple(self.segment_duration),
+            pressure_margin=self.pressure_margin,
+        )
 
 
 @dataclass(frozen=True)
@@ -151,31 +166,46 @@ class JointRewardWeights:
 
 
 # the quantities the joint env measures, in the order of the rig's OBS_FIELDS
-JOINT_FIELDS = ("angle", "angular_velocity", "pressure_c", "pressure_e", "supply_pressure",
-                "target_angle", "target_stiffness", "previous_action_c", "previous_action_e")
+JOINT_FIELDS = (
+    "angle",
+    "angular_velocity",
+    "pressure_c",
+    "pressure_e",
+    "supply_pressure",
+    "target_angle",
+    "target_stiffness",
+    "previous_action_c",
+    "previous_action_e",
+)
 
 
 def joint_layout(task: JointTask, max_angle: float, supply_pressure: float) -> ObsLayout:
     """The joint env's observation: angles about half of full flexion ``max_angle`` [rad],
     pressures per nominal ``supply_pressure`` [Pa], the task's velocity and stiffness scales."""
     s, half, ps = task.scales, 0.5 * max_angle, supply_pressure
-    cols = (ObsColumn("angle", half, half, "rad"),
-            ObsColumn("angular_velocity", s.velocity_scale, 0.0, "rad/s"),
-            ObsColumn("pressure_c", ps, 0.0, "Pa"), ObsColumn("pressure_e", ps, 0.0, "Pa"),
-            ObsColumn("supply_pressure", ps, 0.0, "Pa"), ObsColumn("target_angle", half, half, "rad"),
-            ObsColumn("target_stiffness", s.stiffness_scale, 0.0, "N m/rad"),
-            ObsColumn("previous_action_c"), ObsColumn("previous_action_e"))
+    cols = (
+        ObsColumn("angle", half, half, "rad"),
+        ObsColumn("angular_velocity", s.velocity_scale, 0.0, "rad/s"),
+        ObsColumn("pressure_c", ps, 0.0, "Pa"),
+        ObsColumn("pressure_e", ps, 0.0, "Pa"),
+        ObsColumn("supply_pressure", ps, 0.0, "Pa"),
+        ObsColumn("target_angle", half, half, "rad"),
+        ObsColumn("target_stiffness", s.stiffness_scale, 0.0, "N m/rad"),
+        ObsColumn("previous_action_c"),
+        ObsColumn("previous_action_e"),
+    )
     return ObsLayout(cols, JOINT_FIELDS, s.obs_clip)
 
 
-def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeometry, p,
-                    n_steps: int, dt: float):
+def joint_schedules(
+    rng: np.random.Generator, task: JointTask, geom: JointGeometry, p, n_steps: int, dt: float
+):
     """One episode: ``(target_angle, target_stiffness, external_torque)`` arrays of ``n_steps``
     and the initial ``(angle, stiffness)``. Every (angle, stiffness) target holds for a segment and
     is reachable (inverse static model, pressures within the margin) at both torque extremes of
     its segment, and therefore in between (the static model is affine in the load)."""
     spec = task.muscle_spec(geom, p)
-    r2 = geom.lever_arm ** 2
+    r2 = geom.lever_arm**2
     torque = load_profile(rng, spec, n_steps, dt)
     segs = segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last one is the initial state
     ta = np.full(n_steps, np.nan)
@@ -187,8 +217,9 @@ def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeomet
             th = rng.uniform(*task.angle_range, size=_CANDIDATES)
             u = rng.uniform(0.05, 0.95, size=_CANDIDATES)
             L = geom.length(th, p)
-            k_lo, k_hi = stiffness_interval(L, geom.equivalent_weight(th, t_lo, p),
-                                            geom.equivalent_weight(th, t_hi, p), p, spec)
+            k_lo, k_hi = stiffness_interval(
+                L, geom.equivalent_weight(th, t_lo, p), geom.equivalent_weight(th, t_hi, p), p, spec
+            )
             ok = np.flatnonzero(k_hi > k_lo)
             if ok.size:
                 c = ok[0]
@@ -197,7 +228,8 @@ def joint_schedules(rng: np.random.Generator, task: JointTask, geom: JointGeomet
         else:
             raise RuntimeError(
                 f"joint task: found no reachable (angle, stiffness) target for external torques "
-                f"{t_lo:.3g}-{t_hi:.3g} N m; lower torque_range or the link mass, or raise the supply")
+                f"{t_lo:.3g}-{t_hi:.3g} N m; lower torque_range or the link mass, or raise the supply"
+            )
         if s == len(segs) - 1:
             initial = target
         else:
@@ -226,14 +258,18 @@ def apply_reset_options(options, schedules, initial, geom: JointGeometry, p):
             if key == "target_stiffness" and not v > 0:  # the reward divides by it
                 raise ValueError(f"reset option target_stiffness must be > 0 N m/rad, got {v!r}")
             if key == "target_angle" and not 0.0 <= v <= geom.max_angle(p):
-                raise ValueError(f"reset option target_angle is in radians and must lie within "
-                                 f"[0, {geom.max_angle(p):.3g}] rad, got {v!r}")
+                raise ValueError(
+                    f"reset option target_angle is in radians and must lie within "
+                    f"[0, {geom.max_angle(p):.3g}] rad, got {v!r}"
+                )
             arr[:] = v
     a0 = float(options.get("initial_angle", initial[0]))
     k0 = float(options.get("initial_stiffness", initial[1]))
     if not (0.0 <= a0 <= geom.max_angle(p)) or not (math.isfinite(k0) and k0 > 0):
-        raise ValueError(f"initial_angle must be within [0, {geom.max_angle(p):.3g}] rad and "
-                         f"initial_stiffness > 0, got {a0}, {k0}")
+        raise ValueError(
+            f"initial_angle must be within [0, {geom.max_angle(p):.3g}] rad and "
+            f"initial_stiffness > 0, got {a0}, {k0}"
+        )
     return a0, k0
 
 
@@ -278,8 +314,20 @@ def joint_xml(geom: JointGeometry, p, sub_dt: float = 5e-4, width: int = 480, he
     top = float(p[ix.L_MAX]) + 0.045  # the plate: room for the end cap and the rack at theta = 0
     return JOINT_XML.format(
         scene=scene_header(width, height),
-        dt=sub_dt, g=p[ix.GRAV], floor=-(geom.link_length + 0.08), top=top,
-        plate_z=top + 0.005, r=r, cap=0.004, qmax=geom.max_angle(p),
-        damping=geom.joint_damping + p[ix.DAMP] * r * r, armature=p[ix.M_END] * r * r,
-        friction=p[ix.F_COUL] * r, solref=max(0.002, 2.0 * sub_dt), lc=geom.link_com,
-        m=geom.link_mass, inertia=geom.link_mass * geom.link_length ** 2 / 12.0, l=geom.link_length)
+        dt=sub_dt,
+        g=p[ix.GRAV],
+        floor=-(geom.link_length + 0.08),
+        top=top,
+        plate_z=top + 0.005,
+        r=r,
+        cap=0.004,
+        qmax=geom.max_angle(p),
+        damping=geom.joint_damping + p[ix.DAMP] * r * r,
+        armature=p[ix.M_END] * r * r,
+        friction=p[ix.F_COUL] * r,
+        solref=max(0.002, 2.0 * sub_dt),
+        lc=geom.link_com,
+        m=geom.link_mass,
+        inertia=geom.link_mass * geom.link_length**2 / 12.0,
+        l=geom.link_length,
+    )

@@ -46,14 +46,17 @@ class JointView:
         th_t = float(env.target_angle[k])
         y = -0.014
         hand_t = np.array([g.link_length * math.sin(th_t), y, -g.link_length * math.cos(th_t)])
-        self._add_geom(mj.mjtGeom.mjGEOM_CAPSULE, 0.006, np.array([0.0, y, 0.0]), hand_t, (0.1, 0.75, 0.2, 0.5))
+        self._add_geom(
+            mj.mjtGeom.mjGEOM_CAPSULE, 0.006, np.array([0.0, y, 0.0]), hand_t, (0.1, 0.75, 0.2, 0.5)
+        )
         tau = float(env.external_torque[k])
         if tau > 0:
             th, _ = env.joint_state()
             hand = np.array([g.link_length * math.sin(th), y - 0.03, -g.link_length * math.cos(th)])
             ext = -np.array([math.cos(th), 0.0, math.sin(th)])  # direction of extension at the hand
-            self._add_geom(mj.mjtGeom.mjGEOM_ARROW, 0.006, hand, hand + ext * (0.02 + 2.5 * tau),
-                           (0.95, 0.55, 0.1, 1.0))
+            self._add_geom(
+                mj.mjtGeom.mjGEOM_ARROW, 0.006, hand, hand + ext * (0.02 + 2.5 * tau), (0.95, 0.55, 0.1, 1.0)
+            )
         return ren.render().copy()
 
     def model_changed(self) -> None:
@@ -76,7 +79,9 @@ class JointView:
         if scn.ngeom >= scn.maxgeom:
             return
         geom = scn.geoms[scn.ngeom]
-        mj.mjv_initGeom(geom, kind, np.zeros(3), np.zeros(3), np.eye(3).ravel(), np.asarray(rgba, dtype=np.float32))
+        mj.mjv_initGeom(
+            geom, kind, np.zeros(3), np.zeros(3), np.eye(3).ravel(), np.asarray(rgba, dtype=np.float32)
+        )
         mj.mjv_connector(geom, kind, width, a, b)
         scn.ngeom += 1
 

@@ -77,10 +77,20 @@ def rig_xml(params_row=None, sub_dt: float = 5e-4, width: int = 480, height: int
     top = PLATE_Z
     return RIG_XML.format(
         scene=scene_header(width, height),
-        dt=sub_dt, g=p[ix.GRAV], plate_z=top + 0.006, arm_z=top + 0.02,
-        stand_top=top + 0.028, tube_z=top - 0.105, tube_half=0.105, top=top,
-        lmin=p[ix.L_MIN], lmax=p[ix.L_MAX], cap=_CAP_HALF, cap2=2 * _CAP_HALF,
-        hook_end=2 * _CAP_HALF + _HOOK)
+        dt=sub_dt,
+        g=p[ix.GRAV],
+        plate_z=top + 0.006,
+        arm_z=top + 0.02,
+        stand_top=top + 0.028,
+        tube_z=top - 0.105,
+        tube_half=0.105,
+        top=top,
+        lmin=p[ix.L_MIN],
+        lmax=p[ix.L_MAX],
+        cap=_CAP_HALF,
+        cap2=2 * _CAP_HALF,
+        hook_end=2 * _CAP_HALF + _HOOK,
+    )
 
 
 def _row(params) -> np.ndarray:
@@ -111,8 +121,17 @@ def pressure_colors(pressure_c: float, pressure_e: float, supply_gauge: float):
     return c, e
 
 
-def set_muscle_geoms(model, ids: dict, params_row, length: float, pressure_c: float,
-                     pressure_e: float, top: float, x: float = 0.0, y: float = 0.0) -> None:
+def set_muscle_geoms(
+    model,
+    ids: dict,
+    params_row,
+    length: float,
+    pressure_c: float,
+    pressure_e: float,
+    top: float,
+    x: float = 0.0,
+    y: float = 0.0,
+) -> None:
     """Place the ``cpam`` and ``epam`` cylinders of a model: hanging from height ``top`` [m] at
     ``(x, y)``, length ``length`` [m], braid diameters and pressure colours from the plant row."""
     p = params_row
@@ -164,8 +183,15 @@ class RigRenderer:
         self.camera = default_camera(mj, (0.0, 0.0, PLATE_Z - 0.13), 0.42, azimuth=115.0, elevation=-10.0)
         self._renderer = None
 
-    def render(self, params_row, length: float, pressure_c: float, pressure_e: float,
-               load_mass: float = 0.0, target_length: float | None = None) -> np.ndarray:
+    def render(
+        self,
+        params_row,
+        length: float,
+        pressure_c: float,
+        pressure_e: float,
+        load_mass: float = 0.0,
+        target_length: float | None = None,
+    ) -> np.ndarray:
         mj, m, d = self.mujoco, self.model, self.data
         p = _row(params_row)
         L = float(length)
@@ -193,8 +219,9 @@ class RigRenderer:
     def render_core(self, core, i: int = 0) -> np.ndarray:
         """Frame of env ``i`` of a :class:`~cepam_gym.envs.core.CEPAMBatch` (current targets)."""
         tl, _tk, load = (a[i] for a in core.current_targets())
-        return self.render(core.params[i], core.state[i, pl.S_L], core.aux[i, pl.A_PC],
-                           core.aux[i, pl.A_PE], load, tl)
+        return self.render(
+            core.params[i], core.state[i, pl.S_L], core.aux[i, pl.A_PC], core.aux[i, pl.A_PE], load, tl
+        )
 
     def close(self) -> None:
         if self._renderer is not None:

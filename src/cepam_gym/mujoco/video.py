@@ -121,8 +121,11 @@ def _writer(out: Path, fps: float):
             w = iio.get_writer(out, fps=fps, codec="libx264", quality=7, macro_block_size=16)
             return w.append_data, w.close, out
         gif = out.with_suffix(".gif")
-        print(f"cepam-gym video: no ffmpeg (pip install imageio-ffmpeg, part of the [mujoco] extra); "
-              f"writing {gif} instead of {out}", file=sys.stderr)
+        print(
+            f"cepam-gym video: no ffmpeg (pip install imageio-ffmpeg, part of the [mujoco] extra); "
+            f"writing {gif} instead of {out}",
+            file=sys.stderr,
+        )
         out = gif
     frames: list[np.ndarray] = []
 
@@ -132,8 +135,16 @@ def _writer(out: Path, fps: float):
     return frames.append, close, out
 
 
-def record(env_id: str, controller: str, out: Path, seconds: float, fps: float = 25.0,
-           seed: int = 0, size: int = 480, snapshot: Path | None = None) -> Path:
+def record(
+    env_id: str,
+    controller: str,
+    out: Path,
+    seconds: float,
+    fps: float = 25.0,
+    seed: int = 0,
+    size: int = 480,
+    snapshot: Path | None = None,
+) -> Path:
     """Run one episode of ``env_id`` under ``controller`` and write the video; returns its path.
     ``snapshot``: also save the last frame as a PNG."""
     import gymnasium as gym
@@ -162,8 +173,9 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
     supply = (u.nominal if is_joint else u.core.nominal).supply_pressure / 1e3
     view = env.render()
     h = view.shape[0]
-    panel = TracePanel(int(round(h * 7 / 6 / 16)) * 16, h, n_steps * dt, _rows(env, is_joint, n_steps),
-                       supply)
+    panel = TracePanel(
+        int(round(h * 7 / 6 / 16)) * 16, h, n_steps * dt, _rows(env, is_joint, n_steps), supply
+    )
     append, close, path = _writer(out, fps_out)
     try:
         for k in range(n_steps):
@@ -173,8 +185,11 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
                 frame = np.concatenate([env.render(), panel.draw()], axis=1)
                 append(frame)
             if term or trunc:
-                print(f"cepam-gym video: episode ended at {(k + 1) * dt:.2f} s "
-                      f"({_reason_name(env, info) or 'time limit'})", file=sys.stderr)
+                print(
+                    f"cepam-gym video: episode ended at {(k + 1) * dt:.2f} s "
+                    f"({_reason_name(env, info) or 'time limit'})",
+                    file=sys.stderr,
+                )
                 break
     finally:
         close()
@@ -189,18 +204,22 @@ def record(env_id: str, controller: str, out: Path, seconds: float, fps: float =
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="cepam-gym video", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--controller", default="baseline",
-                    help=f"one of {', '.join(controller_names())}, or a trained agent's run directory "
-                         "(rig ids)")
+    ap.add_argument(
+        "--controller",
+        default="baseline",
+        help=f"one of {', '.join(controller_names())}, or a trained agent's run directory (rig ids)",
+    )
     ap.add_argument("--run", default=None, help="a trained agent's run directory (same as --controller DIR)")
     ap.add_argument("--env-id", default="cepam_gym/CEPAM-v0")
-    ap.add_argument("--out", default=None,
-                    help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)")
+    ap.add_argument(
+        "--out", default=None, help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)"
+    )
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--fps", type=float, default=25.0)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--size", type=int, default=480,
-                    help="height of the joint's 3-D view in pixels (the rig's is 480)")
+    ap.add_argument(
+        "--size", type=int, default=480, help="height of the joint's 3-D view in pixels (the rig's is 480)"
+    )
     ap.add_argument("--snapshot", default=None, help="also save the last frame as this PNG")
     args = ap.parse_args(argv)
     controller = args.run or args.controller
@@ -213,8 +232,16 @@ def main(argv: list[str] | None = None) -> int:
         out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
-        path = record(args.env_id, controller, out, args.seconds, args.fps, args.seed, args.size,
-                      None if args.snapshot is None else Path(args.snapshot))
+        path = record(
+            args.env_id,
+            controller,
+            out,
+            args.seconds,
+            args.fps,
+            args.seed,
+            args.size,
+            None if args.snapshot is None else Path(args.snapshot),
+        )
     except (ImportError, ValueError) as e:
         print(f"cepam-gym video: {e}", file=sys.stderr)
         return 2

@@ -22,8 +22,16 @@ from numba import njit
 from . import layout as ix
 from . import muscle, statics, valve
 
-__all__ = ["force_terms", "force", "stiffness", "closed_chamber_stiffness", "chamber_volumes",
-           "static_pressures", "iso6358_flow", "contact_pressures"]
+__all__ = [
+    "force_terms",
+    "force",
+    "stiffness",
+    "closed_chamber_stiffness",
+    "chamber_volumes",
+    "static_pressures",
+    "iso6358_flow",
+    "contact_pressures",
+]
 
 
 def _param_rows(params, n: int) -> np.ndarray:
@@ -51,6 +59,7 @@ def _loop(fn, n_in: int):
     loop = _LOOPS.get(key)
     if loop is None:
         if n_in == 3:
+
             @njit(cache=False)
             def loop(a, b, c, P, n_out, out):
                 shared = P.shape[0] == 1
@@ -59,6 +68,7 @@ def _loop(fn, n_in: int):
                     for j in range(n_out):
                         out[j, i] = r[j]
         else:
+
             @njit(cache=False)
             def loop(a, P, n_out, out):
                 shared = P.shape[0] == 1
@@ -66,6 +76,7 @@ def _loop(fn, n_in: int):
                     r = fn(a[i], P[0] if shared else P[i])
                     for j in range(n_out):
                         out[j, i] = r[j]
+
         loop = _LOOPS[key] = loop
     return loop
 

@@ -35,8 +35,11 @@ def friction_force(p, pc, pe, z1, z2, z3):
     if fb == 0.0:
         return 0.0
     d = p[ix.FR_D]
-    return -fb * (WEIGHTS[0] * z1 / (DELTA_FRACTIONS[0] * d) + WEIGHTS[1] * z2 / (DELTA_FRACTIONS[1] * d)
-                  + WEIGHTS[2] * z3 / (DELTA_FRACTIONS[2] * d))
+    return -fb * (
+        WEIGHTS[0] * z1 / (DELTA_FRACTIONS[0] * d)
+        + WEIGHTS[1] * z2 / (DELTA_FRACTIONS[1] * d)
+        + WEIGHTS[2] * z3 / (DELTA_FRACTIONS[2] * d)
+    )
 
 
 @jit_inline

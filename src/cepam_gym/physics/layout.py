@@ -69,7 +69,9 @@ LAM_K = 54  # sqrt(1 - x_lam^2) / (1 - r_lam), x_lam = (r_lam - b) / (1 - b): la
 K_SUP = 55  # sqrt(T0 / T_supply)
 K_AMB = 56  # sqrt(T0 / T_ambient)
 # --- plant v1 statics (docs/physics.md "Plant v1"); zero in a v0 row, which leaves v0 unchanged ---
-SLACK_W = 57  # tension-only braids: width [Pa] of the CPAM braid's slack switch; 0 = the braid also pushes (v0)
+SLACK_W = (
+    57  # tension-only braids: width [Pa] of the CPAM braid's slack switch; 0 = the braid also pushes (v0)
+)
 MU_B = 58  # bladder shear modulus mu [Pa] of the neo-Hookean wall; 0 = no bladder energy (v0)
 TB_EL = 59  # bladder wall thickness of the strain energy [m] (t_b, Eq. 35)
 LREF_C = 60  # CPAM bladder's stress-free length [m] (its rest length, section II)

@@ -53,8 +53,17 @@ def braid_terms(L, b, n, ta):
     * ``dV_air/dL = dV_out/dL + t_a b (2 cos^2 - 1) / (n sin) + pi t_a^2`` (Eq. 40, Eq. 45);
     * the second derivatives are exact (for the stiffness ``K = -dF/dL``).
     """
-    return braid_terms_k(L, b, 1.0 / b, 1.0 / (4.0 * math.pi * n * n), ta * b / n, ta / n,
-                         b / (math.pi * n), math.pi * ta * ta, ta)
+    return braid_terms_k(
+        L,
+        b,
+        1.0 / b,
+        1.0 / (4.0 * math.pi * n * n),
+        ta * b / n,
+        ta / n,
+        b / (math.pi * n),
+        math.pi * ta * ta,
+        ta,
+    )
 
 
 @jit_inline
@@ -80,15 +89,17 @@ def braid_terms_k(L, b, inv_b, q, tbn, tan, dk, pta2, ta):
 @jit_inline
 def cpam_terms(L, p):
     """:func:`braid_terms` of the CPAM of parameter row ``p``."""
-    return braid_terms_k(L, p[ix.BC], p[ix.INV_BC], p[ix.QC], p[ix.TBN_C], p[ix.TAN_C], p[ix.DK_C],
-                         p[ix.PTA2], p[ix.TA])
+    return braid_terms_k(
+        L, p[ix.BC], p[ix.INV_BC], p[ix.QC], p[ix.TBN_C], p[ix.TAN_C], p[ix.DK_C], p[ix.PTA2], p[ix.TA]
+    )
 
 
 @jit_inline
 def epam_terms(L, p):
     """:func:`braid_terms` of the EPAM of parameter row ``p``."""
-    return braid_terms_k(L, p[ix.BE], p[ix.INV_BE], p[ix.QE], p[ix.TBN_E], p[ix.TAN_E], p[ix.DK_E],
-                         p[ix.PTA2], p[ix.TA])
+    return braid_terms_k(
+        L, p[ix.BE], p[ix.INV_BE], p[ix.QE], p[ix.TBN_E], p[ix.TAN_E], p[ix.DK_E], p[ix.PTA2], p[ix.TA]
+    )
 
 
 @jit
@@ -133,8 +144,12 @@ def active_pressure(P, p_r, dpr_dl):
 @jit_inline
 def contact_pressures(L, p):
     """``(P_rc, dP_rc/dL, P_re, dP_re/dL)`` of the two bladders of parameter row ``p``."""
-    prc, dprc = radial_pressure_k(L, p[ix.BC], p[ix.INV_PNB_C], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
-    pre, dpre = radial_pressure_k(L, p[ix.BE], p[ix.INV_PNB_E], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI])
+    prc, dprc = radial_pressure_k(
+        L, p[ix.BC], p[ix.INV_PNB_C], p[ix.DOC], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI]
+    )
+    pre, dpre = radial_pressure_k(
+        L, p[ix.BE], p[ix.INV_PNB_E], p[ix.DOE], p[ix.RADIAL], p[ix.KR_LO], p[ix.KR_HI]
+    )
     return prc, dprc, pre, dpre
 
 
@@ -194,8 +209,12 @@ def bladder_energy_k(L, inv_b, dk, scale, inv_lref, inv_dref):
 @jit_inline
 def bladder_energies(L, p):
     """``(U, dU/dL, d2U/dL2)`` of both bladders of parameter row ``p`` (zeros in a v0 row)."""
-    uc, duc, d2uc = bladder_energy_k(L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C])
-    ue, due, d2ue = bladder_energy_k(L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E])
+    uc, duc, d2uc = bladder_energy_k(
+        L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C]
+    )
+    ue, due, d2ue = bladder_energy_k(
+        L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E]
+    )
     return uc + ue, duc + due, d2uc + d2ue
 
 
@@ -237,8 +256,12 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     dforce_dl = dpae * ge + pae * dge + dpac * dvac + pac * d2vac - k_el
     df_dpc = dvac if pac > 0.0 else 0.0
     df_dpe = ge if pae > 0.0 else 0.0
-    _uc, duc, d2uc = bladder_energy_k(L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C])
-    _ue, due, d2ue = bladder_energy_k(L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E])
+    _uc, duc, d2uc = bladder_energy_k(
+        L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C]
+    )
+    _ue, due, d2ue = bladder_energy_k(
+        L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E]
+    )
     force -= due
     dforce_dl -= d2ue
     width = p[ix.SLACK_W]
@@ -246,8 +269,7 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
         # the CPAM's own push (braid term plus its bladder wall, see the docstring)
         gc = lam * dvac + (1.0 - lam) * kappa * dvc  # what multiplies -P_ae in the braid term
         c = pac * dvac - pae * gc - duc
-        dc = (dpac * dvac + pac * d2vac - dpae * gc - pae * (lam * d2vac + (1.0 - lam) * kappa * d2vc)
-              - d2uc)
+        dc = dpac * dvac + pac * d2vac - dpae * gc - pae * (lam * d2vac + (1.0 - lam) * kappa * d2vc) - d2uc
         a = fmax(-dvc, 1e-12)
         da = -d2vc if -dvc > 1e-12 else 0.0
         inv_wa = 1.0 / (width * a)

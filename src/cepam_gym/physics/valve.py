@@ -22,8 +22,16 @@ def iso6358_flow(p_up, p_down, t_up, c, b, r_lam):
     ODE well-conditioned (its slope bounds the stiffest eigenvalue the sub-step must resolve).
     """
     x = (r_lam - b) / (1.0 - b)
-    return iso6358_flow_k(p_up, p_down, math.sqrt(T0 / t_up), c, b, 1.0 / (1.0 - b), r_lam,
-                          math.sqrt(1.0 - x * x) / (1.0 - r_lam))
+    return iso6358_flow_k(
+        p_up,
+        p_down,
+        math.sqrt(T0 / t_up),
+        c,
+        b,
+        1.0 / (1.0 - b),
+        r_lam,
+        math.sqrt(1.0 - x * x) / (1.0 - r_lam),
+    )
 
 
 @jit_inline
@@ -51,16 +59,26 @@ def signed_flow(pa, ta, pb, tb, c, b, r_lam):
     the ISO 6358 formula always sees ``p_up >= p_down``.
     """
     x = (r_lam - b) / (1.0 - b)
-    return signed_flow_k(pa, math.sqrt(T0 / ta), pb, math.sqrt(T0 / tb), c, b, 1.0 / (1.0 - b),
-                         r_lam, math.sqrt(1.0 - x * x) / (1.0 - r_lam))
+    return signed_flow_k(
+        pa,
+        math.sqrt(T0 / ta),
+        pb,
+        math.sqrt(T0 / tb),
+        c,
+        b,
+        1.0 / (1.0 - b),
+        r_lam,
+        math.sqrt(1.0 - x * x) / (1.0 - r_lam),
+    )
 
 
 @jit_inline
 def signed_flow_k(pa, ka, pb, kb, c, b, inv_1mb, r_lam, lam_k):
     """:func:`signed_flow` with the temperature factors ``k = sqrt(T0/T)`` precomputed."""
     forward = pa >= pb  # the direction is chosen first (selects, not branches: see iso6358_flow_k)
-    m = iso6358_flow_k(pa if forward else pb, pb if forward else pa, ka if forward else kb, c, b,
-                       inv_1mb, r_lam, lam_k)
+    m = iso6358_flow_k(
+        pa if forward else pb, pb if forward else pa, ka if forward else kb, c, b, inv_1mb, r_lam, lam_k
+    )
     return m if forward else -m
 
 

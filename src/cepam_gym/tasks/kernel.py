@@ -20,16 +20,39 @@ from ..physics import layout as ix
 from .layout import OBS_FIELDS, ObsLayout, preview_fields
 from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
 
-__all__ = ["OBS_FIELDS", "TERMINATION_REASONS", "task_vector", "encode", "write_obs", "write_preview",
-           "reward_terms",
-           "termination", "valve_commands", "env_step", "observe"]
+__all__ = [
+    "OBS_FIELDS",
+    "TERMINATION_REASONS",
+    "task_vector",
+    "encode",
+    "write_obs",
+    "write_preview",
+    "reward_terms",
+    "termination",
+    "valve_commands",
+    "env_step",
+    "observe",
+]
 
 # The task vector: everything the kernel needs to know of the task, flattened (built by
 # :func:`task_vector` from the task spec, its scales and its observation layout): reward weights
 # (in REWARD_TERMS order), units and clips of the terms, the pressure set-point range, then the
 # observation layout, one (source field, offset, scale) triple per column.
-(T_W_TRACK, T_W_STIFF, T_W_EFFORT, T_W_AIR, T_W_BURST, T_TRACK_K, T_TRACK_UNIT, T_TRACK_CLIP,
- T_STIFF_CLIP, T_AIR_UNIT, T_SETPOINT_MAX, T_OBS_CLIP, T_OBS_N) = range(13)
+(
+    T_W_TRACK,
+    T_W_STIFF,
+    T_W_EFFORT,
+    T_W_AIR,
+    T_W_BURST,
+    T_TRACK_K,
+    T_TRACK_UNIT,
+    T_TRACK_CLIP,
+    T_STIFF_CLIP,
+    T_AIR_UNIT,
+    T_SETPOINT_MAX,
+    T_OBS_CLIP,
+    T_OBS_N,
+) = range(13)
 T_OBS = 13
 MAX_OBS = len(OBS_FIELDS)
 # then the preview: steps announced, and the offset and scale of the length and stiffness columns
@@ -44,14 +67,15 @@ N_TERMS = 5
 N_NOISE = 5
 
 
-def task_vector(weights, scales, layout: ObsLayout, setpoint_max: float,
-                track_stiffness: bool = True) -> np.ndarray:
+def task_vector(
+    weights, scales, layout: ObsLayout, setpoint_max: float, track_stiffness: bool = True
+) -> np.ndarray:
     """The task vector of a task: ``weights`` the five reward weights in REWARD_TERMS order,
     ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout (at
     most :data:`MAX_OBS` columns), ``setpoint_max`` [Pa] the gauge pressure of the action +1 in
     pressure mode."""
     v = np.zeros(N_TASK)
-    v[T_W_TRACK:T_W_BURST + 1] = [float(w) for w in weights]
+    v[T_W_TRACK : T_W_BURST + 1] = [float(w) for w in weights]
     v[T_TRACK_K] = float(track_stiffness)
     v[T_TRACK_UNIT], v[T_TRACK_CLIP] = scales.tracking_unit, scales.tracking_clip
     v[T_STIFF_CLIP], v[T_AIR_UNIT] = scales.stiffness_clip, scales.air_unit
@@ -60,16 +84,20 @@ def task_vector(weights, scales, layout: ObsLayout, setpoint_max: float,
     n = sum("_+" not in name for name in layout.names)
     preview = layout.names[n:]
     if n > MAX_OBS or any("_+" not in name for name in preview):
-        raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns, then the "
-                         f"preview columns; got {layout.names}")
+        raise ValueError(
+            f"an observation layout has at most {MAX_OBS} measured columns, then the "
+            f"preview columns; got {layout.names}"
+        )
     v[T_OBS_CLIP], v[T_OBS_N] = layout.clip, n
-    v[T_OBS:T_OBS + 3 * n:3] = layout.sources()[:n]
-    v[T_OBS + 1:T_OBS + 3 * n:3] = layout.offsets()[:n]
-    v[T_OBS + 2:T_OBS + 3 * n:3] = layout.scales()[:n]
+    v[T_OBS : T_OBS + 3 * n : 3] = layout.sources()[:n]
+    v[T_OBS + 1 : T_OBS + 3 * n : 3] = layout.offsets()[:n]
+    v[T_OBS + 2 : T_OBS + 3 * n : 3] = layout.scales()[:n]
     steps = sum(name.startswith("target_length_+") for name in preview)
     if steps:
         if preview != preview_fields(steps, track_stiffness):
-            raise ValueError(f"preview columns must be {preview_fields(steps, track_stiffness)}, got {preview}")
+            raise ValueError(
+                f"preview columns must be {preview_fields(steps, track_stiffness)}, got {preview}"
+            )
         v[T_PREVIEW] = steps
         v[T_PREV_L_OFF] = layout.columns[n].offset
         v[T_PREV_L_SCALE] = layout.columns[n].scale
@@ -166,8 +194,29 @@ def valve_commands(mode, a0, a1, setpoint_max):
 
 
 @jit
-def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise,
-               inputs, obs, rewards, terms, aux, reasons, W):
+def _env_block(
+    lo,
+    n,
+    state,
+    actions,
+    params,
+    mode,
+    dt,
+    n_sub,
+    tl,
+    tk,
+    loads,
+    t_idx,
+    task,
+    noise,
+    inputs,
+    obs,
+    rewards,
+    terms,
+    aux,
+    reasons,
+    W,
+):
     """One control step of envs ``lo .. lo + n - 1`` (one plant block, ``n <= plant.BLOCK``).
 
     Each env's action (the plant receives it now) is clipped to [-1, 1] in place, so the caller's
@@ -190,11 +239,21 @@ def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_
         ax = aux[i]
         burst = ax[pl.A_BURST] != 0.0
         a = actions[i]
-        reward = reward_terms(x[pl.S_L], tl[i, k], ax[pl.A_STIFF], tk[i, k], a[0], a[1], ax[pl.A_AIR],
-                              burst, task, terms[i])
+        reward = reward_terms(
+            x[pl.S_L], tl[i, k], ax[pl.A_STIFF], tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms[i]
+        )
         p = params[0] if params.shape[0] == 1 else params[i]
-        write_obs(x, ax, tl[i, k1], tk[i, k1], actions[i], p, task,
-                  noise[0] if noise.shape[0] == 1 else noise[i], obs[i])
+        write_obs(
+            x,
+            ax,
+            tl[i, k1],
+            tk[i, k1],
+            actions[i],
+            p,
+            task,
+            noise[0] if noise.shape[0] == 1 else noise[i],
+            obs[i],
+        )
         write_preview(tl[i], tk[i], t_idx[i] + 1, task, obs[i])
         reasons[i] = termination(ax[pl.A_FINITE] != 0.0 and math.isfinite(reward), burst)
         rewards[i] = 0.0 if reasons[i] == TERMINATION_NONFINITE else reward
@@ -202,24 +261,101 @@ def _env_block(lo, n, state, actions, params, mode, dt, n_sub, tl, tk, loads, t_
 
 
 @jit
-def _env_step_serial(state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise,
-                     inputs, obs, rewards, terms, aux, reasons):
+def _env_step_serial(
+    state,
+    actions,
+    params,
+    mode,
+    dt,
+    n_sub,
+    tl,
+    tk,
+    loads,
+    t_idx,
+    task,
+    noise,
+    inputs,
+    obs,
+    rewards,
+    terms,
+    aux,
+    reasons,
+):
     n = state.shape[0]
     W = np.empty(pl.W_SIZE)
     for lo in range(0, n, pl.BLOCK):
-        _env_block(lo, min(pl.BLOCK, n - lo), state, actions, params, mode, dt, n_sub, tl, tk,
-                   loads, t_idx, task, noise, inputs, obs, rewards, terms, aux, reasons, W)
+        _env_block(
+            lo,
+            min(pl.BLOCK, n - lo),
+            state,
+            actions,
+            params,
+            mode,
+            dt,
+            n_sub,
+            tl,
+            tk,
+            loads,
+            t_idx,
+            task,
+            noise,
+            inputs,
+            obs,
+            rewards,
+            terms,
+            aux,
+            reasons,
+            W,
+        )
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
-def _env_step_parallel(state, actions, params, mode, dt, n_sub, tl, tk, loads, t_idx, task, noise,
-                       inputs, obs, rewards, terms, aux, reasons):
+def _env_step_parallel(
+    state,
+    actions,
+    params,
+    mode,
+    dt,
+    n_sub,
+    tl,
+    tk,
+    loads,
+    t_idx,
+    task,
+    noise,
+    inputs,
+    obs,
+    rewards,
+    terms,
+    aux,
+    reasons,
+):
     n = state.shape[0]
     for b in prange((n + pl.BLOCK - 1) // pl.BLOCK):
         lo = b * pl.BLOCK
-        _env_block(lo, min(pl.BLOCK, n - lo), state, actions, params, mode, dt, n_sub, tl, tk,
-                   loads, t_idx, task, noise, inputs, obs, rewards, terms, aux, reasons,
-                   np.empty(pl.W_SIZE))
+        _env_block(
+            lo,
+            min(pl.BLOCK, n - lo),
+            state,
+            actions,
+            params,
+            mode,
+            dt,
+            n_sub,
+            tl,
+            tk,
+            loads,
+            t_idx,
+            task,
+            noise,
+            inputs,
+            obs,
+            rewards,
+            terms,
+            aux,
+            reasons,
+            np.empty(pl.W_SIZE),
+        )
 
 
 def env_step(*args):
@@ -248,17 +384,31 @@ def observe(state, aux, params, tl, tk, t_idx, prev_actions, task, noise, obs):
 # load, targets, reward terms).
 AUX_INFO = (pl.A_STIFF, pl.A_STIFF_CLOSED, pl.A_FORCE, pl.A_PC, pl.A_PE, pl.A_TC, pl.A_TE, pl.A_AIR)
 N_INFO = 2 + len(AUX_INFO) + 3 + N_TERMS
-_SINGLE_FIELDS = (("state", pl.N_STATE), ("actions", 2), ("params", ix.N_PARAMS),
-                  ("inputs", pl.N_INPUT), ("aux", pl.N_AUX), ("terms", N_TERMS), ("rewards", 1),
-                  ("noise", N_NOISE), ("task", N_TASK), ("dt", 1), ("info", N_INFO), ("W", pl.W_SIZE))
+_SINGLE_FIELDS = (
+    ("state", pl.N_STATE),
+    ("actions", 2),
+    ("params", ix.N_PARAMS),
+    ("inputs", pl.N_INPUT),
+    ("aux", pl.N_AUX),
+    ("terms", N_TERMS),
+    ("rewards", 1),
+    ("noise", N_NOISE),
+    ("task", N_TASK),
+    ("dt", 1),
+    ("info", N_INFO),
+    ("W", pl.W_SIZE),
+)
 _OFF = {}
 _o = 0
 for _name, _size in _SINGLE_FIELDS:
     _OFF[_name] = _o
     _o += _size
-_F_STATE, _F_ACT, _F_PARAMS, _F_INPUTS, _F_AUX = (_OFF[k] for k in ("state", "actions", "params", "inputs", "aux"))
+_F_STATE, _F_ACT, _F_PARAMS, _F_INPUTS, _F_AUX = (
+    _OFF[k] for k in ("state", "actions", "params", "inputs", "aux")
+)
 _F_TERMS, _F_REW, _F_NOISE, _F_TASK, _F_DT, _F_INFO, _F_W = (
-    _OFF[k] for k in ("terms", "rewards", "noise", "task", "dt", "info", "W"))
+    _OFF[k] for k in ("terms", "rewards", "noise", "task", "dt", "info", "W")
+)
 _F_SCHED = _o  # then target length, target stiffness and load, n_steps each
 _I_T, _I_REASON, _I_MODE, _I_NSUB = range(4)
 
@@ -271,14 +421,14 @@ def single_slabs(n_steps: int, mode: int, n_sub: int, dt: float):
     I = np.zeros(4, dtype=np.int64)
     I[_I_MODE], I[_I_NSUB] = mode, n_sub
     F[_F_DT] = dt
-    v = {name: F[_OFF[name]:_OFF[name] + size].reshape(1, size) for name, size in _SINGLE_FIELDS}
+    v = {name: F[_OFF[name] : _OFF[name] + size].reshape(1, size) for name, size in _SINGLE_FIELDS}
     v["rewards"] = v["rewards"].reshape(1)
     v["task"] = v["task"].reshape(N_TASK)
     v["info"] = v["info"].reshape(N_INFO)
     for j, name in enumerate(("target_l", "target_k", "load")):
-        v[name] = F[_F_SCHED + j * n_steps:_F_SCHED + (j + 1) * n_steps].reshape(1, n_steps)
-    v["t_idx"] = I[_I_T:_I_T + 1]
-    v["reasons"] = I[_I_REASON:_I_REASON + 1]
+        v[name] = F[_F_SCHED + j * n_steps : _F_SCHED + (j + 1) * n_steps].reshape(1, n_steps)
+    v["t_idx"] = I[_I_T : _I_T + 1]
+    v["reasons"] = I[_I_REASON : _I_REASON + 1]
     return F, I, v
 
 
@@ -287,24 +437,42 @@ def env_step_single(F, I, obs, a0, a1):
     """One control step of a single env whose arrays live in the slabs ``F``, ``I`` (see
     :func:`single_slabs`), with the (finite) action ``(a0, a1)``; returns ``(reward, reason)``."""
     n_steps = (F.shape[0] - _F_SCHED) // 3
-    state = F[_F_STATE:_F_STATE + pl.N_STATE].reshape((1, pl.N_STATE))
-    actions = F[_F_ACT:_F_ACT + 2].reshape((1, 2))
+    state = F[_F_STATE : _F_STATE + pl.N_STATE].reshape((1, pl.N_STATE))
+    actions = F[_F_ACT : _F_ACT + 2].reshape((1, 2))
     actions[0, 0] = a0
     actions[0, 1] = a1
-    tl = F[_F_SCHED:_F_SCHED + n_steps].reshape((1, n_steps))
-    tk = F[_F_SCHED + n_steps:_F_SCHED + 2 * n_steps].reshape((1, n_steps))
-    loads = F[_F_SCHED + 2 * n_steps:_F_SCHED + 3 * n_steps].reshape((1, n_steps))
-    t_idx = I[_I_T:_I_T + 1]
-    aux = F[_F_AUX:_F_AUX + pl.N_AUX].reshape((1, pl.N_AUX))
-    terms = F[_F_TERMS:_F_TERMS + N_TERMS].reshape((1, N_TERMS))
-    _env_block(0, 1, state, actions, F[_F_PARAMS:_F_PARAMS + ix.N_PARAMS].reshape((1, ix.N_PARAMS)),
-               I[_I_MODE], F[_F_DT], I[_I_NSUB], tl, tk, loads, t_idx, F[_F_TASK:_F_TASK + N_TASK],
-               F[_F_NOISE:_F_NOISE + N_NOISE].reshape((1, N_NOISE)),
-               F[_F_INPUTS:_F_INPUTS + pl.N_INPUT].reshape((1, pl.N_INPUT)), obs,
-               F[_F_REW:_F_REW + 1], terms, aux, I[_I_REASON:_I_REASON + 1], F[_F_W:_F_W + pl.W_SIZE])
+    tl = F[_F_SCHED : _F_SCHED + n_steps].reshape((1, n_steps))
+    tk = F[_F_SCHED + n_steps : _F_SCHED + 2 * n_steps].reshape((1, n_steps))
+    loads = F[_F_SCHED + 2 * n_steps : _F_SCHED + 3 * n_steps].reshape((1, n_steps))
+    t_idx = I[_I_T : _I_T + 1]
+    aux = F[_F_AUX : _F_AUX + pl.N_AUX].reshape((1, pl.N_AUX))
+    terms = F[_F_TERMS : _F_TERMS + N_TERMS].reshape((1, N_TERMS))
+    _env_block(
+        0,
+        1,
+        state,
+        actions,
+        F[_F_PARAMS : _F_PARAMS + ix.N_PARAMS].reshape((1, ix.N_PARAMS)),
+        I[_I_MODE],
+        F[_F_DT],
+        I[_I_NSUB],
+        tl,
+        tk,
+        loads,
+        t_idx,
+        F[_F_TASK : _F_TASK + N_TASK],
+        F[_F_NOISE : _F_NOISE + N_NOISE].reshape((1, N_NOISE)),
+        F[_F_INPUTS : _F_INPUTS + pl.N_INPUT].reshape((1, pl.N_INPUT)),
+        obs,
+        F[_F_REW : _F_REW + 1],
+        terms,
+        aux,
+        I[_I_REASON : _I_REASON + 1],
+        F[_F_W : _F_W + pl.W_SIZE],
+    )
     # info of the scored step (the targets and load of the step just taken)
     k = min(max(t_idx[0] - 1, 0), n_steps - 1)
-    info = F[_F_INFO:_F_INFO + N_INFO]
+    info = F[_F_INFO : _F_INFO + N_INFO]
     info[0] = state[0, pl.S_L]
     info[1] = state[0, pl.S_V]
     for j in range(len(AUX_INFO)):

@@ -19,8 +19,17 @@ from dataclasses import dataclass
 import numpy as np
 
 # the quantities the rig envs measure, in the order the step kernel computes them
-OBS_FIELDS = ("length", "velocity", "pressure_c", "pressure_e", "supply_pressure",
-              "target_length", "target_stiffness", "previous_action_c", "previous_action_e")
+OBS_FIELDS = (
+    "length",
+    "velocity",
+    "pressure_c",
+    "pressure_e",
+    "supply_pressure",
+    "target_length",
+    "target_stiffness",
+    "previous_action_c",
+    "previous_action_e",
+)
 
 
 @dataclass(frozen=True)
@@ -34,8 +43,10 @@ class ObsColumn:
 
     def __post_init__(self):
         if not (np.isfinite(self.scale) and self.scale > 0 and np.isfinite(self.offset)):
-            raise ValueError(f"observation column {self.name!r}: scale must be finite and > 0 and "
-                             f"offset finite, got {self.scale!r}, {self.offset!r}")
+            raise ValueError(
+                f"observation column {self.name!r}: scale must be finite and > 0 and "
+                f"offset finite, got {self.scale!r}, {self.offset!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -125,9 +136,14 @@ def rig_layout(spec, nominal, preview_steps: int = 0) -> ObsLayout:
     lo, hi = nominal.min_length, nominal.max_length
     center, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     ps = nominal.supply_pressure
-    cols = [ObsColumn("length", half, center, "m"), ObsColumn("velocity", s.velocity_scale, 0.0, "m/s"),
-            ObsColumn("pressure_c", ps, 0.0, "Pa"), ObsColumn("pressure_e", ps, 0.0, "Pa"),
-            ObsColumn("supply_pressure", ps, 0.0, "Pa"), ObsColumn("target_length", half, center, "m")]
+    cols = [
+        ObsColumn("length", half, center, "m"),
+        ObsColumn("velocity", s.velocity_scale, 0.0, "m/s"),
+        ObsColumn("pressure_c", ps, 0.0, "Pa"),
+        ObsColumn("pressure_e", ps, 0.0, "Pa"),
+        ObsColumn("supply_pressure", ps, 0.0, "Pa"),
+        ObsColumn("target_length", half, center, "m"),
+    ]
     if spec.track_stiffness:
         cols.append(ObsColumn("target_stiffness", s.stiffness_scale, 0.0, "N/m"))
     cols += [ObsColumn("previous_action_c"), ObsColumn("previous_action_e")]

@@ -33,8 +33,17 @@ from ..physics import layout as ix
 from .schedules import episode_schedules, stiffness_interval
 from .spec import REFERENCE_KINDS, TaskSpec
 
-__all__ = ["REFERENCE_KINDS", "min_jerk", "smooth_steps", "project", "pressure_rate_ratio",
-           "periodic_length", "smooth_reference", "stiffness_ramp", "planned_schedules"]
+__all__ = [
+    "REFERENCE_KINDS",
+    "min_jerk",
+    "smooth_steps",
+    "project",
+    "pressure_rate_ratio",
+    "periodic_length",
+    "smooth_reference",
+    "stiffness_ramp",
+    "planned_schedules",
+]
 _SLOWDOWN = 0.7  # factor on the frequency (or 1/factor on a move) per followability retry
 _RETRIES = 8
 
@@ -77,8 +86,10 @@ def project(target_l, target_k, load, params_row, spec: TaskSpec):
     k_lo, k_hi = stiffness_interval(L, w, w, p, spec)
     if np.any(k_hi <= k_lo):
         i = int(np.argmax(k_hi <= k_lo))
-        raise ValueError(f"task {spec.name!r}: no reachable stiffness at L = {L[i] * 100:.3g} cm with "
-                         f"load {load[i]:.3g} kg (step {i}); lower the load range or widen the length range")
+        raise ValueError(
+            f"task {spec.name!r}: no reachable stiffness at L = {L[i] * 100:.3g} cm with "
+            f"load {load[i]:.3g} kg (step {i}); lower the load range or widen the length range"
+        )
     pad = 0.05 * (k_hi - k_lo)
     return L, np.clip(np.asarray(target_k, dtype=float), k_lo + pad, k_hi - pad)
 
@@ -129,8 +140,17 @@ def _constant_k(rng, spec, L, load, p):
     return lo + rng.uniform(0.2, 0.8) * (hi - lo)
 
 
-def periodic_length(rng, spec: TaskSpec, load, params_row, n_steps: int, dt: float,
-                    kind: str = "sine", freq_hz=(0.1, 0.5), rate_fraction: float = 0.5):
+def periodic_length(
+    rng,
+    spec: TaskSpec,
+    load,
+    params_row,
+    n_steps: int,
+    dt: float,
+    kind: str = "sine",
+    freq_hz=(0.1, 0.5),
+    rate_fraction: float = 0.5,
+):
     """``sine`` or ``chirp`` length at a constant reachable stiffness; the amplitude shrinks until
     one constant stiffness is reachable throughout, the frequency until the valves can follow."""
     p = np.asarray(params_row, dtype=float)
@@ -154,12 +174,22 @@ def periodic_length(rng, spec: TaskSpec, load, params_row, n_steps: int, dt: flo
         if pressure_rate_ratio(L, tk, load, p, dt).max() <= rate_fraction:
             return L, tk
         f0, f1 = f0 * _SLOWDOWN, f1 * _SLOWDOWN
-    raise ValueError(f"task {spec.name!r}: no followable {kind} reference after {_RETRIES * 2} tries "
-                     "(loads too large for a constant stiffness, or valves too small)")
+    raise ValueError(
+        f"task {spec.name!r}: no followable {kind} reference after {_RETRIES * 2} tries "
+        "(loads too large for a constant stiffness, or valves too small)"
+    )
 
 
-def smooth_reference(target_l, target_k, load, params_row, spec: TaskSpec, dt: float,
-                     move_s: float = 0.6, rate_fraction: float = 0.5):
+def smooth_reference(
+    target_l,
+    target_k,
+    load,
+    params_row,
+    spec: TaskSpec,
+    dt: float,
+    move_s: float = 0.6,
+    rate_fraction: float = 0.5,
+):
     """``min_jerk`` moves between the set-points of a step schedule (both channels), lengthened
     until the valves can follow (ratio below ``rate_fraction``; after the last retry the slowest
     moves are kept: near the pressure cap a fully open valve's fill rate vanishes, so a move ending

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..params import pressure_cap_of
 from ..physics import api
 from ..physics import layout as ix
-from ..params import pressure_cap_of
 from .spec import TaskSpec
 
 _TRIES = 32
@@ -109,7 +109,8 @@ def sample_target(rng, spec: TaskSpec, w_lo: float, w_hi: float, params_row) -> 
     raise RuntimeError(
         f"task {spec.name!r}: found no reachable target in {_TRIES} tries for loads "
         f"{w_lo / 9.81:.3g}-{w_hi / 9.81:.3g} kg; the plant's pressures cannot hold these loads "
-        "(lower load_range, widen length_range, or raise the supply/burst pressure)")
+        "(lower load_range, widen length_range, or raise the supply/burst pressure)"
+    )
 
 
 _CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
@@ -156,13 +157,22 @@ def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
     w_hi = np.concatenate([np.maximum.reduceat(flat, first) if m else [], weights[:, 0]])
     seg_env = np.concatenate([env_of, np.arange(m)])
     seg_idx = np.concatenate([np.arange(len(env_of)) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg), n_seg])
-    cand_l = np.concatenate([np.concatenate([d[2][:-1] for d in draws] or [np.empty((0, _CANDIDATES))]),
-                             np.stack([d[2][-1] for d in draws]) if m else np.empty((0, _CANDIDATES))])
-    cand_u = np.concatenate([np.concatenate([d[3][:-1] for d in draws] or [np.empty((0, _CANDIDATES))]),
-                             np.stack([d[3][-1] for d in draws]) if m else np.empty((0, _CANDIDATES))])
+    cand_l = np.concatenate(
+        [
+            np.concatenate([d[2][:-1] for d in draws] or [np.empty((0, _CANDIDATES))]),
+            np.stack([d[2][-1] for d in draws]) if m else np.empty((0, _CANDIDATES)),
+        ]
+    )
+    cand_u = np.concatenate(
+        [
+            np.concatenate([d[3][:-1] for d in draws] or [np.empty((0, _CANDIDATES))]),
+            np.stack([d[3][-1] for d in draws]) if m else np.empty((0, _CANDIDATES)),
+        ]
+    )
     prow = params[np.repeat(seg_env, _CANDIDATES)] if params.shape[0] > 1 else params[0]
-    k_lo, k_hi = stiffness_interval(cand_l.ravel(), np.repeat(w_lo, _CANDIDATES),
-                                    np.repeat(w_hi, _CANDIDATES), prow, spec)
+    k_lo, k_hi = stiffness_interval(
+        cand_l.ravel(), np.repeat(w_lo, _CANDIDATES), np.repeat(w_hi, _CANDIDATES), prow, spec
+    )
     k_lo, k_hi = k_lo.reshape(-1, _CANDIDATES), k_hi.reshape(-1, _CANDIDATES)
     ok = k_hi > k_lo
     c = ok.argmax(axis=1)  # the first feasible candidate of each segment

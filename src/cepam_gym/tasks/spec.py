@@ -108,10 +108,13 @@ class TaskSpec:
             raise ValueError("a task must track the length, the stiffness or both")
         bad = [k for k in self.references if k not in REFERENCE_KINDS]
         if bad or not self.references:
-            raise ValueError(f"references must be a non-empty subset of {REFERENCE_KINDS}, got {self.references}")
+            raise ValueError(
+                f"references must be a non-empty subset of {REFERENCE_KINDS}, got {self.references}"
+            )
         if self.fixed_length is not None and {"sine", "chirp"} & set(self.references):
-            raise ValueError(f"task {self.name!r} holds a fixed length: sine and chirp length references "
-                             "do not apply")
+            raise ValueError(
+                f"task {self.name!r} holds a fixed length: sine and chirp length references do not apply"
+            )
         if not (np.isfinite(self.move_s) and self.move_s > 0):
             raise ValueError(f"move_s must be finite and > 0, got {self.move_s!r}")
 
@@ -125,6 +128,7 @@ TASKS = {
     # v1: planned references (smooth moves, the paper's two profiles), announced in the observation
     "cepam_v1": TaskSpec("cepam_v1", references=("min_jerk", "sine", "chirp", "stiffness_ramp")),
     "length_v1": TaskSpec("length_v1", track_stiffness=False, references=("min_jerk", "sine", "chirp")),
-    "stiffness_v1": TaskSpec("stiffness_v1", fixed_length=0.175, load_range=(0.0, 0.15),
-                             references=("min_jerk", "stiffness_ramp")),
+    "stiffness_v1": TaskSpec(
+        "stiffness_v1", fixed_length=0.175, load_range=(0.0, 0.15), references=("min_jerk", "stiffness_ramp")
+    ),
 }

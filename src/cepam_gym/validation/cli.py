@@ -10,8 +10,19 @@ import numpy as np
 
 from ..params import PlantParams, preset
 from .experiments import load_experiments
-from .fit import (DEFAULT_FIT, FIT_PARAMS, V1_BOUNDS, V1_FIT, V1_STARTS, cross_validate, fit, fitted_yaml,
-                  format_cross_validation, format_report, minimax)
+from .fit import (
+    DEFAULT_FIT,
+    FIT_PARAMS,
+    V1_BOUNDS,
+    V1_FIT,
+    V1_STARTS,
+    cross_validate,
+    fit,
+    fitted_yaml,
+    format_cross_validation,
+    format_report,
+    minimax,
+)
 from .measurements import read_csv, write_paper_csvs
 from .plots import plot_fit, write_plots
 from .table import base_params, format_headline, format_table, geometry_lines, json_rows, validation_rows
@@ -19,10 +30,14 @@ from .table import base_params, format_headline, format_table, geometry_lines, j
 
 def validate_main(argv: list[str] | None = None) -> int:
     """``cepam-gym validate``: the table, its JSON and the plots."""
-    ap = argparse.ArgumentParser(prog="cepam-gym validate",
-                                 description="the paper's reported numbers beside the model's (computed, never stored)")
+    ap = argparse.ArgumentParser(
+        prog="cepam-gym validate",
+        description="the paper's reported numbers beside the model's (computed, never stored)",
+    )
     ap.add_argument("--json", action="store_true", help="print the rows as a JSON list (no plots)")
-    ap.add_argument("--preset", default=None, help="plant preset to validate (default: the dataclass defaults = balloon)")
+    ap.add_argument(
+        "--preset", default=None, help="plant preset to validate (default: the dataclass defaults = balloon)"
+    )
     ap.add_argument("--params", default=None, help="plant parameter YAML to validate (overrides --preset)")
     ap.add_argument("--out-dir", default="runs/validate", help="where the plots and the table go")
     args = ap.parse_args(argv)
@@ -32,9 +47,20 @@ def validate_main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps(json_rows(rows), indent=1))
         return 0
-    what = (args.params or f"preset {args.preset}") if (args.params or args.preset) else "default plant (balloon)"
-    table = "\n".join([format_table(rows, title=f"reproduction table: {what}"), "",
-                       format_headline(rows), "", geometry_lines(params)])
+    what = (
+        (args.params or f"preset {args.preset}")
+        if (args.params or args.preset)
+        else "default plant (balloon)"
+    )
+    table = "\n".join(
+        [
+            format_table(rows, title=f"reproduction table: {what}"),
+            "",
+            format_headline(rows),
+            "",
+            geometry_lines(params),
+        ]
+    )
     print(table)
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -50,32 +76,54 @@ def calibrate_main(argv: list[str] | None = None) -> int:
     """``cepam-gym calibrate``: fit, report, fitted YAML and residual plot."""
     ap = argparse.ArgumentParser(
         prog="cepam-gym calibrate",
-        description="fit unknown plant parameters to measured static data (format: docs/calibration.md)")
-    ap.add_argument("--data", action="append",
-                    help="measurement CSV; repeat to fit several files jointly (the paper's numbers: "
-                         "cepam_gym/data/paper_cepam.csv and paper_single_muscles.csv)")
+        description="fit unknown plant parameters to measured static data (format: docs/calibration.md)",
+    )
+    ap.add_argument(
+        "--data",
+        action="append",
+        help="measurement CSV; repeat to fit several files jointly (the paper's numbers: "
+        "cepam_gym/data/paper_cepam.csv and paper_single_muscles.csv)",
+    )
     ap.add_argument("--out", help="fitted parameter YAML to write (loadable by PlantParams.from_yaml)")
     ap.add_argument("--preset", default="balloon", help="base preset: the start and every unfitted value")
-    ap.add_argument("--fit", default=",".join(DEFAULT_FIT),
-                    help=f"comma-separated parameters to fit; one of {sorted(FIT_PARAMS)}")
+    ap.add_argument(
+        "--fit",
+        default=",".join(DEFAULT_FIT),
+        help=f"comma-separated parameters to fit; one of {sorted(FIT_PARAMS)}",
+    )
     ap.add_argument("--bounds", default="", help="override bounds: name=lo:hi,... (edge units)")
-    ap.add_argument("--starts", type=int, default=1, help="starting points (1 = the preset; more: seeded random)")
+    ap.add_argument(
+        "--starts", type=int, default=1, help="starting points (1 = the preset; more: seeded random)"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--plot", default=None, help="residual plot (default: next to --out, .png)")
-    ap.add_argument("--minimax", action="store_true",
-                    help="also search (differential evolution, about a minute) for the smallest "
-                         "largest error the fit parameters can reach inside their bounds")
-    ap.add_argument("--v1", action="store_true",
-                    help="plant v1's calibration: every computable reported number of "
-                         "data/reported.yaml (CE-PAM, single CPAM and EPAM, tube rows) at once, "
-                         "parameters and bounds of docs/calibration.md ('Plant v1'), several starts; "
-                         "--data, --fit and --starts are then not used (about a minute)")
-    ap.add_argument("--cv", action="store_true",
-                    help="with --v1: also the leave-one-experiment-group-out cross-validation "
-                         "(five more fits, several minutes)")
-    ap.add_argument("--write-paper-csv", metavar="DIR", default=None,
-                    help="write the paper's numbers (data/reported.yaml) as paper_cepam.csv and "
-                         "paper_single_muscles.csv into DIR and exit")
+    ap.add_argument(
+        "--minimax",
+        action="store_true",
+        help="also search (differential evolution, about a minute) for the smallest "
+        "largest error the fit parameters can reach inside their bounds",
+    )
+    ap.add_argument(
+        "--v1",
+        action="store_true",
+        help="plant v1's calibration: every computable reported number of "
+        "data/reported.yaml (CE-PAM, single CPAM and EPAM, tube rows) at once, "
+        "parameters and bounds of docs/calibration.md ('Plant v1'), several starts; "
+        "--data, --fit and --starts are then not used (about a minute)",
+    )
+    ap.add_argument(
+        "--cv",
+        action="store_true",
+        help="with --v1: also the leave-one-experiment-group-out cross-validation "
+        "(five more fits, several minutes)",
+    )
+    ap.add_argument(
+        "--write-paper-csv",
+        metavar="DIR",
+        default=None,
+        help="write the paper's numbers (data/reported.yaml) as paper_cepam.csv and "
+        "paper_single_muscles.csv into DIR and exit",
+    )
     args = ap.parse_args(argv)
     if args.write_paper_csv:
         for path in write_paper_csvs(args.write_paper_csv):
@@ -98,15 +146,20 @@ def calibrate_main(argv: list[str] | None = None) -> int:
     experiments = [m.experiment for path in args.data for m in read_csv(path)]
     res = fit(experiments, base, names, starts=args.starts, seed=args.seed, bounds=bounds)
     report = format_report(res, experiments)
-    print(f"calibration of preset {args.preset!r} ({base.force_model}/{base.force_form}) to {', '.join(args.data)}: "
-          f"{len(experiments)} measurements, {len(names)} parameters")
+    print(
+        f"calibration of preset {args.preset!r} ({base.force_model}/{base.force_form}) "
+        f"to {', '.join(args.data)}: "
+        f"{len(experiments)} measurements, {len(names)} parameters"
+    )
     print(report)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     data = " ".join(f"--data {d}" for d in args.data)
-    header = (f"fitted by `cepam-gym calibrate {data} --preset {args.preset} --fit {','.join(names)}`\n"
-              f"mean |relative error| {100 * np.abs(res.residuals).mean():.2f}% over {len(experiments)} "
-              f"measurements; the full report is printed by the command")
+    header = (
+        f"fitted by `cepam-gym calibrate {data} --preset {args.preset} --fit {','.join(names)}`\n"
+        f"mean |relative error| {100 * np.abs(res.residuals).mean():.2f}% over {len(experiments)} "
+        f"measurements; the full report is printed by the command"
+    )
     out.write_text(fitted_yaml(res, args.preset, header))
     PlantParams.from_yaml(out)  # round trip: the file loads
     plot = plot_fit(res, experiments, args.plot or out.with_suffix(".png"))
@@ -118,8 +171,6 @@ def calibrate_main(argv: list[str] | None = None) -> int:
     return 0
 
 
-
-
 def _calibrate_v1(args) -> int:
     """``cepam-gym calibrate --v1``: plant v1 fitted to every computable reported number."""
     if not args.out:
@@ -128,17 +179,32 @@ def _calibrate_v1(args) -> int:
     experiments = [e for e in load_experiments() if e.computable and not e.derived_from]
     starts = [list(x) for x in V1_STARTS]
     res = fit(experiments, base, V1_FIT, bounds=V1_BOUNDS, x0s=starts, max_nfev=40 * len(V1_FIT), tol=1e-7)
-    print(f"plant v1 calibration of preset {args.preset!r} to the {len(experiments)} computable reported "
-          f"numbers (data/reported.yaml), {len(V1_FIT)} parameters, bounds of docs/calibration.md")
+    print(
+        f"plant v1 calibration of preset {args.preset!r} to the {len(experiments)} computable reported "
+        f"numbers (data/reported.yaml), {len(V1_FIT)} parameters, bounds of docs/calibration.md"
+    )
     print(format_report(res, experiments))
     if args.cv:
-        print(format_cross_validation(cross_validate(experiments, base, V1_FIT, bounds=V1_BOUNDS, x0s=starts,
-                                                     max_nfev=40 * len(V1_FIT), full=res)))
+        print(
+            format_cross_validation(
+                cross_validate(
+                    experiments,
+                    base,
+                    V1_FIT,
+                    bounds=V1_BOUNDS,
+                    x0s=starts,
+                    max_nfev=40 * len(V1_FIT),
+                    full=res,
+                )
+            )
+        )
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    header = (f"fitted by `cepam-gym calibrate --v1 --preset {args.preset}`\n"
-              f"mean |relative error| {100 * np.abs(res.residuals).mean():.2f}% over {len(experiments)} "
-              "reported numbers; the full report is printed by the command")
+    header = (
+        f"fitted by `cepam-gym calibrate --v1 --preset {args.preset}`\n"
+        f"mean |relative error| {100 * np.abs(res.residuals).mean():.2f}% over {len(experiments)} "
+        "reported numbers; the full report is printed by the command"
+    )
     out.write_text(fitted_yaml(res, args.preset, header))
     PlantParams.from_yaml(out)
     print(f"wrote {out}")

@@ -33,8 +33,8 @@ model_level`` (plus ``id, source, force_model, force_form, method, note``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.optimize import brentq
@@ -80,6 +80,7 @@ def settle(g: Callable, start: float, lo: float, hi: float) -> tuple[float, str]
     equilibrium is the first sign change of ``g`` in the direction of motion (found on a grid,
     refined by ``brentq``).
     """
+
     def g1(L: float) -> float:
         return float(g(L))
 
@@ -107,14 +108,17 @@ def experiment_params(exp: Experiment, params: PlantParams) -> PlantParams:
     """The plant parameters of the device the experiment used: tube rows get the tube's wall and,
     with neo-Hookean bladders (plant v1), the tube rubber's modulus (braids are shared)."""
     if exp.bladder == "tube" and exp.bladder_thickness_mm is not None:
-        return params.replace(bladder_thickness=to_si(exp.bladder_thickness_mm, "mm"),
-                              bladder_shear_modulus=params.tube_shear_modulus)
+        return params.replace(
+            bladder_thickness=to_si(exp.bladder_thickness_mm, "mm"),
+            bladder_shear_modulus=params.tube_shear_modulus,
+        )
     return params
 
 
 def _row(params: PlantParams, device: str) -> np.ndarray:
     """Kernel parameter row. A single muscle: no CPAM-in-EPAM coupling (kappa = lambda = 0), no
-    CE-PAM spring and no other muscle's bladder wall, so ``cepam_force`` reduces to ``P_ac dV_ac/dL`` (Pe = 0) or
+    CE-PAM spring and no other muscle's bladder wall, so ``cepam_force`` reduces to
+    ``P_ac dV_ac/dL`` (Pe = 0) or
     ``P_ae dV_ae/dL`` (Pc = 0), Eq. 14 of one muscle."""
     row = params.to_array()
     if device != "cepam":
@@ -195,7 +199,9 @@ def simulate(exp: Experiment, params: PlantParams) -> Outcome:
     if exp.measured == "length":
         return Outcome(from_si(L0, "cm"), "free length", "; ".join(notes))
     if exp.measured == "contraction":
-        return Outcome(100.0 * (p.cpam_rest_length - L0) / p.cpam_rest_length, "free length", "; ".join(notes))
+        return Outcome(
+            100.0 * (p.cpam_rest_length - L0) / p.cpam_rest_length, "free length", "; ".join(notes)
+        )
     if exp.measured == "extension":
         return Outcome(100.0 * (L0 - p.min_length) / p.min_length, "free length", "; ".join(notes))
     if exp.measured != "stiffness":
@@ -204,7 +210,7 @@ def simulate(exp: Experiment, params: PlantParams) -> Outcome:
     # stiffness by hanging weights (sections II, III, XII)
     if where != "free":
         k = float(api.stiffness(L0, pc, pe, row))
-        notes.append(f"no displacement to measure: local -dF/dL there reported")
+        notes.append("no displacement to measure: local -dF/dL there reported")
         return Outcome(k, "local -dF/dL (on stop)", "; ".join(notes))
     ks, stopped = [], []
     for m in exp.loads_g:
@@ -214,7 +220,10 @@ def simulate(exp: Experiment, params: PlantParams) -> Outcome:
             stopped.append(f"{m:g}")
             continue
         ks.append(w / (Lm - L0))
-    notes.append(f"unloaded at {from_si(L0, 'cm'):.2f} cm" + (f" (paper {exp.at_length_cm:g} cm)" if exp.at_length_cm else ""))
+    notes.append(
+        f"unloaded at {from_si(L0, 'cm'):.2f} cm"
+        + (f" (paper {exp.at_length_cm:g} cm)" if exp.at_length_cm else "")
+    )
     if stopped:
         notes.append(f"loads {', '.join(stopped)} g reach a stop and are left out")
     if not ks:
@@ -222,4 +231,3 @@ def simulate(exp: Experiment, params: PlantParams) -> Outcome:
         notes.append("every load reaches a stop: local -dF/dL at the unloaded length reported")
         return Outcome(k, "local -dF/dL (loads on stop)", "; ".join(notes))
     return Outcome(float(np.mean(ks)), "hanging weights", "; ".join(notes))
-

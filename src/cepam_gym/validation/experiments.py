@@ -61,9 +61,25 @@ class Experiment:
 
 
 _YAML_KEYS = {
-    "id", "name", "measured", "unit", "value", "section", "figure", "device", "bladder",
-    "bladder_thickness_mm", "pc_kpa", "pe_kpa", "at_length_cm", "loads_g", "derived_from",
-    "computable", "model_level", "quote", "note",
+    "id",
+    "name",
+    "measured",
+    "unit",
+    "value",
+    "section",
+    "figure",
+    "device",
+    "bladder",
+    "bladder_thickness_mm",
+    "pc_kpa",
+    "pe_kpa",
+    "at_length_cm",
+    "loads_g",
+    "derived_from",
+    "computable",
+    "model_level",
+    "quote",
+    "note",
 }
 
 
@@ -96,7 +112,9 @@ def load_experiments(path: str | Path | None = None) -> list[Experiment]:
         if measured not in MEASURED_UNITS:
             raise ValueError(f"{where}: measured must be one of {sorted(MEASURED_UNITS)}, got {measured!r}")
         if e["unit"] != MEASURED_UNITS[measured]:
-            raise ValueError(f"{where}: unit of a {measured} must be {MEASURED_UNITS[measured]!r}, got {e['unit']!r}")
+            raise ValueError(
+                f"{where}: unit of a {measured} must be {MEASURED_UNITS[measured]!r}, got {e['unit']!r}"
+            )
         if device not in DEVICES:
             raise ValueError(f"{where}: device must be one of {DEVICES}, got {device!r}")
         if bladder not in BLADDERS:
@@ -113,19 +131,33 @@ def load_experiments(path: str | Path | None = None) -> list[Experiment]:
         loads = tuple(float(x) for x in e.get("loads_g", default_loads)) if measured == "stiffness" else ()
         if measured == "stiffness" and (not loads or min(loads) <= 0):
             raise ValueError(f"{where}: a stiffness needs positive loads_g")
-        out.append(Experiment(
-            id=str(e["id"]), name=str(e["name"]), measured=measured, unit=e["unit"], value=value,
-            device=device, bladder=bladder, pc_kpa=float(e.get("pc_kpa", 0.0)),
-            pe_kpa=float(e.get("pe_kpa", 0.0)), loads_g=loads,
-            at_length_cm=float(e["at_length_cm"]) if "at_length_cm" in e else None,
-            bladder_thickness_mm=float(e["bladder_thickness_mm"]) if "bladder_thickness_mm" in e else None,
-            section=str(e["section"]), figure=str(e.get("figure", "")),
-            derived_from=e.get("derived_from"), computable=bool(e.get("computable", True)),
-            model_level=e.get("model_level"), quote=str(e.get("quote", "")), note=str(e.get("note", "")),
-        ))
+        out.append(
+            Experiment(
+                id=str(e["id"]),
+                name=str(e["name"]),
+                measured=measured,
+                unit=e["unit"],
+                value=value,
+                device=device,
+                bladder=bladder,
+                pc_kpa=float(e.get("pc_kpa", 0.0)),
+                pe_kpa=float(e.get("pe_kpa", 0.0)),
+                loads_g=loads,
+                at_length_cm=float(e["at_length_cm"]) if "at_length_cm" in e else None,
+                bladder_thickness_mm=float(e["bladder_thickness_mm"])
+                if "bladder_thickness_mm" in e
+                else None,
+                section=str(e["section"]),
+                figure=str(e.get("figure", "")),
+                derived_from=e.get("derived_from"),
+                computable=bool(e.get("computable", True)),
+                model_level=e.get("model_level"),
+                quote=str(e.get("quote", "")),
+                note=str(e.get("note", "")),
+            )
+        )
     ids = {x.id for x in out}
     for x in out:
         if x.derived_from is not None and x.derived_from not in ids:
             raise ValueError(f"{path}: experiment {x.id}: derived_from {x.derived_from!r} is not an id")
     return out
-

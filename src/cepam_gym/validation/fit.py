@@ -2,7 +2,8 @@
 
 Input: a CSV with one measurement per row (format in docs/calibration.md; the paper's own numbers
 ship as ``cepam_gym/data/paper_cepam.csv``, generated from ``data/reported.yaml``). Each row is
-simulated exactly as :func:`cepam_gym.validation.equilibrium.simulate` simulates the paper's experiments (pressures
+simulated exactly as :func:`cepam_gym.validation.equilibrium.simulate` simulates the paper's
+experiments (pressures
 held, the free end hanging; stiffness by hanging weights or at a held length; force at a held
 length), with the plant's own force model and form (``balloon``: enhanced, virtual work).
 
@@ -22,8 +23,8 @@ thicknesses enter only as ``t_a = t_s + t_b`` (Eq. 35), so the default set fits 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
@@ -64,46 +65,119 @@ def _split_wall(p: PlantParams, ta_mm: float) -> dict:
     return {"bladder_thickness": ta * frac, "sleeve_thickness": ta * (1.0 - frac)}
 
 
-FIT_PARAMS: dict[str, FitParam] = {fp.name: fp for fp in (
-    FitParam("cpam_rest_angle", "deg", 5.0, 50.0,
-             "braid angle of the CPAM at rest: a contractor's braid is below 54.7 deg; commercial "
-             "sleeves are woven at about 15-45 deg",
-             *_field("cpam_rest_angle"), ("cpam_rest_angle",)),
-    FitParam("epam_sleeve_free_angle", "deg", 5.0, 50.0,
-             "braid angle of the EPAM sleeve before it is compressed (the same kind of sleeve)",
-             *_field("epam_sleeve_free_angle"), ("epam_sleeve_free_angle",)),
-    FitParam("wall_thickness", "mm", 0.1, 1.5,
-             "t_a = t_s + t_b (Eq. 35): a balloon wall of a few tenths of a mm (< 1 mm, sections "
-             "I-II) plus a braid of nylon threads; a wall cannot be thinner than 0.1 mm; the base "
-             "ratio t_b : t_s is kept",
-             lambda p: from_si(p.bladder_thickness + p.sleeve_thickness, "mm"), _split_wall,
-             ("bladder_thickness", "sleeve_thickness")),
-    FitParam("bladder_thickness", "mm", 0.0, 1.0, "t_b (Eq. 35): the balloon is thinner than the 1 mm tube",
-             *_field("bladder_thickness"), ("bladder_thickness",)),
-    FitParam("sleeve_thickness", "mm", 0.0, 1.0, "t_s (Eq. 35): a braid of nylon threads",
-             *_field("sleeve_thickness"), ("sleeve_thickness",)),
-    FitParam("kr_scale", "", 0.0, 4.0,
-             "factor on both K_r of Eq. 27 (2000 and 500 kPa/m, measured by Tsagarakis and "
-             "Caldwell on another muscle); 4 lets a balloon lose up to 80 kPa to inflation",
-             lambda p: p.kr_high / KR_HIGH_PAPER,
-             lambda p, v: {"kr_high": v * KR_HIGH_PAPER, "kr_low": v * KR_LOW_PAPER}, ("kr_high", "kr_low")),
-    FitParam("elastic_stiffness", "n_per_m", 0.0, 400.0,
-             "axial stiffness of the two bladders (not in the paper): latex E of 1-2 MPa, wall "
-             "<= 1 mm, 5 and 10 mm diameter, 15-20 cm long gives at most a few hundred N/m",
-             *_field("elastic_stiffness"), ("elastic_stiffness",)),
-    FitParam("elastic_rest_length", "cm", 15.0, 19.5,
-             "rest length of that elasticity: between the EPAM bladder (15 cm) and the CPAM (19.5 cm)",
-             *_field("elastic_rest_length"), ("elastic_rest_length",)),
-    FitParam("bladder_shear_modulus", "kpa", 50.0, 3000.0,
-             "neo-Hookean shear modulus of the balloon rubber (natural latex: about 0.3-0.6 MPa "
-             "in small strain; wide bounds because only mu t_b is seen by most data)",
-             *_field("bladder_shear_modulus"), ("bladder_shear_modulus",)),
-    FitParam("tube_shear_modulus", "kpa", 50.0, 3000.0,
-             "neo-Hookean shear modulus of the rubber-tube bladders (natural or silicone rubber: "
-             "about 0.2-1 MPa)", *_field("tube_shear_modulus"), ("tube_shear_modulus",)),
-    FitParam("end_mass", "g", 5.0, 100.0, "the hanging end cap (3D printed)",
-             *_field("end_mass"), ("end_mass",)),
-)}
+FIT_PARAMS: dict[str, FitParam] = {
+    fp.name: fp
+    for fp in (
+        FitParam(
+            "cpam_rest_angle",
+            "deg",
+            5.0,
+            50.0,
+            "braid angle of the CPAM at rest: a contractor's braid is below 54.7 deg; commercial "
+            "sleeves are woven at about 15-45 deg",
+            *_field("cpam_rest_angle"),
+            ("cpam_rest_angle",),
+        ),
+        FitParam(
+            "epam_sleeve_free_angle",
+            "deg",
+            5.0,
+            50.0,
+            "braid angle of the EPAM sleeve before it is compressed (the same kind of sleeve)",
+            *_field("epam_sleeve_free_angle"),
+            ("epam_sleeve_free_angle",),
+        ),
+        FitParam(
+            "wall_thickness",
+            "mm",
+            0.1,
+            1.5,
+            "t_a = t_s + t_b (Eq. 35): a balloon wall of a few tenths of a mm (< 1 mm, sections "
+            "I-II) plus a braid of nylon threads; a wall cannot be thinner than 0.1 mm; the base "
+            "ratio t_b : t_s is kept",
+            lambda p: from_si(p.bladder_thickness + p.sleeve_thickness, "mm"),
+            _split_wall,
+            ("bladder_thickness", "sleeve_thickness"),
+        ),
+        FitParam(
+            "bladder_thickness",
+            "mm",
+            0.0,
+            1.0,
+            "t_b (Eq. 35): the balloon is thinner than the 1 mm tube",
+            *_field("bladder_thickness"),
+            ("bladder_thickness",),
+        ),
+        FitParam(
+            "sleeve_thickness",
+            "mm",
+            0.0,
+            1.0,
+            "t_s (Eq. 35): a braid of nylon threads",
+            *_field("sleeve_thickness"),
+            ("sleeve_thickness",),
+        ),
+        FitParam(
+            "kr_scale",
+            "",
+            0.0,
+            4.0,
+            "factor on both K_r of Eq. 27 (2000 and 500 kPa/m, measured by Tsagarakis and "
+            "Caldwell on another muscle); 4 lets a balloon lose up to 80 kPa to inflation",
+            lambda p: p.kr_high / KR_HIGH_PAPER,
+            lambda p, v: {"kr_high": v * KR_HIGH_PAPER, "kr_low": v * KR_LOW_PAPER},
+            ("kr_high", "kr_low"),
+        ),
+        FitParam(
+            "elastic_stiffness",
+            "n_per_m",
+            0.0,
+            400.0,
+            "axial stiffness of the two bladders (not in the paper): latex E of 1-2 MPa, wall "
+            "<= 1 mm, 5 and 10 mm diameter, 15-20 cm long gives at most a few hundred N/m",
+            *_field("elastic_stiffness"),
+            ("elastic_stiffness",),
+        ),
+        FitParam(
+            "elastic_rest_length",
+            "cm",
+            15.0,
+            19.5,
+            "rest length of that elasticity: between the EPAM bladder (15 cm) and the CPAM (19.5 cm)",
+            *_field("elastic_rest_length"),
+            ("elastic_rest_length",),
+        ),
+        FitParam(
+            "bladder_shear_modulus",
+            "kpa",
+            50.0,
+            3000.0,
+            "neo-Hookean shear modulus of the balloon rubber (natural latex: about 0.3-0.6 MPa "
+            "in small strain; wide bounds because only mu t_b is seen by most data)",
+            *_field("bladder_shear_modulus"),
+            ("bladder_shear_modulus",),
+        ),
+        FitParam(
+            "tube_shear_modulus",
+            "kpa",
+            50.0,
+            3000.0,
+            "neo-Hookean shear modulus of the rubber-tube bladders (natural or silicone rubber: "
+            "about 0.2-1 MPa)",
+            *_field("tube_shear_modulus"),
+            ("tube_shear_modulus",),
+        ),
+        FitParam(
+            "end_mass",
+            "g",
+            5.0,
+            100.0,
+            "the hanging end cap (3D printed)",
+            *_field("end_mass"),
+            ("end_mass",),
+        ),
+    )
+}
 DEFAULT_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "kr_scale", "elastic_stiffness")
 
 # ------------------------------------------------------------------ plant v1: one fit across all data
@@ -114,13 +188,27 @@ DEFAULT_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "k
 # sleeve, L_f = 30 cm). Moduli: rubber in small strain, 0.2-1 MPa (latex, natural and silicone
 # rubber); walls: a balloon of 0.05-0.5 mm, a braid of 0.05-0.5 mm.
 # K_r of Eq. 27 stays the paper's (fitting its scale moves the mean error by 0.3 %).
-V1_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "bladder_thickness", "sleeve_thickness",
-          "bladder_shear_modulus", "tube_shear_modulus")
-V1_BOUNDS = {"cpam_rest_angle": (20.3, 50.0), "epam_sleeve_free_angle": (26.6, 50.0),
-             "bladder_thickness": (0.05, 0.5), "sleeve_thickness": (0.05, 0.5),
-             "bladder_shear_modulus": (200.0, 1000.0), "tube_shear_modulus": (200.0, 1000.0)}
-V1_STARTS = ([21.0, 35.0, 0.2, 0.1, 500.0, 300.0], [22.0, 40.0, 0.3, 0.1, 300.0, 600.0],
-             [30.0, 45.0, 0.1, 0.2, 800.0, 200.0])  # edge units, in V1_FIT order
+V1_FIT = (
+    "cpam_rest_angle",
+    "epam_sleeve_free_angle",
+    "bladder_thickness",
+    "sleeve_thickness",
+    "bladder_shear_modulus",
+    "tube_shear_modulus",
+)
+V1_BOUNDS = {
+    "cpam_rest_angle": (20.3, 50.0),
+    "epam_sleeve_free_angle": (26.6, 50.0),
+    "bladder_thickness": (0.05, 0.5),
+    "sleeve_thickness": (0.05, 0.5),
+    "bladder_shear_modulus": (200.0, 1000.0),
+    "tube_shear_modulus": (200.0, 1000.0),
+}
+V1_STARTS = (
+    [21.0, 35.0, 0.2, 0.1, 500.0, 300.0],
+    [22.0, 40.0, 0.3, 0.1, 300.0, 600.0],
+    [30.0, 45.0, 0.1, 0.2, 800.0, 200.0],
+)  # edge units, in V1_FIT order
 
 
 def sleeve_diameter_ratio(length: float, free_length: float, free_angle: float) -> float:
@@ -175,9 +263,17 @@ def relative_errors(model: np.ndarray, experiments: list[Experiment]) -> np.ndar
     return np.where(np.isfinite(r), r, 1.0)  # a model that gives no value is 100 % off
 
 
-def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...] = DEFAULT_FIT,
-        starts: int = 1, seed: int = 0, bounds: dict[str, tuple[float, float]] | None = None,
-        max_nfev: int | None = None, tol: float = 1e-10, x0s: list[np.ndarray] | None = None) -> FitResult:
+def fit(
+    experiments: list[Experiment],
+    base: PlantParams,
+    names: tuple[str, ...] = DEFAULT_FIT,
+    starts: int = 1,
+    seed: int = 0,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    max_nfev: int | None = None,
+    tol: float = 1e-10,
+    x0s: list[np.ndarray] | None = None,
+) -> FitResult:
     """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
 
     ``starts > 1`` adds ``starts - 1`` random starting points inside the bounds (seeded); the
@@ -193,8 +289,10 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
             raise ValueError(f"unknown fit parameter {n!r}; one of {sorted(FIT_PARAMS)}")
     written = [f for n in names for f in FIT_PARAMS[n].fields]
     if len(set(written)) != len(written):
-        raise ValueError(f"fit parameters {list(names)} write the same field twice (e.g. wall_thickness "
-                         "and bladder_thickness); choose one")
+        raise ValueError(
+            f"fit parameters {list(names)} write the same field twice (e.g. wall_thickness "
+            "and bladder_thickness); choose one"
+        )
     lo = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[0] for n in names])
     hi = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[1] for n in names])
     span = hi - lo
@@ -212,14 +310,25 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
         return relative_errors(model_values(experiments, p), experiments)
 
     rng = np.random.default_rng(seed)
-    z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
+    z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [
+        rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)
+    ]
     z0s += [np.clip((np.asarray(x, float) - lo) / span, 0.0, 1.0) for x in (x0s or [])]
     best = None
     for z0 in z0s:
         try:
-            sol = least_squares(residuals, z0, bounds=(0.0, 1.0), method="trf", diff_step=1e-4,
-                                x_scale=1.0, xtol=tol, ftol=tol, gtol=tol,
-                                max_nfev=max_nfev or 200 * len(names))
+            sol = least_squares(
+                residuals,
+                z0,
+                bounds=(0.0, 1.0),
+                method="trf",
+                diff_step=1e-4,
+                x_scale=1.0,
+                xtol=tol,
+                ftol=tol,
+                gtol=tol,
+                max_nfev=max_nfev or 200 * len(names),
+            )
         except ValueError:
             continue
         if best is None or sol.cost < best.cost:
@@ -254,19 +363,40 @@ def fit(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...]
         notes.append(f"{m} measurements for {k} parameters: no residual degrees of freedom, no uncertainty")
     at_bound = (best.active_mask != 0) | (best.x < 1e-6) | (best.x > 1.0 - 1e-6)
     if np.any(at_bound):
-        notes.append("at a bound (the uncertainty of a bounded parameter is not a confidence interval): "
-                     + ", ".join(n for n, b in zip(names, at_bound) if b))
+        notes.append(
+            "at a bound (the uncertainty of a bounded parameter is not a confidence interval): "
+            + ", ".join(n for n, b in zip(names, at_bound) if b)
+        )
     if np.any(~identifiable):
-        notes.append("not identifiable from these data (the Jacobian has no component along them): "
-                     + ", ".join(n for n, i in zip(names, identifiable) if not i))
-    return FitResult(names, x_start, values, std, cov, at_bound, identifiable, params, r,
-                     relative_errors(model_start, experiments), model, model_start, float(best.cost),
-                     bool(best.success), str(best.message), len(z0s), notes,
-                     {n: (float(a), float(b)) for n, a, b in zip(names, lo, hi)})
+        notes.append(
+            "not identifiable from these data (the Jacobian has no component along them): "
+            + ", ".join(n for n, i in zip(names, identifiable) if not i)
+        )
+    return FitResult(
+        names,
+        x_start,
+        values,
+        std,
+        cov,
+        at_bound,
+        identifiable,
+        params,
+        r,
+        relative_errors(model_start, experiments),
+        model,
+        model_start,
+        float(best.cost),
+        bool(best.success),
+        str(best.message),
+        len(z0s),
+        notes,
+        {n: (float(a), float(b)) for n, a, b in zip(names, lo, hi)},
+    )
 
 
-def _jacobian(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.ndarray,
-              h: float = 1e-4) -> np.ndarray:
+def _jacobian(
+    fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.ndarray, h: float = 1e-4
+) -> np.ndarray:
     """Finite-difference Jacobian of the residuals in the scaled variables ``z`` in [0, 1]:
     central differences inside, one-sided at a bound (so a parameter that sits on its bound still
     shows how the data pull on it)."""
@@ -280,9 +410,14 @@ def _jacobian(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.nda
     return J
 
 
-def minimax(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...] = DEFAULT_FIT,
-            bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0,
-            maxiter: int = 200) -> tuple[float, np.ndarray]:
+def minimax(
+    experiments: list[Experiment],
+    base: PlantParams,
+    names: tuple[str, ...] = DEFAULT_FIT,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    seed: int = 0,
+    maxiter: int = 200,
+) -> tuple[float, np.ndarray]:
     """The smallest largest relative error the parameters ``names`` can reach inside their bounds
     (``scipy.optimize.differential_evolution`` on ``max |r|``): a check of whether a goal such as
     "every number within 5 %" is reachable at all, not a fit. Returns ``(max |r|, values)``."""
@@ -304,31 +439,46 @@ def minimax(experiments: list[Experiment], base: PlantParams, names: tuple[str, 
 
 # ------------------------------------------------------------------ reporting
 def format_report(res: FitResult, experiments: list[Experiment]) -> str:
-    lines = ["parameters (edge units):",
-             f"  {'name':<24} {'start':>10} {'fitted':>10} {'+/- 1 sd':>10} {'unit':>8}  bounds"]
+    lines = [
+        "parameters (edge units):",
+        f"  {'name':<24} {'start':>10} {'fitted':>10} {'+/- 1 sd':>10} {'unit':>8}  bounds",
+    ]
     for j, n in enumerate(res.names):
         fp = FIT_PARAMS[n]
         lo, hi = res.bounds.get(n, (fp.lo, fp.hi))
         sd = "n/a" if not math.isfinite(res.std[j]) else f"{res.std[j]:.3g}"
         flag = " (at bound)" if res.at_bound[j] else ""
-        lines.append(f"  {n:<24} {res.start[j]:>10.4g} {res.values[j]:>10.4g} {sd:>10} {fp.unit:>8}  "
-                     f"[{lo:g}, {hi:g}]{flag}")
+        lines.append(
+            f"  {n:<24} {res.start[j]:>10.4g} {res.values[j]:>10.4g} {sd:>10} {fp.unit:>8}  "
+            f"[{lo:g}, {hi:g}]{flag}"
+        )
     lines.append("")
     lines.append("residuals per measurement (relative, model vs measured):")
     w = max(len(e.name) for e in experiments)
-    lines.append(f"  {'measurement':<{w}} {'measured':>10} {'unit':>4} {'before':>10} {'err':>7} {'after':>10} {'err':>7}")
+    lines.append(
+        f"  {'measurement':<{w}} {'measured':>10} {'unit':>4} {'before':>10} {'err':>7} "
+        f"{'after':>10} {'err':>7}"
+    )
     for i, e in enumerate(experiments):
-        lines.append(f"  {e.name:<{w}} {e.value:>10.5g} {e.unit:>4} {res.model_start[i]:>10.5g} "
-                     f"{100 * res.residuals_start[i]:>+6.1f}% {res.model[i]:>10.5g} {100 * res.residuals[i]:>+6.1f}%")
+        lines.append(
+            f"  {e.name:<{w}} {e.value:>10.5g} {e.unit:>4} {res.model_start[i]:>10.5g} "
+            f"{100 * res.residuals_start[i]:>+6.1f}% {res.model[i]:>10.5g} {100 * res.residuals[i]:>+6.1f}%"
+        )
     rs, r = np.abs(res.residuals_start), np.abs(res.residuals)
-    lines.append(f"  mean |error| {100 * rs.mean():.2f}% -> {100 * r.mean():.2f}%, max {100 * rs.max():.1f}% -> "
-                 f"{100 * r.max():.1f}%, within 5%: {int((rs <= 0.05).sum())} -> {int((r <= 0.05).sum())} of {len(r)}")
-    lines.append(f"  optimizer: {res.message} (success={res.success}, cost={res.cost:.4g}, starts={res.starts_tried})")
+    lines.append(
+        f"  mean |error| {100 * rs.mean():.2f}% -> {100 * r.mean():.2f}%, max {100 * rs.max():.1f}% -> "
+        f"{100 * r.max():.1f}%, within 5%: {int((rs <= 0.05).sum())} -> {int((r <= 0.05).sum())} of {len(r)}"
+    )
+    lines.append(
+        f"  optimizer: {res.message} (success={res.success}, cost={res.cost:.4g}, starts={res.starts_tried})"
+    )
     for n in res.notes:
         lines.append(f"  note: {n}")
     for (a, b), rho in correlations(res).items():
-        lines.append(f"  note: {a} and {b} are strongly correlated (rho = {rho:+.2f}): the data fix a "
-                     "combination of them better than either")
+        lines.append(
+            f"  note: {a} and {b} are strongly correlated (rho = {rho:+.2f}): the data fix a "
+            "combination of them better than either"
+        )
     return "\n".join(lines)
 
 
@@ -360,7 +510,6 @@ def fitted_yaml(res: FitResult, base_preset: str, header: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
-
 @dataclass
 class CrossValidation:
     """Leave-one-group-out: per group, the errors of its rows predicted by a fit without them."""
@@ -371,9 +520,16 @@ class CrossValidation:
     values: dict[str, np.ndarray]  # group -> parameters fitted without it
 
 
-def cross_validate(experiments: list[Experiment], base: PlantParams, names: tuple[str, ...],
-                   bounds: dict[str, tuple[float, float]] | None = None, x0s=None, max_nfev: int | None = None,
-                   tol: float = 1e-7, full: FitResult | None = None) -> CrossValidation:
+def cross_validate(
+    experiments: list[Experiment],
+    base: PlantParams,
+    names: tuple[str, ...],
+    bounds: dict[str, tuple[float, float]] | None = None,
+    x0s=None,
+    max_nfev: int | None = None,
+    tol: float = 1e-7,
+    full: FitResult | None = None,
+) -> CrossValidation:
     """Fit without each experiment group in turn (:func:`experiment_group`) and predict it."""
     groups = list(dict.fromkeys(experiment_group(e) for e in experiments))
     full = full or fit(experiments, base, names, bounds=bounds, x0s=x0s, max_nfev=max_nfev, tol=tol)
@@ -381,7 +537,9 @@ def cross_validate(experiments: list[Experiment], base: PlantParams, names: tupl
     for g in groups:
         keep = [e for e in experiments if experiment_group(e) != g]
         out = [e for e in experiments if experiment_group(e) == g]
-        res = fit(keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol)
+        res = fit(
+            keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol
+        )
         pred[g] = relative_errors(model_values(out, res.params), out)
         ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if experiment_group(e) == g])
         vals[g] = res.values
@@ -389,12 +547,19 @@ def cross_validate(experiments: list[Experiment], base: PlantParams, names: tupl
 
 
 def format_cross_validation(cv: CrossValidation) -> str:
-    lines = ["leave-one-group-out (fit without the group, predict it): mean |error| in sample -> out of sample",
-             f"  {'group':<16} {'rows':>4} {'in sample':>10} {'predicted':>10} {'worst pred.':>12}"]
+    lines = [
+        "leave-one-group-out (fit without the group, predict it): mean |error| in sample -> out of sample",
+        f"  {'group':<16} {'rows':>4} {'in sample':>10} {'predicted':>10} {'worst pred.':>12}",
+    ]
     for g in cv.groups:
         i, p = np.abs(cv.in_sample[g]), np.abs(cv.predicted[g])
-        lines.append(f"  {g:<16} {len(p):>4} {100 * i.mean():>9.1f}% {100 * p.mean():>9.1f}% {100 * p.max():>11.1f}%")
+        lines.append(
+            f"  {g:<16} {len(p):>4} {100 * i.mean():>9.1f}% {100 * p.mean():>9.1f}% {100 * p.max():>11.1f}%"
+        )
     alli = np.abs(np.concatenate([cv.in_sample[g] for g in cv.groups]))
     allp = np.abs(np.concatenate([cv.predicted[g] for g in cv.groups]))
-    lines.append(f"  {'all':<16} {len(allp):>4} {100 * alli.mean():>9.1f}% {100 * allp.mean():>9.1f}% {100 * allp.max():>11.1f}%")
+    lines.append(
+        f"  {'all':<16} {len(allp):>4} {100 * alli.mean():>9.1f}% {100 * allp.mean():>9.1f}% "
+        f"{100 * allp.max():>11.1f}%"
+    )
     return "\n".join(lines)

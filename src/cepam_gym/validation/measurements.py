@@ -70,12 +70,16 @@ def read_csv(path: str | Path) -> list[Measurement]:
                 raise ValueError(f"{path}, line {line} (header): duplicate column(s) {sorted(dup)}")
             unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
             if unknown:
-                raise ValueError(f"{path}, line {line} (header): unknown column(s) {unknown}; "
-                                 f"known: {list(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}")
+                raise ValueError(
+                    f"{path}, line {line} (header): unknown column(s) {unknown}; "
+                    f"known: {list(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}"
+                )
             missing = [c for c in REQUIRED_COLUMNS if c not in header]
             if missing:
-                raise ValueError(f"{path}, line {line} (header): missing column(s) {missing}; "
-                                 f"required: {list(REQUIRED_COLUMNS)}")
+                raise ValueError(
+                    f"{path}, line {line} (header): missing column(s) {missing}; "
+                    f"required: {list(REQUIRED_COLUMNS)}"
+                )
             continue
         where = f"{path}, line {line}"
         if len(cells) != len(header):
@@ -95,7 +99,9 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
         raise ValueError(f"{where}, column 'kind': unknown kind {row['kind']!r}; one of {list(KINDS)}")
     muscle = (row.get("muscle") or "cepam").lower()
     if muscle not in MUSCLES:
-        raise ValueError(f"{where}, column 'muscle': unknown muscle {row['muscle']!r}; one of {list(MUSCLES)}")
+        raise ValueError(
+            f"{where}, column 'muscle': unknown muscle {row['muscle']!r}; one of {list(MUSCLES)}"
+        )
 
     def num(column: str, required: bool, default: float | None = None) -> float | None:
         cell = row[column]
@@ -109,8 +115,9 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
     pe = num("pe_kpa", required=muscle in ("cepam", "epam"), default=0.0)
     for column, v in (("pc_kpa", pc), ("pe_kpa", pe)):
         if v < 0:
-            raise ValueError(f"{where}, column {column!r}: negative gauge pressure {v:g} kPa "
-                             "(suction is not modelled)")
+            raise ValueError(
+                f"{where}, column {column!r}: negative gauge pressure {v:g} kPa (suction is not modelled)"
+            )
     if muscle == "cpam" and pe != 0:
         raise ValueError(f"{where}, column 'pe_kpa': a single CPAM has no EPAM chamber; leave it empty or 0")
     if muscle == "epam" and pc != 0:
@@ -125,20 +132,26 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
             raise ValueError(f"{where}, column 'load_g': negative load {row['load_g']!r}")
     if kind == "equilibrium_length":
         if length is not None:
-            raise ValueError(f"{where}, column 'length_cm': an equilibrium_length is measured, not held; "
-                             "leave length_cm empty (the measured length goes in 'value')")
+            raise ValueError(
+                f"{where}, column 'length_cm': an equilibrium_length is measured, not held; "
+                "leave length_cm empty (the measured length goes in 'value')"
+            )
         if len(loads) > 1:
             raise ValueError(f"{where}, column 'load_g': one hanging load per equilibrium_length row")
     elif kind == "stiffness":
         if (length is None) == (not loads):
-            raise ValueError(f"{where}, columns 'length_cm'/'load_g': a stiffness needs exactly one of "
-                             "length_cm (held length: local -dF/dL) or load_g (the weights hung, "
-                             "';'-separated: K = mean(m g / displacement))")
+            raise ValueError(
+                f"{where}, columns 'length_cm'/'load_g': a stiffness needs exactly one of "
+                "length_cm (held length: local -dF/dL) or load_g (the weights hung, "
+                "';'-separated: K = mean(m g / displacement))"
+            )
         if loads and min(loads) <= 0:
             raise ValueError(f"{where}, column 'load_g': stiffness weights must be > 0")
     else:  # force
         if loads and any(m != 0 for m in loads):
-            raise ValueError(f"{where}, column 'load_g': a force is measured at a held length; leave load_g empty")
+            raise ValueError(
+                f"{where}, column 'load_g': a force is measured at a held length; leave load_g empty"
+            )
     if length is not None and length <= 0:
         raise ValueError(f"{where}, column 'length_cm': length must be > 0, got {length:g}")
 
@@ -148,7 +161,9 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
     unit = row["unit"]
     factors = UNITS[kind]
     if unit.lower() not in factors:
-        raise ValueError(f"{where}, column 'unit': {unit!r} is not a unit of a {kind}; one of {sorted(factors)}")
+        raise ValueError(
+            f"{where}, column 'unit': {unit!r} is not a unit of a {kind}; one of {sorted(factors)}"
+        )
     v = value * factors[unit.lower()]
     if kind in ("equilibrium_length", "stiffness") and v <= 0:
         raise ValueError(f"{where}, column 'value': a {kind} must be > 0, got {value:g}")
@@ -156,11 +171,19 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
         raise ValueError(f"{where}, column 'value': 0 cannot carry a relative residual")
     name = row.get("name") or f"line {line}: {kind} {muscle} Pc={pc:g} Pe={pe:g}"
     exp = Experiment(
-        id=ident, name=name, measured=_MEASURED[kind], unit=_CANON_UNIT[kind], value=v,
-        device=muscle, pc_kpa=pc, pe_kpa=pe,
+        id=ident,
+        name=name,
+        measured=_MEASURED[kind],
+        unit=_CANON_UNIT[kind],
+        value=v,
+        device=muscle,
+        pc_kpa=pc,
+        pe_kpa=pe,
         load_g=loads[0] if (kind == "equilibrium_length" and loads) else 0.0,
         loads_g=loads if kind == "stiffness" else (),
-        held_length_cm=length, note=row.get("note", ""))
+        held_length_cm=length,
+        note=row.get("note", ""),
+    )
     return Measurement(exp, line, kind, value, unit)
 
 
@@ -169,14 +192,25 @@ def paper_csv_text(devices: tuple[str, ...] = ("cepam",), experiments: list[Expe
     non-derived length and stiffness of the given devices (``cepam``; ``cpam``, ``epam``: the
     balloon muscles alone, built from the same braids and bladders, section V)."""
     experiments = experiments if experiments is not None else load_experiments()
-    what = "CE-PAM" if devices == ("cepam",) else "/".join(d.upper() for d in devices) + " (single balloon muscles)"
-    lines = [f"# The CE-PAM paper's reported numbers of the {what}, generated from",
-             "# cepam_gym/data/reported.yaml by `cepam-gym calibrate --write-paper-csv DIR`.",
-             "# Stiffness: the weights of reported.yaml defaults.loads_g (the paper does not list them).",
-             "kind,muscle,pc_kpa,pe_kpa,length_cm,load_g,value,unit,name"]
+    what = (
+        "CE-PAM"
+        if devices == ("cepam",)
+        else "/".join(d.upper() for d in devices) + " (single balloon muscles)"
+    )
+    lines = [
+        f"# The CE-PAM paper's reported numbers of the {what}, generated from",
+        "# cepam_gym/data/reported.yaml by `cepam-gym calibrate --write-paper-csv DIR`.",
+        "# Stiffness: the weights of reported.yaml defaults.loads_g (the paper does not list them).",
+        "kind,muscle,pc_kpa,pe_kpa,length_cm,load_g,value,unit,name",
+    ]
     for e in experiments:
-        if (not e.computable or e.derived_from or e.bladder != "balloon" or e.device not in devices
-                or e.measured not in ("length", "stiffness")):
+        if (
+            not e.computable
+            or e.derived_from
+            or e.bladder != "balloon"
+            or e.device not in devices
+            or e.measured not in ("length", "stiffness")
+        ):
             continue
         kind = "equilibrium_length" if e.measured == "length" else "stiffness"
         pc = f"{e.pc_kpa:g}" if e.device != "epam" else ""
@@ -195,4 +229,3 @@ def write_paper_csvs(directory: str | Path = DATA_DIR) -> list[Path]:
         (directory / name).write_text(paper_csv_text(devices))
         out.append(directory / name)
     return out
-

@@ -12,8 +12,10 @@ from .equilibrium import simulate
 from .experiments import Experiment
 from .fit import FitResult
 
-def write_plots(params: PlantParams, experiments: list[Experiment], rows: list[dict],
-                out_dir: str | Path) -> list[Path]:
+
+def write_plots(
+    params: PlantParams, experiments: list[Experiment], rows: list[dict], out_dir: str | Path
+) -> list[Path]:
     """Model curves with the reported points: CE-PAM stiffness and length per pressure pair,
     single-muscle free length vs pressure, CPAM contraction vs tube wall thickness."""
     import matplotlib
@@ -61,14 +63,28 @@ def write_plots(params: PlantParams, experiments: list[Experiment], rows: list[d
                 p = params.replace(force_model=lv.split("/")[0])
                 curve = []
                 for P in pressures:
-                    e = Experiment("curve", "curve", "length", "cm", 1.0, device=device, bladder=bladder,
-                                   bladder_thickness_mm=tb, pc_kpa=P, pe_kpa=P)
+                    e = Experiment(
+                        "curve",
+                        "curve",
+                        "length",
+                        "cm",
+                        1.0,
+                        device=device,
+                        bladder=bladder,
+                        bladder_thickness_mm=tb,
+                        pc_kpa=P,
+                        pe_kpa=P,
+                    )
                     curve.append(simulate(e, p).value)
                 ax.plot(pressures, curve, style, label=f"model {lv.split('/')[0]}, {bladder}")
         pts = [e for e in experiments if e.device == device and e.measured == "length"]
         for e in pts:
-            ax.plot(e.pc_kpa if device == "cpam" else e.pe_kpa, e.value,
-                    "ko" if e.bladder == "balloon" else "ks", ms=8)
+            ax.plot(
+                e.pc_kpa if device == "cpam" else e.pe_kpa,
+                e.value,
+                "ko" if e.bladder == "balloon" else "ks",
+                ms=8,
+            )
         ax.plot([], [], "ko", label="reported balloon")
         ax.plot([], [], "ks", label="reported tube")
         ax.set_xlabel(("Pc" if device == "cpam" else "Pe") + " [kPa]")
@@ -85,11 +101,30 @@ def write_plots(params: PlantParams, experiments: list[Experiment], rows: list[d
     walls = np.linspace(0.2, 2.2, 21)
     for fm in FORCE_MODELS:
         p = params.replace(force_model=fm)
-        c = [simulate(Experiment("c", "c", "contraction", "%", 1.0, device="cpam", bladder="tube",
-                                 bladder_thickness_mm=t, pc_kpa=500.0), p).value for t in walls]
+        c = [
+            simulate(
+                Experiment(
+                    "c",
+                    "c",
+                    "contraction",
+                    "%",
+                    1.0,
+                    device="cpam",
+                    bladder="tube",
+                    bladder_thickness_mm=t,
+                    pc_kpa=500.0,
+                ),
+                p,
+            ).value
+            for t in walls
+        ]
         ax.plot(walls, c, label=f"model {fm}")
-    pts = [e for e in experiments if e.device == "cpam" and e.measured == "contraction" and e.bladder == "tube"]
-    ax.plot([e.bladder_thickness_mm for e in pts], [e.value for e in pts], "ko", ms=8, label="reported (Fig. 21)")
+    pts = [
+        e for e in experiments if e.device == "cpam" and e.measured == "contraction" and e.bladder == "tube"
+    ]
+    ax.plot(
+        [e.bladder_thickness_mm for e in pts], [e.value for e in pts], "ko", ms=8, label="reported (Fig. 21)"
+    )
     ax.set_xlabel("tube wall t_b [mm]")
     ax.set_ylabel("contraction at 500 kPa [%]")
     ax.set_title("CPAM contraction vs bladder thickness")
@@ -99,7 +134,6 @@ def write_plots(params: PlantParams, experiments: list[Experiment], rows: list[d
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
     return paths
-
 
 
 def plot_fit(res: FitResult, experiments: list[Experiment], path: str | Path) -> Path:
@@ -121,11 +155,12 @@ def plot_fit(res: FitResult, experiments: list[Experiment], path: str | Path) ->
     ax.set_ylabel("relative error [%]")
     pars = ", ".join(f"{nm}={v:.3g}" for nm, v in zip(res.names, res.values))
     ax.set_title(f"calibration residuals\n{pars}", fontsize=8)
-    lim = max(10.0, min(150.0, 100 * max(np.abs(res.residuals_start).max(), np.abs(res.residuals).max()) * 1.1))
+    lim = max(
+        10.0, min(150.0, 100 * max(np.abs(res.residuals_start).max(), np.abs(res.residuals).max()) * 1.1)
+    )
     ax.set_ylim(-lim, lim)
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
-

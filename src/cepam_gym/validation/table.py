@@ -38,11 +38,16 @@ def level_params(params: PlantParams, level: str) -> PlantParams:
     if level == PLANT_LEVEL:
         return params
     fm, ff = level.split("/")
-    return params.replace(force_model=fm, force_form=ff, braid_tension="bidirectional", bladder_model="spring")
+    return params.replace(
+        force_model=fm, force_form=ff, braid_tension="bidirectional", bladder_model="spring"
+    )
 
 
-def validation_rows(params: PlantParams | None = None, levels: tuple[str, ...] = DEFAULT_LEVELS,
-                    experiments: list[Experiment] | None = None) -> list[dict]:
+def validation_rows(
+    params: PlantParams | None = None,
+    levels: tuple[str, ...] = DEFAULT_LEVELS,
+    experiments: list[Experiment] | None = None,
+) -> list[dict]:
     """One row per computable experiment and force-model level (``force_model/force_form``), one
     row per non-computable experiment (``model_level = "n/a"``, ``model = rel_error = None``).
 
@@ -54,24 +59,46 @@ def validation_rows(params: PlantParams | None = None, levels: tuple[str, ...] =
     rows = []
     for exp in experiments:
         if not exp.computable:
-            rows.append({"name": exp.name, "unit": exp.unit, "reported": exp.value, "model": None,
-                         "rel_error": None, "model_level": "n/a", "id": exp.id, "source": exp.source,
-                         "force_model": exp.model_level, "force_form": None, "method": "not computable",
-                         "note": "the measured force curves are only plotted in the paper",
-                         "derived_from": exp.derived_from})
+            rows.append(
+                {
+                    "name": exp.name,
+                    "unit": exp.unit,
+                    "reported": exp.value,
+                    "model": None,
+                    "rel_error": None,
+                    "model_level": "n/a",
+                    "id": exp.id,
+                    "source": exp.source,
+                    "force_model": exp.model_level,
+                    "force_form": None,
+                    "method": "not computable",
+                    "note": "the measured force curves are only plotted in the paper",
+                    "derived_from": exp.derived_from,
+                }
+            )
             continue
         for level in levels:
             p = level_params(params, level)
             fm, ff = p.force_model, p.force_form
             out = simulate(exp, p)
             model = _finite(out.value)
-            rows.append({
-                "name": exp.name, "unit": exp.unit, "reported": exp.value, "model": model,
-                "rel_error": None if model is None else (model - exp.value) / exp.value,
-                "model_level": level, "id": exp.id, "source": exp.source, "force_model": fm,
-                "force_form": ff, "method": out.method, "note": out.note,
-                "derived_from": exp.derived_from,
-            })
+            rows.append(
+                {
+                    "name": exp.name,
+                    "unit": exp.unit,
+                    "reported": exp.value,
+                    "model": model,
+                    "rel_error": None if model is None else (model - exp.value) / exp.value,
+                    "model_level": level,
+                    "id": exp.id,
+                    "source": exp.source,
+                    "force_model": fm,
+                    "force_form": ff,
+                    "method": out.method,
+                    "note": out.note,
+                    "derived_from": exp.derived_from,
+                }
+            )
     return rows
 
 
@@ -79,11 +106,17 @@ def summary(rows: list[dict]) -> dict[str, dict]:
     """Per level: mean |rel error|, count within 5 %, count of rows (derived ratios excluded)."""
     out = {}
     for level in dict.fromkeys(r["model_level"] for r in rows if r["model_level"] != "n/a"):
-        errs = [abs(r["rel_error"]) if r["rel_error"] is not None else math.inf
-                for r in rows if r["model_level"] == level and not r["derived_from"]]
+        errs = [
+            abs(r["rel_error"]) if r["rel_error"] is not None else math.inf
+            for r in rows
+            if r["model_level"] == level and not r["derived_from"]
+        ]
         finite = [e for e in errs if math.isfinite(e)]
-        out[level] = {"mean_abs_rel_error": float(np.mean(finite)) if finite else math.nan,
-                      "within_5pct": sum(e <= 0.05 for e in errs), "rows": len(errs)}
+        out[level] = {
+            "mean_abs_rel_error": float(np.mean(finite)) if finite else math.nan,
+            "within_5pct": sum(e <= 0.05 for e in errs),
+            "rows": len(errs),
+        }
     return out
 
 
@@ -105,7 +138,9 @@ def format_table(rows: list[dict], title: str = "") -> str:
     ids = list(dict.fromkeys(r["id"] for r in rows if r["model_level"] != "n/a"))
     names = {r["id"]: r["name"] for r in rows}
     w_name = max([len(names[i]) for i in ids] + [20])
-    head = f"{'reported number':<{w_name}} {'unit':>4} {'reported':>9}" + "".join(f" {_short(lv):>17}" for lv in levels)
+    head = f"{'reported number':<{w_name}} {'unit':>4} {'reported':>9}" + "".join(
+        f" {_short(lv):>17}" for lv in levels
+    )
     lines = [title] if title else []
     lines += [head, "-" * len(head)]
     for i in ids:
@@ -120,15 +155,22 @@ def format_table(rows: list[dict], title: str = "") -> str:
                 line += f" {r['model']:>8.4g}{mark}({100 * r['rel_error']:+5.0f}%)"
         lines.append(line)
     lines.append("")
-    lines.append("columns: model value (relative error); plant = the plant as configured (v1: tension-only "
-                 "braids, bladder walls); then the paper's model as written per force_model/force_form: bas = basic (Eq. 20-25), "
-                 "rad = +P_r (Eq. 26-33), enh = +t_a (Eq. 34-45); pap = paper form (Eq. 22, 15), "
-                 "vw = virtual work. * = no free equilibrium to hang weights from: local -dF/dL. "
-                 "Single-muscle rows do not depend on the form (no annulus).")
+    lines.append(
+        "columns: model value (relative error); plant = the plant as configured (v1: tension-only "
+        "braids, bladder walls); then the paper's model as written per force_model/force_form: "
+        "bas = basic (Eq. 20-25), "
+        "rad = +P_r (Eq. 26-33), enh = +t_a (Eq. 34-45); pap = paper form (Eq. 22, 15), "
+        "vw = virtual work. * = no free equilibrium to hang weights from: local -dF/dL. "
+        "Single-muscle rows do not depend on the form (no annulus)."
+    )
     stats = summary(rows)
-    lines.append("mean |error| (derived ratios excluded):" + "".join(
-        f"  {_short(lv)} {100 * s['mean_abs_rel_error']:.1f}% ({s['within_5pct']}/{s['rows']} within 5%)"
-        for lv, s in stats.items()))
+    lines.append(
+        "mean |error| (derived ratios excluded):"
+        + "".join(
+            f"  {_short(lv)} {100 * s['mean_abs_rel_error']:.1f}% ({s['within_5pct']}/{s['rows']} within 5%)"
+            for lv, s in stats.items()
+        )
+    )
     nc = [r for r in rows if r["model_level"] == "n/a"]
     if nc:
         lines.append("")
@@ -148,7 +190,6 @@ def format_table(rows: list[dict], title: str = "") -> str:
     return "\n".join(lines)
 
 
-
 def device_headline(rows: list[dict], level: str | None = None) -> dict[str, dict]:
     """Per device (CE-PAM, CPAM, EPAM) at one level (default: the first): mean and worst |relative
     error| and how many of its numbers are within 5 % (derived ratios excluded)."""
@@ -158,19 +199,29 @@ def device_headline(rows: list[dict], level: str | None = None) -> dict[str, dic
     device = {e.id: e.device for e in load_experiments()}
     out = {}
     for d in DEVICES:
-        errs = [abs(r["rel_error"]) if r["rel_error"] is not None else math.inf for r in rows
-                if r["model_level"] == level and not r["derived_from"] and device.get(r["id"]) == d]
+        errs = [
+            abs(r["rel_error"]) if r["rel_error"] is not None else math.inf
+            for r in rows
+            if r["model_level"] == level and not r["derived_from"] and device.get(r["id"]) == d
+        ]
         if errs:
-            out[d] = {"mean": float(np.mean(errs)), "worst": float(np.max(errs)),
-                      "within_5pct": int(sum(e <= 0.05 for e in errs)), "rows": len(errs)}
+            out[d] = {
+                "mean": float(np.mean(errs)),
+                "worst": float(np.max(errs)),
+                "within_5pct": int(sum(e <= 0.05 for e in errs)),
+                "rows": len(errs),
+            }
     return out
 
 
 def format_headline(rows: list[dict], level: str | None = None) -> str:
     head = device_headline(rows, level)
     names = {"cepam": "CE-PAM", "cpam": "CPAM", "epam": "EPAM"}
-    return "\n".join(f"headline {names[d]:<6}: mean {100 * h['mean']:.1f}%, worst {100 * h['worst']:.1f}%, "
-                     f"{h['within_5pct']}/{h['rows']} within 5%" for d, h in head.items())
+    return "\n".join(
+        f"headline {names[d]:<6}: mean {100 * h['mean']:.1f}%, worst {100 * h['worst']:.1f}%, "
+        f"{h['within_5pct']}/{h['rows']} within 5%"
+        for d, h in head.items()
+    )
 
 
 def geometry_lines(params: PlantParams) -> str:
@@ -185,18 +236,28 @@ def geometry_lines(params: PlantParams) -> str:
     de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
     vc, ve, _, _ = api.chamber_volumes(lengths, params)
     at = "  ".join(f"{L * 100:.2f} cm" for L in lengths)
-    return "\n".join([
-        f"geometry over the stroke ({at}):",
-        "  CPAM braid diameter [mm]:   " + "  ".join(f"{x * 1e3:7.2f}" for x in dc)
-        + f"   (paper: {params.cpam_rest_diameter * 1e3:g} mm at {params.cpam_rest_length * 100:g} cm)",
-        "  EPAM braid diameter [mm]:   " + "  ".join(f"{x * 1e3:7.2f}" for x in de)
-        + f"   (paper: {params.epam_sleeve_free_diameter * 1e3:g} mm sleeve and bladder; "
-        f"{de.max() / params.epam_sleeve_free_diameter:.2f}x nominal at most)",
-        "  CPAM chamber volume [cm3]:  " + "  ".join(f"{x * 1e6:7.2f}" for x in vc) + "   (dead volume included)",
-        "  annulus volume [cm3]:       " + "  ".join(f"{x * 1e6:7.2f}" for x in ve) + "   (dead volume included)",
-    ])
+    return "\n".join(
+        [
+            f"geometry over the stroke ({at}):",
+            "  CPAM braid diameter [mm]:   "
+            + "  ".join(f"{x * 1e3:7.2f}" for x in dc)
+            + f"   (paper: {params.cpam_rest_diameter * 1e3:g} mm at {params.cpam_rest_length * 100:g} cm)",
+            "  EPAM braid diameter [mm]:   "
+            + "  ".join(f"{x * 1e3:7.2f}" for x in de)
+            + f"   (paper: {params.epam_sleeve_free_diameter * 1e3:g} mm sleeve and bladder; "
+            f"{de.max() / params.epam_sleeve_free_diameter:.2f}x nominal at most)",
+            "  CPAM chamber volume [cm3]:  "
+            + "  ".join(f"{x * 1e6:7.2f}" for x in vc)
+            + "   (dead volume included)",
+            "  annulus volume [cm3]:       "
+            + "  ".join(f"{x * 1e6:7.2f}" for x in ve)
+            + "   (dead volume included)",
+        ]
+    )
 
 
 def json_rows(rows: list[dict]) -> list[dict]:
-    return [{k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()} for r in rows]
-
+    return [
+        {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
+        for r in rows
+    ]
