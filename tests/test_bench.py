@@ -253,3 +253,25 @@ def test_normalized_score_is_zero_for_zero_and_hundred_for_the_oracle():
     assert normalized_score(3.5, 6.0, 1.0) == pytest.approx(50.0)
     with pytest.raises(ValueError, match="zero controller"):
         normalized_score(1.0, 1.0, 2.0)
+
+
+def test_reference_scores_are_what_the_zero_controller_scores_now():
+    """The stored ends of the normalized score are current: the zero controller's score of every
+    suite with a reference, recomputed at the suite's default episodes (cheap: valves shut)."""
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.suites import REFERENCE_SCORES, SUITES
+
+    assert {"nominal-v1", "randomized-v1"} <= set(REFERENCE_SCORES)
+    for name, (zero, oracle) in REFERENCE_SCORES.items():
+        assert oracle < zero, name
+        m, _ = run_suite("zero", SUITES[name])
+        assert m["score"] == pytest.approx(zero, rel=1e-9), name
+
+
+@pytest.mark.slow
+def test_reference_oracle_score_is_current_on_nominal_v1():
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.suites import REFERENCE_SCORES
+
+    m, _ = run_suite("oracle", "nominal-v1")
+    assert m["score"] == pytest.approx(REFERENCE_SCORES["nominal-v1"][1], rel=1e-9)

@@ -182,5 +182,16 @@ def available(name: str) -> bool:
 # Scores of the zero controller and of the oracle on each suite at its default episodes and seed,
 # measured with `cepam-gym bench --controller zero --controller oracle --suite NAME` (the ends of
 # the normalized score: 0 and 100). Re-measure when a suite, the plant or the oracle changes; a
-# test checks them on a few episodes. The joint suite has none (the oracle drives the rig envs).
-REFERENCE_SCORES: dict[str, tuple[float, float]] = {}
+# test recomputes the zero controller's on every suite and the oracle's on nominal-v1. The joint
+# suite has none (the oracle drives the rig envs only).
+REFERENCE_SCORES: dict[str, tuple[float, float]] = {
+    "nominal": (6.352369911164807, 0.8125414676117297),
+    "randomized": (8.268265337055006, 1.0902811584683554),
+    "stiffness-at-fixed-length": (3.2713801450659874, 0.46042130619562555),
+    "stress": (7.339901964928277, 1.210802686132506),
+    "nominal-v1": (2.7153945215971067, 0.36619677420665997),
+    "randomized-v1": (2.8603526864456894, 0.4675181840918057),
+    "tracking-v1": (3.9357123001067045, 0.4201898450258843),
+    "stiffness-at-fixed-length-v1": (1.6218841874738021, 0.29322105525817677),
+    "stress-v1": (2.495384246612776, 0.3760768296507394),
+}
