@@ -104,3 +104,16 @@ def test_mpc_acts_on_observations_only():
 def test_cem_config_rejects_bad_settings_by_name(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
         CEMConfig(**bad)
+
+
+def test_mpc_reference_is_the_preview_then_held():
+    venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=2, preview_steps=4)
+    obs, _ = venv.reset(seed=0)
+    mpc = ModelPredictiveController(venv, horizon_steps=7)
+    core = venv.unwrapped.core
+    d = core.obs_layout.decode(obs)
+    ref_l, ref_k = mpc.reference(obs, d["target_length"], d["target_stiffness"])
+    assert ref_l.shape == (2, 7)
+    np.testing.assert_allclose(ref_l[:, :5], core.target_l[:, :5], rtol=1e-6)  # target, then 4 previews
+    np.testing.assert_allclose(ref_k[:, :5], core.target_k[:, :5], rtol=1e-6)
+    np.testing.assert_array_equal(ref_l[:, 5:], ref_l[:, 4:5].repeat(2, axis=1))  # the last one held

@@ -92,3 +92,25 @@ def test_stiffness_ramp_holds_the_length():
 def test_project_names_an_impossible_load():
     with pytest.raises(ValueError, match="no reachable stiffness"):
         project(np.full(3, 0.17), np.full(3, 800.0), np.full(3, 50.0), P, SPEC)
+
+
+def test_reachable_targets_are_met_by_the_plants_own_force_model():
+    """Inside the reachable interval the inverse static model's pressures give the target on the
+    plant's force model, slack switch included: the CPAM of plant v1 stays taut there (a slack
+    one would add no force, and the inverse model would promise a stiffness the plant lacks)."""
+    from cepam_gym.physics import api
+    from cepam_gym.physics import layout as ix
+
+    rng = np.random.default_rng(0)
+    L = rng.uniform(*SPEC.length_range, 400)
+    w = (P[ix.M_END] + rng.uniform(*SPEC.load_range, 400)) * P[ix.GRAV]
+    k_lo, k_hi = stiffness_interval(L, w, w, P, SPEC)
+    ok = k_hi > k_lo
+    assert ok.mean() > 0.5
+    K = k_lo + rng.uniform(0.01, 0.99, 400) * (k_hi - k_lo)
+    pc, pe, _ = api.static_pressures(L[ok], K[ok], w[ok], P)
+    f, k, _, _ = api.force_terms(L[ok], pc, pe, P)
+    np.testing.assert_allclose(f + w[ok], 0.0, atol=1e-9)
+    np.testing.assert_allclose(k, K[ok], rtol=1e-9)
+    c, c_taut = api.cpam_tension(L[ok], pc, pe, P)
+    assert np.all(c <= c_taut + 1e-12)

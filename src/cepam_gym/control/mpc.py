@@ -9,14 +9,16 @@ Per control step, from the observation only (what a rig measures) and the *nomin
 2. **Load estimate**: the baseline's (:class:`~cepam_gym.control.baseline.InverseStaticController`):
    the hanging weight that balances the nominal force at the measured length and pressures,
    low-pass filtered.
-3. **Reference over the horizon**: the current target held (the v0 observation announces no
-   future targets).
+3. **Reference over the horizon**: the preview columns of the observation (v1 ids:
+   ``target_length_+j``, ``target_stiffness_+j``), the last one held beyond them; without a
+   preview (v0) the current target held.
 4. **Plan**: the cross-entropy method through the nominal plant kernel
    (:class:`~cepam_gym.control.planner.CEMPlanner`, the oracle's planner with estimates instead
    of the truth), first command sent, plan warm-started.
 
-Against the oracle it lacks the true parameters (randomized plants), the true temperatures and
-the future of the load and of the targets; against the baseline it adds the plant's dynamics.
+Against the oracle it lacks the true parameters (randomized plants), the true temperatures, the
+friction state and the future of the load; against the baseline it adds the plant's dynamics and
+the preview.
 """
 
 from __future__ import annotations
@@ -81,14 +83,28 @@ class ModelPredictiveController(InverseStaticController):
         w_min = p[ix.M_END] * p[ix.GRAV]
         weight = np.maximum(self._filtered(-api.force(L, pc, pe, p)), w_min)
         load = weight / p[ix.GRAV] - p[ix.M_END]
-        h = self.cfg.horizon_steps
-        K_ref = K_t if K_t is not None else np.full_like(L_t, 1000.0)
-        ones = np.ones((obs.shape[0], h))
-        a = self.planner.plan(
-            self.estimate_state(obs, L, pc, pe),
-            p[None],
-            L_t[:, None] * ones,
-            K_ref[:, None] * ones,
-            load[:, None] * ones,
-        ).astype(np.float32)
+        ref_l, ref_k = self.reference(obs, L_t, K_t)
+        ones = np.ones((obs.shape[0], self.cfg.horizon_steps))
+        x = self.estimate_state(obs, L, pc, pe)
+        a = self.planner.plan(x, p[None], ref_l, ref_k, load[:, None] * ones).astype(np.float32)
         return a[0] if single else a
+
+    def reference(self, obs, L_t, K_t):
+        """Target length and stiffness over the horizon (N, H): the target, then the preview
+        columns, the last value held (no preview: the target held)."""
+        h = self.cfg.horizon_steps
+        steps = sum(n.startswith("target_length_+") for n in self.layout.names)
+        K_t = K_t if K_t is not None else np.full_like(L_t, 1000.0)  # no stiffness tracked: unused
+        cols_l, cols_k = [L_t], [K_t]
+        for j in range(1, min(steps, h - 1) + 1):
+            cols_l.append(self.layout.value(obs, f"target_length_+{j}"))
+            if self.layout.has(f"target_stiffness_+{j}"):
+                cols_k.append(self.layout.value(obs, f"target_stiffness_+{j}"))
+            else:
+                cols_k.append(K_t)
+        ref_l, ref_k = np.stack(cols_l, axis=1), np.stack(cols_k, axis=1)
+        pad = h - ref_l.shape[1]
+        return (
+            np.concatenate([ref_l, np.repeat(ref_l[:, -1:], pad, axis=1)], axis=1),
+            np.concatenate([ref_k, np.repeat(ref_k[:, -1:], pad, axis=1)], axis=1),
+        )

@@ -9,7 +9,7 @@ a score can be normalised between the zero controller (0) and the oracle (100), 
 normalises between a random and an expert policy (Fu et al. 2020).
 
 Cost per control step (default :class:`~cepam_gym.control.planner.CEMConfig`): ``population x
-iterations = 144`` simulated plants over 15 control steps, i.e. about 2 000 plant control steps
+iterations = 288`` simulated plants over 10 control steps, i.e. about 2 900 plant control steps
 per env step; all envs of a batch are planned in one batched plant call per horizon step. What it
 does not see: sensor noise (it needs no sensors), future supply drift, and action latency (it
 plans as if its command acted now).

@@ -167,3 +167,9 @@ def bladder_energy(length, params):
     """``(U, dU/dL, d2U/dL2)`` [J, N, N/m]: strain energy stored in both bladder walls (plant v1,
     neo-Hookean; zeros for a v0 plant) and its length derivatives. The walls push with ``-dU/dL``."""
     return _call(_energy, 3, params, length)
+
+
+def cpam_tension(length, pressure_c, pressure_e, params):
+    """``(c, c_taut)`` [N] of :func:`cepam_gym.physics.muscle.cpam_tension`: the tension-only
+    CPAM is fully taut where ``c <= c_taut``."""
+    return _call(muscle.cpam_tension, 2, params, length, pressure_c, pressure_e)

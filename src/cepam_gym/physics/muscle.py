@@ -229,6 +229,26 @@ def slack_gate(x):
     return x * x * (3.0 - 2.0 * x), 6.0 * x * (1.0 - x)
 
 
+@jit
+def cpam_tension(L, pc, pe, p):
+    """The tension-only CPAM's braid load and its full-tension threshold at gauge pressures
+    ``pc, pe``: ``(c, c_taut)`` [N] with ``c`` the CPAM's own push (its braid term plus its wall,
+    as :func:`force_from_slopes` gates it) and ``c_taut = -w |dV_c/dL|``: the braid is fully taut
+    (gate 1, the force model is the paper's) for ``c <= c_taut`` and slack for ``c >= 0``. Both
+    are affine in the active pressures ``P - P_r`` (taken unclipped here) at a fixed length, so a
+    static target's tautness is a linear condition (:func:`cepam_gym.tasks.schedules.stiffness_interval`). ``(-inf, 0)`` for a
+    bidirectional braid (``p[SLACK_W] = 0``: always "taut")."""
+    if p[ix.SLACK_W] <= 0.0:
+        return -math.inf, 0.0
+    _, _, dvc, dvac, _, _ = cpam_terms(L, p)
+    prc, _a, pre, _b = contact_pressures(L, p)
+    pac, pae = pc - prc, pe - pre  # unclipped, so c stays affine (below contact no target is feasible)
+    lam = p[ix.LAMBDA]
+    gc = lam * dvac + (1.0 - lam) * p[ix.KAPPA] * dvc
+    _uc, duc, _d2uc = bladder_energy_k(L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C])
+    return pac * dvac - pae * gc - duc, -p[ix.SLACK_W] * fmax(-dvc, 1e-12)
+
+
 @jit_inline
 def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     """:func:`cepam_force` from precomputed volume slopes (the plant computes them once per step).

@@ -93,6 +93,13 @@ def stiffness_interval(length, w_lo, w_hi, params, spec: TaskSpec):
         for p0, p1, pr in ((pc0, pc1, prc), (pe0, pe1, pre)):
             lo, hi = _interval(p0, (p1 - p0) / 1000.0, pr + p_floor, p_cap)
             k_lo, k_hi = np.maximum(k_lo, lo), np.minimum(k_hi, hi)
+        # a tension-only CPAM (plant v1) must stay taut: the inverse model assumes its braid pulls,
+        # and a slack one adds no force (its load is affine in K too: one more interval)
+        c0, c_taut = api.cpam_tension(length, pc0, pe0, p)
+        c1, _ = api.cpam_tension(length, pc1, pe1, p)
+        if np.any(np.isfinite(c0)):
+            lo, hi = _interval(c0, (c1 - c0) / 1000.0, -np.inf, c_taut)
+            k_lo, k_hi = np.maximum(k_lo, lo), np.minimum(k_hi, hi)
     return k_lo, k_hi
 
 
