@@ -28,9 +28,8 @@ import numpy as np
 from .. import plant as pl
 from ..physics import api
 from ..physics import layout as ix
-from ..tasks import kernel as tk
 from .baseline import InverseStaticController, core_of
-from .planner import CEMConfig, CEMPlanner
+from .planner import CEMConfig, planner_for
 
 
 class ModelPredictiveController(InverseStaticController):
@@ -39,20 +38,8 @@ class ModelPredictiveController(InverseStaticController):
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
         super().__init__(env)
         core = core_of(env)
-        cfg = config or CEMConfig()
-        if overrides:
-            import dataclasses
-
-            cfg = dataclasses.replace(cfg, **overrides)
-        self.cfg = cfg
-        self.planner = CEMPlanner(
-            cfg,
-            core.mode,
-            core.sub_dt,
-            core.n_sub,
-            float(core.task_vec[tk.T_SETPOINT_MAX]),
-            track_stiffness=self.task.track_stiffness,
-        )
+        self.planner = planner_for(core, config, **overrides)
+        self.cfg = self.planner.cfg
         self._mode_id = core.mode
 
     def reset(self, indices=None) -> None:

@@ -19,9 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..tasks import kernel as tk
 from .baseline import core_of
-from .planner import CEMConfig, CEMPlanner
+from .planner import CEMConfig, planner_for
 
 
 class OracleController:
@@ -30,20 +29,8 @@ class OracleController:
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
         self.core = core = core_of(env)
-        cfg = config or CEMConfig()
-        if overrides:
-            import dataclasses
-
-            cfg = dataclasses.replace(cfg, **overrides)
-        self.cfg = cfg
-        self.planner = CEMPlanner(
-            cfg,
-            core.mode,
-            core.sub_dt,
-            core.n_sub,
-            float(core.task_vec[tk.T_SETPOINT_MAX]),
-            track_stiffness=core.task.track_stiffness,
-        )
+        self.planner = planner_for(core, config, **overrides)
+        self.cfg = self.planner.cfg
 
     def reset(self, indices=None) -> None:
         self.planner.reset(indices)

@@ -145,3 +145,19 @@ class CEMPlanner:
         # simulated and chatters at steady state); it warm-starts the next step, one step on
         self.mean = np.concatenate([best[:, 1:], best[:, -1:]], axis=1)
         return best[:, 0].copy()
+
+
+def planner_for(core, config: CEMConfig | None = None, **overrides) -> CEMPlanner:
+    """A planner for the envs of ``core`` (a :class:`~cepam_gym.envs.core.CEPAMBatch`): its valve
+    mode, integration, pressure range and task; ``overrides`` replace fields of ``config``."""
+    import dataclasses
+
+    cfg = dataclasses.replace(config or CEMConfig(), **overrides)
+    return CEMPlanner(
+        cfg,
+        core.mode,
+        core.sub_dt,
+        core.n_sub,
+        float(core.task_vec[tk.T_SETPOINT_MAX]),
+        track_stiffness=core.task.track_stiffness,
+    )

@@ -236,8 +236,9 @@ def cpam_tension(L, pc, pe, p):
     as :func:`force_from_slopes` gates it) and ``c_taut = -w |dV_c/dL|``: the braid is fully taut
     (gate 1, the force model is the paper's) for ``c <= c_taut`` and slack for ``c >= 0``. Both
     are affine in the active pressures ``P - P_r`` (taken unclipped here) at a fixed length, so a
-    static target's tautness is a linear condition (:func:`cepam_gym.tasks.schedules.stiffness_interval`). ``(-inf, 0)`` for a
-    bidirectional braid (``p[SLACK_W] = 0``: always "taut")."""
+    static target's tautness is a linear condition
+    (:func:`cepam_gym.tasks.schedules.stiffness_interval`). ``(-inf, 0)`` for a bidirectional
+    braid (``p[SLACK_W] = 0``: always "taut")."""
     if p[ix.SLACK_W] <= 0.0:
         return -math.inf, 0.0
     _, _, dvc, dvac, _, _ = cpam_terms(L, p)
@@ -245,7 +246,9 @@ def cpam_tension(L, pc, pe, p):
     pac, pae = pc - prc, pe - pre  # unclipped, so c stays affine (below contact no target is feasible)
     lam = p[ix.LAMBDA]
     gc = lam * dvac + (1.0 - lam) * p[ix.KAPPA] * dvc
-    _uc, duc, _d2uc = bladder_energy_k(L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C])
+    _uc, duc, _d2uc = bladder_energy_k(
+        L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C]
+    )
     return pac * dvac - pae * gc - duc, -p[ix.SLACK_W] * fmax(-dvc, 1e-12)
 
 
