@@ -5,8 +5,10 @@ A schedule is three arrays of shape (n_steps,) per env: target length [m], targe
 profiles of :data:`~cepam_gym.tasks.spec.LOAD_KINDS`. Each (length, stiffness) target is checked
 with the inverse static model (:func:`cepam_gym.physics.api.static_pressures`) against the
 smallest and the largest load of its segment: both chamber pressures must be positive and below
-``pressure_margin * min(supply, burst)``. Because the static model is affine in stiffness and
-load at a fixed length, feasibility at the two load extremes implies feasibility in between.
+``pressure_margin * min(supply, burst)``, and on plant v1 the contractor's braid must stay taut
+(a slack braid adds no force, so the inverse model's pressures would not give the target). Because
+the static model is affine in stiffness and load at a fixed length, feasibility at the two load
+extremes implies feasibility in between.
 """
 
 from __future__ import annotations
