@@ -185,13 +185,13 @@ def available(name: str) -> bool:
 # test recomputes the zero controller's on every suite and the oracle's on nominal-v1. The joint
 # suite has none (the oracle drives the rig envs only).
 REFERENCE_SCORES: dict[str, tuple[float, float]] = {
-    "nominal": (6.352369911164807, 0.8125414676117297),
-    "randomized": (8.268265337055006, 1.0902811584683554),
-    "stiffness-at-fixed-length": (3.2713801450659874, 0.46042130619562555),
-    "stress": (7.339901964928277, 1.210802686132506),
-    "nominal-v1": (2.7153945215971067, 0.36619677420665997),
-    "randomized-v1": (2.8603526864456894, 0.4675181840918057),
-    "tracking-v1": (3.9357123001067045, 0.4201898450258843),
-    "stiffness-at-fixed-length-v1": (1.6218841874738021, 0.29322105525817677),
-    "stress-v1": (2.495384246612776, 0.3760768296507394),
+    "nominal": (6.352369911164807, 0.7725460389209269),
+    "randomized": (8.268265337055006, 1.029894329769431),
+    "stiffness-at-fixed-length": (3.2713801450659874, 0.3385640921275005),
+    "stress": (7.339901964928277, 1.246702653979769),
+    "nominal-v1": (2.7093365921304455, 0.08639324211712698),
+    "randomized-v1": (2.6361358691058925, 0.08925899867811121),
+    "tracking-v1": (3.27682877151217, 0.1022569260021737),
+    "stiffness-at-fixed-length-v1": (1.4797215692059955, 0.05156563475731839),
+    "stress-v1": (2.4613520171923344, 0.08839917603295552),
 }
