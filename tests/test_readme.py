@@ -18,7 +18,7 @@ def python_blocks() -> list[str]:
 
 def test_readme_has_the_quick_example_first():
     blocks = python_blocks()
-    assert blocks and 'gym.make("cepam_gym/CEPAM-v0")' in blocks[0]
+    assert blocks and 'gym.make("cepam_gym/CEPAM-v1")' in blocks[0]  # the current id first
     assert len(blocks[0].strip().splitlines()) <= 12  # "a ten-line example"
 
 
