@@ -677,8 +677,12 @@ class Trainer:
             f"(from step {self.start_step}) -> {self.run}"
         )
         import signal
+        import threading
 
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        # signal handlers can only be set from the main thread; a trainer run inside a worker
+        # thread (Ray Tune's function trainables) leaves SIGTERM to its host
+        main_thread = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGTERM, _on_sigterm) if main_thread else None
         try:
             self.model.learn(
                 remaining,
@@ -687,7 +691,8 @@ class Trainer:
                 progress_bar=False,
             )
         except KeyboardInterrupt as e:
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the save
+            if main_thread:
+                signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the save
             n = int(self.model.num_timesteps)
             self._close_bar()
             path = self.save_checkpoint(n, interrupted=True)
@@ -701,7 +706,8 @@ class Trainer:
             )
             return 128 + e.signum if isinstance(e, _StopSignal) else EXIT_INTERRUPTED
         finally:
-            signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+            if main_thread:
+                signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
         n = int(self.model.num_timesteps)
         self.evaluate(n)
         self.model.logger.dump(n)

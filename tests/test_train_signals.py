@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def tiny(tmp_path):
     import yaml
 
-    from agents.config import load_config
+    from cepam_gym_agents.config import load_config
 
     d = load_config(str(ROOT / "configs" / "quick.yaml")).to_dict()
     d["env"]["num_envs"] = 4
@@ -182,7 +182,7 @@ def test_lock_without_flock_detects_a_stale_pid(tmp_path, monkeypatch):
     """The fallback lock (no fcntl): a lock file whose pid is gone is taken over; a live one refuses."""
     import builtins
 
-    from agents.train import RunLock
+    from cepam_gym_agents.train import RunLock
 
     real_import = builtins.__import__
 
@@ -203,3 +203,19 @@ def test_lock_without_flock_detects_a_stale_pid(tmp_path, monkeypatch):
         RunLock(tmp_path).acquire()
     lock.release()
     assert not (tmp_path / ".train.lock").exists()
+
+
+def test_training_runs_inside_a_worker_thread(tiny, tmp_path):
+    """Ray Tune runs function trainables in a thread, where no signal handler can be set: the
+    trainer then leaves SIGTERM to its host instead of failing."""
+    import threading
+
+    from cepam_gym_agents.train import main as train_main
+
+    out, codes = tmp_path / "run", []
+    args = ["--config", str(tiny), "--out", str(out), "--total-timesteps", "256", "--quiet"]
+    t = threading.Thread(target=lambda: codes.append(train_main(args)))
+    t.start()
+    t.join(timeout=300)
+    assert codes == [0], codes
+    assert (out / "model.zip").is_file()
