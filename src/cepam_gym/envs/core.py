@@ -382,6 +382,10 @@ class CEPAMBatch:
                 ) from None
             self._check_pin(name, v)
             arr[idx] = v[:, None]
+        self._observe()
+
+    def _observe(self) -> None:
+        """The observations of every env from its current state (after a reset or a pin)."""
         tk.observe(
             self.state,
             self.aux,
@@ -433,18 +437,7 @@ class CEPAMBatch:
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
-        tk.observe(
-            self.state,
-            self.aux,
-            self.params,
-            self.target_l,
-            self.target_k,
-            self.t_idx,
-            self.prev_action,
-            self.task_vec,
-            self.noise,
-            self.obs,
-        )
+        self._observe()
 
     def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
         """:func:`~cepam_gym.tasks.references.planned_schedules` of the envs ``idx``. A plant for
