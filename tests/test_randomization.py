@@ -165,3 +165,19 @@ def test_fuzz_wide_ranges_256_envs_400_steps_no_exception_no_nan():
         assert (info["length"] >= lo_stop - 1e-9).all() and (info["length"] <= hi_stop + 1e-9).all()
         resets += int((term | trunc).sum())
     assert resets >= 256 * 6  # every env went through several autoresets
+
+
+def test_joint_env_redraws_an_unstable_plant_instead_of_raising():
+    """The joint env's reset redraws a randomized plant that cannot run (here: valves too large
+    for the sub-step at the top of the range) and counts it; it never raises inside a reset."""
+    pytest.importorskip("mujoco")
+    env = gym.make("cepam_gym/CEPAMJoint-v0", randomize={"valve_conductance_dm3_per_s_bar": [0.05, 0.42]})
+    counts = []
+    for seed in range(12):
+        obs, info = env.reset(seed=seed)
+        assert np.all(np.isfinite(obs))
+        counts.append(info["redraws"])
+        _, r, term, _, info = env.step(np.zeros(2, np.float32))
+        assert np.isfinite(r) and not term
+    assert max(counts) > 0  # some draws were unstable and redrawn
+    assert min(counts) == 0

@@ -31,6 +31,7 @@ from ..envs.core import (
     resolve_params,
     sample_params,
 )
+from ..envs.randomization import MAX_REDRAWS
 from ..physics import layout as ix
 from ..tasks import kernel as tk
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
@@ -99,7 +100,8 @@ _DOC = """
     positive), ``muscle_torque`` (flexion positive), ``stiffness`` (muscle, N/m),
     ``joint_stiffness`` (``K r^2``), ``joint_stiffness_total`` (+ gravity ``m g l_c cos theta``),
     ``pressure_c``, ``pressure_e``, ``air_used``, ``external_torque``, ``target_angle``,
-    ``target_stiffness``, after a step the reward terms and ``termination_reason``.
+    ``target_stiffness``, ``redraws`` (randomized plants rejected at this episode's reset), after a
+    step the reward terms and ``termination_reason``.
 
     ## Rewards
 
@@ -242,15 +244,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     # ------------------------------------------------------------------- reset
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        p = sample_params(self.nominal, self.randomize, self.np_random, self.nominal_row)
-        if self.randomize:
-            pl.check_stability(p[None], self.sub_dt)
-            self.task.check_range(self.geometry, p)
-            self.params = p.copy()
-            self._build(p)
-        *schedules, initial = joint_schedules(
-            self.np_random, self.task, self.geometry, p, self.n_steps, self.control_dt
-        )
+        p, (*schedules, initial) = self._draw_episode()
         a0, k0 = apply_reset_options(options, schedules, initial, self.geometry, p)
         self.target_angle, self.target_stiffness, self.external_torque = schedules
         self.aux[:] = self.sim.reset(a0, k0, self.external_torque[0])
@@ -261,6 +255,40 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         if self.render_mode == "human":
             self.render()
         return self._obs(), info
+
+    def _draw_episode(self):
+        """The episode's plant row and schedules. A randomized plant that is unstable at the
+        sub-step, leaves the task's angles outside the joint's range, or for which the task finds
+        no reachable target is redrawn (at most ``MAX_REDRAWS`` times, counted in
+        ``info["redraws"]``), then the nominal plant (checked when the env was built) is used:
+        a bad draw never raises inside an autoreset."""
+        self.redraws = 0
+        for _ in range(MAX_REDRAWS + 1):
+            p = sample_params(self.nominal, self.randomize, self.np_random, self.nominal_row)
+            if self.randomize:
+                try:
+                    pl.check_stability(p[None], self.sub_dt)
+                    self.task.check_range(self.geometry, p)
+                except ValueError:
+                    self.redraws += 1
+                    continue
+            try:
+                out = joint_schedules(
+                    self.np_random, self.task, self.geometry, p, self.n_steps, self.control_dt
+                )
+            except RuntimeError:
+                if not self.randomize:
+                    raise
+                self.redraws += 1
+                continue
+            break
+        else:
+            p = self.nominal_row
+            out = joint_schedules(self.np_random, self.task, self.geometry, p, self.n_steps, self.control_dt)
+        if self.randomize:
+            self.params = p.copy()
+            self._build(p)
+        return p, out
 
     # -------------------------------------------------------------------- step
     def step(self, action):
@@ -329,6 +357,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
             k = min(self.t_idx, self.n_steps - 1)
         return {
             **self.sim.measure(self.aux),
+            "redraws": int(getattr(self, "redraws", 0)),
             "air_used": float(self.aux[pl.A_AIR]) if scored else 0.0,
             "external_torque": float(self.external_torque[k]),
             "target_angle": float(self.target_angle[k]),
