@@ -16,9 +16,8 @@ from ..tasks import kernel as tk
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 
-INFO_KEYS = (
-    "length",
-    "velocity",
+# info keys read from aux, in the order tasks.kernel.env_step_single writes them
+_AUX_NAMES = (
     "stiffness",
     "stiffness_closed",
     "force",
@@ -27,26 +26,9 @@ INFO_KEYS = (
     "temperature_c",
     "temperature_e",
     "air_used",
-    "load_mass",
-    "target_length",
-    "target_stiffness",
 )
-# info keys read from aux, in the order tasks.kernel.env_step_single writes them
-_AUX_INFO = dict(
-    zip(
-        (
-            "stiffness",
-            "stiffness_closed",
-            "force",
-            "pressure_c",
-            "pressure_e",
-            "temperature_c",
-            "temperature_e",
-            "air_used",
-        ),
-        tk.AUX_INFO,
-    )
-)
+INFO_KEYS = ("length", "velocity", *_AUX_NAMES, "load_mass", "target_length", "target_stiffness")
+_AUX_INFO = dict(zip(_AUX_NAMES, tk.AUX_INFO))
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
 # keys of a step's info in the order of CEPAMBatch.info_row (single env)

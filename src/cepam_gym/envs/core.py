@@ -112,20 +112,6 @@ def _check_threads(num_threads) -> int | None:
     return int(num_threads)
 
 
-def sample_params(
-    nominal: PlantParams,
-    randomize: Mapping[str, tuple[float, float]],
-    rng: np.random.Generator,
-    nominal_row: np.ndarray | None = None,
-) -> np.ndarray:
-    """A parameter row for a new episode: ``nominal`` (its row ``nominal_row`` itself when given
-    and nothing is randomised) with each key of ``randomize`` drawn uniformly from its range."""
-    if not randomize:
-        return nominal.to_array() if nominal_row is None else nominal_row
-    draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in randomize.items()}
-    return PlantParams.from_dict(draw, base=nominal, where="randomize").to_array()
-
-
 def as_actions(actions, num_envs: int) -> np.ndarray:
     """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array (a single env's may have
     any shape of 2 elements); ``ValueError`` on a wrong shape, NaN or inf. Not clipped."""

@@ -67,6 +67,20 @@ def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
     return None
 
 
+def sample_params(
+    nominal: PlantParams,
+    randomize: Mapping[str, tuple[float, float]],
+    rng: np.random.Generator,
+    nominal_row: np.ndarray | None = None,
+) -> np.ndarray:
+    """A parameter row for a new episode: ``nominal`` (its row ``nominal_row`` itself when given
+    and nothing is randomised) with each key of ``randomize`` drawn uniformly from its range."""
+    if not randomize:
+        return nominal.to_array() if nominal_row is None else nominal_row
+    draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in randomize.items()}
+    return PlantParams.from_dict(draw, base=nominal, where="randomize").to_array()
+
+
 class Randomizer:
     """Checked ranges of ``randomize`` and the per-env draws (see the module doc)."""
 
@@ -116,9 +130,8 @@ class Randomizer:
     def _valid_draw(self, rng: np.random.Generator) -> tuple[np.ndarray | None, int]:
         """A valid parameter row (or None after MAX_REDRAWS failures) and the failures."""
         for tries in range(MAX_REDRAWS + 1):
-            draw = {k: rng.uniform(lo, hi) for k, (lo, hi) in self.ranges.items()}
             try:
-                return PlantParams.from_dict(draw, base=self.nominal, where="randomize").to_array(), tries
+                return sample_params(self.nominal, self.ranges, rng), tries
             except ValueError:
                 continue
         return None, MAX_REDRAWS + 1

@@ -29,9 +29,8 @@ from ..envs.core import (
     check_randomize,
     check_timing,
     resolve_params,
-    sample_params,
 )
-from ..envs.randomization import MAX_REDRAWS
+from ..envs.randomization import MAX_REDRAWS, sample_params
 from ..physics import layout as ix
 from ..tasks import kernel as tk
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
