@@ -3,7 +3,7 @@ validated on load.
 
 Layout of a config (every section optional except ``algorithm``; defaults below)::
 
-    algorithm: SAC                # SAC | PPO | TD3
+    algorithm: SAC                # SAC | PPO | TD3 | RecurrentPPO (sb3-contrib, an LSTM policy)
     total_timesteps: 300000       # environment steps, summed over the parallel envs
     seed: 0
     torch_threads: 1
@@ -23,6 +23,7 @@ Layout of a config (every section optional except ``algorithm``; defaults below)
       target_shift_stiffness: 0.4 # stiffness target times exp(+-0.4) at most
       target_shift_filter_s: 0.0  # low-pass time constant of the shifts [s] (0: none)
       obs_filters_s: []           # append low-passed observations with these time constants [s]
+      privileged_critic: false    # PPO: the critic also sees the true plant, load and errors
     hyperparameters: {}           # passed to the SB3 constructor, checked against its signature
     policy_kwargs: {}             # e.g. {net_arch: [256, 256], activation_fn: relu}
     eval: {every_steps: 20000, episodes: 16, suite: null, seed: 12345}
@@ -48,7 +49,8 @@ from typing import Any
 
 import yaml
 
-ALGORITHMS = ("SAC", "PPO", "TD3")
+ALGORITHMS = ("SAC", "PPO", "TD3", "RecurrentPPO")
+ON_POLICY = ("PPO", "RecurrentPPO")
 # constructor arguments the trainer sets itself (or that cannot come from YAML)
 _RESERVED = {
     "self",
@@ -252,6 +254,10 @@ class AgentConfig:
     * ``history``: the last ``history`` observations are stacked.
     * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
       restarted with each episode) are appended: a cheap memory over seconds.
+    * ``privileged_critic`` (PPO): an asymmetric actor-critic (Pinto et al. 2018). During training
+      the critic also sees what only the simulator knows (:mod:`agents.privileged`: the true plant
+      parameters, the load, the true errors); the actor's input masks those columns out, and a
+      deployed policy is given NaN there (:mod:`agents.asymmetric`).
 
     With neither ``target_shift`` nor ``residual`` the policy drives the valves directly."""
 
@@ -266,6 +272,7 @@ class AgentConfig:
     obs_filters_s: list = field(
         default_factory=list
     )  # time constants [s] of low-passed copies of the observation
+    privileged_critic: bool = False
 
     @property
     def uses_baseline(self) -> bool:
@@ -285,6 +292,7 @@ class AgentConfig:
             _float(d.get("target_shift_stiffness", 0.4), "agent.target_shift_stiffness", 0.0),
             _float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
             _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),
+            _bool(d.get("privileged_critic", False), "agent.privileged_critic"),
         )
         if out.target_shift and out.baseline_in_obs:
             raise ConfigError(
@@ -342,9 +350,24 @@ class CheckpointConfig:
 
 
 def algorithm_class(name: str):
+    """The SB3 (or sb3-contrib) class of an algorithm named in :data:`ALGORITHMS`."""
+    if name == "RecurrentPPO":
+        try:
+            import sb3_contrib
+        except ImportError:
+            raise ConfigError(
+                "algorithm RecurrentPPO needs sb3-contrib: pip install 'cepam-gym[train]' "
+                "(or pip install sb3-contrib)"
+            ) from None
+        return sb3_contrib.RecurrentPPO
     import stable_baselines3 as sb3
 
     return getattr(sb3, name)
+
+
+def policy_name(algorithm: str) -> str:
+    """The policy alias the trainer asks the algorithm for: an LSTM policy for RecurrentPPO."""
+    return "MlpLstmPolicy" if algorithm == "RecurrentPPO" else "MlpPolicy"
 
 
 def _check_hyperparameters(algorithm: str, hp: dict) -> dict:
@@ -391,14 +414,15 @@ def _check_noise(value: Any, where: str) -> dict | None:
 
 def _check_policy_kwargs(algorithm: str, pk: dict) -> dict:
     cls = algorithm_class(algorithm)
-    policy_cls = cls.policy_aliases["MlpPolicy"]
+    policy_cls = cls.policy_aliases[policy_name(algorithm)]
     params = inspect.signature(policy_cls.__init__).parameters
     valid = sorted(set(params) - {"self", "observation_space", "action_space", "lr_schedule"})
     out = {}
     for key, value in pk.items():
         if key not in valid:
             raise ConfigError(
-                f"policy_kwargs: unknown key {key!r} for {algorithm}'s MlpPolicy; valid keys: {valid}"
+                f"policy_kwargs: unknown key {key!r} for {algorithm}'s {policy_name(algorithm)}; "
+                f"valid keys: {valid}"
             )
         if key == "activation_fn":
             if value not in ACTIVATIONS:
@@ -433,15 +457,21 @@ class TrainConfig:
         if "algorithm" not in d:
             raise ConfigError(f"config needs 'algorithm' (one of {list(ALGORITHMS)})")
         algo = d["algorithm"]
-        if not isinstance(algo, str) or algo.upper() not in ALGORITHMS:
+        names = {a.upper(): a for a in ALGORITHMS}
+        if not isinstance(algo, str) or algo.upper() not in names:
             raise ConfigError(f"algorithm must be one of {list(ALGORITHMS)}, got {algo!r}")
-        algo = algo.upper()
+        algo = names[algo.upper()]
         hp = _check_hyperparameters(
             algo, _numbers_deep(_mapping(d.get("hyperparameters"), "hyperparameters"))
         )
         pk = _check_policy_kwargs(algo, _numbers_deep(_mapping(d.get("policy_kwargs"), "policy_kwargs")))
-        if algo == "PPO" and "action_noise" in hp:
-            raise ConfigError("hyperparameters.action_noise is for SAC and TD3, not PPO")
+        if algo in ON_POLICY and "action_noise" in hp:
+            raise ConfigError(f"hyperparameters.action_noise is for SAC and TD3, not {algo}")
+        agent = AgentConfig.parse(d.get("agent"))
+        if agent.privileged_critic and algo != "PPO":
+            raise ConfigError(
+                f"agent.privileged_critic is built for PPO (an asymmetric actor-critic), not {algo}"
+            )
         return cls(
             algorithm=algo,
             total_timesteps=_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
@@ -449,7 +479,7 @@ class TrainConfig:
             torch_threads=_int(d.get("torch_threads", cls.torch_threads), "torch_threads", 1),
             env=EnvConfig.parse(d.get("env")),
             normalize=NormalizeConfig.parse(d.get("normalize")),
-            agent=AgentConfig.parse(d.get("agent")),
+            agent=agent,
             hyperparameters=hp,
             policy_kwargs=pk,
             eval=EvalConfig.parse(d.get("eval")),

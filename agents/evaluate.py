@@ -1,10 +1,14 @@
-"""``cepam-gym eval``: score a trained agent with the benchmark harness beside the baseline.
+"""``cepam-gym eval``: score a trained agent with the benchmark harness beside model-based
+controllers (default: the inverse-static baseline).
 
-    cepam-gym eval --run runs/quick-s0 [--episodes 20] [--suite nominal --suite randomized] [--model best]
+    cepam-gym eval --run runs/quick-s0 [--episodes 20] [--suite nominal-v1 --suite randomized-v1]
+                   [--against zero --against baseline --against mpc --against oracle] [--model best]
 
-Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt`` (benchmark table), ``results.json``
-(every metric), ``comparison.md`` (agent / baseline ratios and the issue's goals), ``scores.png``
-and ``traces_<suite>_<controller>.png``.
+The suites default to the nominal and randomized ones of the agent's version (v1 ids:
+``nominal-v1``, ``randomized-v1``). Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
+(benchmark table with the normalized score), ``results.json`` (every metric), ``comparison.md``
+(agent / reference ratios and the goals of :data:`GOALS`), ``scores.png`` and
+``traces_<suite>_<controller>.png``.
 """
 
 from __future__ import annotations
@@ -13,64 +17,81 @@ import argparse
 import json
 from pathlib import Path
 
-# the goals of issue 5: score ratio agent / baseline
-GOAL_NOMINAL_RATIO = 1.05  # within 5 % of the baseline on the nominal suite
-GOAL_RANDOMIZED_RATIO = 0.70  # 30 % lower combined error on the randomized suite
+# goals per suite: (reference controller, largest agent / reference score ratio)
+GOALS = {
+    "nominal": [("baseline", 1.05)],  # v0: within 5 % of the baseline
+    "randomized": [("baseline", 0.70)],  # v0: 30 % lower combined error
+    "nominal-v1": [("oracle", 1.10)],  # v1: within 10 % of the oracle
+    "randomized-v1": [("baseline", 0.70), ("mpc", 1.00)],  # v1: 30 % below the baseline, <= MPC
+}
 
 
-def compare(rows: list[dict], agent: str = "agent", baseline: str = "baseline") -> list[dict]:
-    """Per suite: both scores, their ratio, and whether the issue's goal for that suite is met."""
+def compare(rows: list[dict], agent: str = "agent") -> list[dict]:
+    """Per suite and reference controller that ran: both scores, their ratio, and whether the
+    goal for that pair (:data:`GOALS`) is met (None where there is none)."""
     out = []
-    suites = list(dict.fromkeys(r["suite"] for r in rows))
-    for s in suites:
+    for s in dict.fromkeys(r["suite"] for r in rows):
         a = next((r for r in rows if r["suite"] == s and r["controller"] == agent), None)
-        b = next((r for r in rows if r["suite"] == s and r["controller"] == baseline), None)
-        if a is None or b is None:
+        if a is None:
             continue
-        ratio = a["score"] / b["score"] if b["score"] > 0 else float("nan")
-        goal = {"nominal": GOAL_NOMINAL_RATIO, "randomized": GOAL_RANDOMIZED_RATIO}.get(s)
-        out.append(
-            {
-                "suite": s,
-                "agent_score": a["score"],
-                "baseline_score": b["score"],
-                "ratio": ratio,
-                "goal_ratio": goal,
-                "goal_met": None if goal is None else bool(ratio <= goal),
-                "agent_failures": a["failure_rate"],
-                "baseline_failures": b["failure_rate"],
-            }
-        )
+        goals = dict(GOALS.get(s, []))
+        for b in (r for r in rows if r["suite"] == s and r["controller"] != agent):
+            ratio = a["score"] / b["score"] if b["score"] > 0 else float("nan")
+            goal = goals.get(b["controller"])
+            out.append(
+                {
+                    "suite": s,
+                    "reference": b["controller"],
+                    "agent_score": a["score"],
+                    "reference_score": b["score"],
+                    "ratio": ratio,
+                    "agent_normalized": a.get("normalized"),
+                    "reference_normalized": b.get("normalized"),
+                    "goal_ratio": goal,
+                    "goal_met": None if goal is None else bool(ratio <= goal),
+                    "agent_failures": a["failure_rate"],
+                    "reference_failures": b["failure_rate"],
+                }
+            )
     return out
 
 
 def comparison_markdown(cmp: list[dict], run: Path, which: str) -> str:
     lines = [
-        f"# {run.name}: agent ({which} model) vs the inverse-model baseline",
+        f"# {run.name}: agent ({which} model) vs the model-based controllers",
         "",
-        "| suite | agent score | baseline score | agent / baseline | goal | met |",
-        "|---|---|---|---|---|---|",
+        "| suite | reference | agent score | reference score | agent / reference | normalized "
+        "(agent, reference) | goal | met |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for c in cmp:
         goal = "-" if c["goal_ratio"] is None else f"<= {c['goal_ratio']:.2f}"
         met = "-" if c["goal_met"] is None else ("yes" if c["goal_met"] else "no")
+        norm = (
+            "-"
+            if c["agent_normalized"] is None
+            else f"{c['agent_normalized']:.1f}, {c['reference_normalized']:.1f}"
+        )
         lines.append(
-            f"| {c['suite']} | {c['agent_score']:.3f} | {c['baseline_score']:.3f} | "
-            f"{c['ratio']:.3f} | {goal} | {met} |"
+            f"| {c['suite']} | {c['reference']} | {c['agent_score']:.3f} | "
+            f"{c['reference_score']:.3f} | {c['ratio']:.3f} | {norm} | {goal} | {met} |"
         )
     lines += [
         "",
         "Combined score (lower is better): length RMSE / 5 mm + stiffness RMSE / 20 % "
-        "+ 2 x failure rate (cepam_gym.bench.metrics).",
+        "+ 2 x failure rate (cepam_gym.bench.metrics); normalized: 0 = zero controller, "
+        "100 = oracle (D4RL-style).",
     ]
     return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
+    from cepam_gym.bench.cli import add_normalized
     from cepam_gym.bench.harness import run_suite
-    from cepam_gym.bench.metrics import RIG
+    from cepam_gym.bench.metrics import RIG, RIG_V1
     from cepam_gym.bench.suites import SUITES
+    from cepam_gym.control.registry import controller_names
 
     ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
     ap.add_argument("--run", required=True, help="run directory written by cepam-gym train")
@@ -89,20 +110,34 @@ def main(argv: list[str] | None = None) -> int:
         choices=("auto", "best", "final", "latest"),
         help="which model of the run (auto: best, else final, else latest checkpoint)",
     )
+    ap.add_argument(
+        "--against",
+        action="append",
+        default=None,
+        help="a controller to score beside the agent (repeatable; default baseline; e.g. zero, "
+        "baseline, mpc, oracle: with zero and oracle the normalized score is of this run)",
+    )
     ap.add_argument("--no-baseline", action="store_true", help="score the agent only")
     ap.add_argument("--out-dir", help="where the table and plots go (default <run>/eval)")
     args = ap.parse_args(argv)
     run = Path(args.run)
     if not (run / "config.yaml").is_file():
         ap.error(f"--run {run}: not a training run directory (no config.yaml)")
-    suites = args.suite or ["nominal", "randomized"]
-    if "all" in suites:  # the rig suites: agents are trained on the rig's observations
-        suites = [s for s in SUITES if SUITES[s].traces is RIG]
+    from .policy import load_run_config
+
+    v1 = load_run_config(run).env.id.endswith("-v1")
+    suites = args.suite or (["nominal-v1", "randomized-v1"] if v1 else ["nominal", "randomized"])
+    if "all" in suites:  # the rig suites of the agent's version: it is trained on their observations
+        suites = [s for s in SUITES if SUITES[s].traces is (RIG_V1 if v1 else RIG)]
     bad = [s for s in suites if s not in SUITES]
     if bad:
         ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
     if args.episodes is not None and args.episodes < 1:
         ap.error("--episodes must be >= 1")
+    against = [] if args.no_baseline else (args.against or ["baseline"])
+    bad = [c for c in against if c not in controller_names()]
+    if bad:
+        ap.error(f"--against: unknown controller(s) {bad}; choose from {list(controller_names())}")
     from .policy import _files
 
     try:
@@ -114,12 +149,13 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     rows, traces = [], {}
     for s in suites:
-        controllers = [("agent", spec)] + ([] if args.no_baseline else [("baseline", "baseline")])
+        controllers = [("agent", spec)] + [(c, c) for c in dict.fromkeys(against)]
         for name, c in controllers:
             metrics, tr = run_suite(c, s, episodes=args.episodes)
             metrics["controller"] = name
             rows.append(metrics)
             traces[(s, name)] = tr
+    add_normalized(rows)
     text = report.table(rows)
     cmp = compare(rows)
     md = comparison_markdown(cmp, run, f"{args.model}: {model_path.name}")

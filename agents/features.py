@@ -8,6 +8,9 @@
 * ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
 * ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
   starts with copies of its first one.
+* ``privileged_critic``: the privileged columns (:mod:`agents.privileged`) follow, for the
+  critic only: read from the env during training (``privileged`` set by
+  :func:`make_agent_vec_env`), NaN when deployed (:mod:`agents.asymmetric` masks them).
 
 The baseline (:class:`cepam_gym.control.InverseStaticController`) keeps filter and integrator
 state per env; :meth:`Features.reset` forgets it for finished episodes. Pure numpy.
@@ -58,16 +61,33 @@ class Features:
             self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None
-        self.dim = self.frame_dim * cfg.history
+        # privileged columns (training: a PrivilegedView of the env; deployed: NaN)
+        self.privileged = None
+        self.priv_dim = 0
+        if cfg.privileged_critic:
+            from cepam_gym.control.baseline import core_of
+
+            from .privileged import PrivilegedView
+
+            self.priv_dim = PrivilegedView(core_of(env)).dim
+        self.actor_dim = self.frame_dim * cfg.history
+        self.dim = self.actor_dim + self.priv_dim
+        self._priv_last: np.ndarray | None = None  # the rows before the latest autoreset
         self._hist: np.ndarray | None = None  # (N, history, frame_dim)
         self._fresh: np.ndarray | None = None  # (N,) bool: next frame starts an episode
         self._obs: np.ndarray | None = None  # the last raw observation (target_shift acts on it)
         self._shift: np.ndarray | None = None  # filtered target shifts (N, n_shift); NaN: new episode
+        self._peeking = False
 
     @property
     def trivial(self) -> bool:
         """True when features are the raw observation and actions pass through unchanged."""
-        return self.baseline is None and self.cfg.history == 1 and not self.cfg.obs_filters_s
+        return (
+            self.baseline is None
+            and self.cfg.history == 1
+            and not self.cfg.obs_filters_s
+            and not self.priv_dim
+        )
 
     @property
     def acts_late(self) -> bool:
@@ -117,24 +137,40 @@ class Features:
                 self._ema_fresh[:] = False
                 self._ema += self._ema_alpha[:, None, None] * (obs[None] - self._ema)
             frame = np.concatenate([frame, *self._ema.astype(np.float32)], axis=1)
-        if self.cfg.history == 1:
-            return frame.astype(np.float32), base
         n = obs.shape[0]
-        if self._hist is None or self._hist.shape[0] != n:
-            self._hist = np.repeat(frame[:, None], self.cfg.history, axis=1)
-            self._fresh = np.zeros(n, dtype=bool)
+        if self.cfg.history == 1:
+            f = frame.astype(np.float32)
         else:
-            self._hist[self._fresh] = frame[self._fresh, None]
-            self._fresh[:] = False
-            self._hist = np.concatenate([self._hist[:, 1:], frame[:, None]], axis=1)
-        return self._hist.reshape(n, self.dim).astype(np.float32), base
+            if self._hist is None or self._hist.shape[0] != n:
+                self._hist = np.repeat(frame[:, None], self.cfg.history, axis=1)
+                self._fresh = np.zeros(n, dtype=bool)
+            else:
+                self._hist[self._fresh] = frame[self._fresh, None]
+                self._fresh[:] = False
+                self._hist = np.concatenate([self._hist[:, 1:], frame[:, None]], axis=1)
+            f = self._hist.reshape(n, self.actor_dim).astype(np.float32)
+        if self.priv_dim:
+            f = np.concatenate([f, self._privileged_rows(n)], axis=1)
+        return f, base
+
+    def _privileged_rows(self, n: int) -> np.ndarray:
+        if self.privileged is None:  # deployed: nothing privileged exists
+            return np.full((n, self.priv_dim), np.nan, dtype=np.float32)
+        if self._peeking and self._priv_last is not None:
+            # a terminal observation: the env has already reset, so the finished episode's rows
+            # are the ones of the step before (the plant is the same; the load one step older)
+            return self._priv_last
+        self._priv_last = self.privileged.view()
+        return self._priv_last
 
     def peek(self, obs: np.ndarray) -> np.ndarray:
         """Features of ``obs`` without changing any state (terminal observations)."""
         saved = self._save()
+        self._peeking = True
         try:
             return self(obs)[0]
         finally:
+            self._peeking = False
             self._restore(saved)
 
     def _save(self):
@@ -151,10 +187,20 @@ class Features:
             copy(self._shift),
             copy(self._ema),
             copy(self._ema_fresh),
+            self._priv_last,
         )
 
     def _restore(self, saved) -> None:
-        self._hist, self._fresh, b, self._obs, self._shift, self._ema, self._ema_fresh = saved
+        (
+            self._hist,
+            self._fresh,
+            b,
+            self._obs,
+            self._shift,
+            self._ema,
+            self._ema_fresh,
+            self._priv_last,
+        ) = saved
         if self.baseline is not None:
             self.baseline.set_state(b)
 
@@ -230,4 +276,10 @@ def make_agent_vec_env(venv, cfg: AgentConfig):
     features = Features(venv, cfg, venv.observation_space.shape[0])
     if features.trivial:
         return venv
+    if features.priv_dim:
+        from cepam_gym.control.baseline import core_of
+
+        from .privileged import PrivilegedView
+
+        features.privileged = PrivilegedView(core_of(venv))
     return AgentVecEnv(venv, features)

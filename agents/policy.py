@@ -42,9 +42,17 @@ class AgentPolicy:
                 f"the model sends actions of shape {model.action_space.shape}, the agent config "
                 f"expects ({features.n_actions},): wrong env for this agent?"
             )
+        # a recurrent policy (RecurrentPPO) carries its LSTM state between calls
+        self.recurrent = hasattr(model.policy, "lstm_actor")
+        self._lstm = None
+        self._starts: np.ndarray | None = None
 
     def reset(self, indices=None) -> None:
         self.features.reset(indices)
+        if indices is None or self._starts is None:
+            self._lstm = self._starts = None
+        else:
+            self._starts[np.asarray(indices)] = True
 
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
@@ -56,7 +64,15 @@ class AgentPolicy:
         f, base = self.features(o)
         if self.normalizer is not None:
             f = self.normalizer.normalize_obs(f)
-        a, _ = self.model.predict(f, deterministic=True)
+        if self.recurrent:
+            if self._starts is None or len(self._starts) != len(o):
+                self._lstm, self._starts = None, np.ones(len(o), dtype=bool)
+            a, self._lstm = self.model.predict(
+                f, state=self._lstm, episode_start=self._starts, deterministic=True
+            )
+            self._starts[:] = False
+        else:
+            a, _ = self.model.predict(f, deterministic=True)
         out = self.features.action(np.asarray(a, dtype=np.float32).reshape(len(o), -1), base)
         return out[0] if single else out
 
@@ -154,11 +170,13 @@ def _core(env):
 
 
 # --------------------------------------------------------------------------- evaluation
-def evaluate(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int) -> dict:
+def evaluate(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: int, spec=None) -> dict:
     """Score the policy ``make_policy(venv)`` builds for the eval env (an object with
-    ``reset``/``act``) on ``episodes`` seeded episodes with the benchmark's rollout and metrics."""
+    ``reset``/``act``) on ``episodes`` seeded episodes with the benchmark's rollout and metrics
+    (``spec``: the suite's :class:`~cepam_gym.bench.metrics.TraceSpec`, default the v0 rig's)."""
     from cepam_gym.bench.harness import record
-    from cepam_gym.bench.metrics import score_traces
+    from cepam_gym.bench.metrics import RIG, score_traces
 
-    tr, track_k = record(make_policy, env_id, env_kwargs, episodes, seed)
-    return score_traces(tr, track_k)
+    spec = RIG if spec is None else spec
+    tr, track_k = record(make_policy, env_id, env_kwargs, episodes, seed, spec=spec)
+    return score_traces(tr, track_k, spec)

@@ -253,13 +253,30 @@ def _policy_kwargs(cfg: TrainConfig) -> dict:
     return pk
 
 
-def _eval_env_spec(cfg: TrainConfig) -> tuple[str, dict]:
-    if cfg.eval.suite is None:
-        return cfg.env.id, dict(cfg.env.kwargs)
+def _policy(cfg: TrainConfig, env) -> tuple:
+    """(policy, policy_kwargs) for the algorithm's constructor: the asymmetric actor-critic when
+    the critic is privileged (it is told how many input columns the actor may see)."""
+    from .config import policy_name
+
+    pk = _policy_kwargs(cfg)
+    if not cfg.agent.privileged_critic:
+        return policy_name(cfg.algorithm), pk
+    from .asymmetric import AsymmetricActorCriticPolicy
+
+    return AsymmetricActorCriticPolicy, {**pk, "actor_dim": env.features.actor_dim}
+
+
+def _eval_env_spec(cfg: TrainConfig) -> tuple[str, dict, object]:
+    """(env id, kwargs, trace spec) of the periodic evaluation: the eval suite's, else the
+    training env scored as the benchmark scores its version (v1 ids: the settling allowance)."""
+    from cepam_gym.bench.metrics import RIG, RIG_V1
     from cepam_gym.bench.suites import SUITES
 
+    if cfg.eval.suite is None:
+        spec = RIG_V1 if cfg.env.id.endswith("-v1") else RIG
+        return cfg.env.id, dict(cfg.env.kwargs), spec
     s = SUITES[cfg.eval.suite]
-    return s.env_id, dict(s.env_kwargs)
+    return s.env_id, dict(s.env_kwargs), s.traces
 
 
 # --------------------------------------------------------------------------- the callback
@@ -414,13 +431,14 @@ class Trainer:
             self.wall_before = float(latest.get("wall_s", 0.0))
         else:
             try:
+                policy, pk = _policy(cfg, raw)
                 self.model = algo(
-                    "MlpPolicy",
+                    policy,
                     env,
                     seed=cfg.seed,
                     verbose=0,
                     device="cpu",
-                    policy_kwargs=_policy_kwargs(cfg),
+                    policy_kwargs=pk,
                     **_hyperparameters(cfg),
                 )
             except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
@@ -446,7 +464,7 @@ class Trainer:
         self.info_keys = ["length", "target_length", "stiffness", "target_stiffness"] + [
             f"reward_{t}" for t in _reward_terms()
         ]
-        self.eval_id, self.eval_kwargs = _eval_env_spec(cfg)
+        self.eval_id, self.eval_kwargs, self.eval_traces = _eval_env_spec(cfg)
         self._write_run_json(status="running")
 
     def _latest(self) -> dict | None:
@@ -588,7 +606,7 @@ class Trainer:
             return AgentPolicy(self.model, Features(venv, cfg.agent, venv.unwrapped.core.obs_dim), normalizer)
 
         t = time.perf_counter()
-        m = evaluate(make, self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed)
+        m = evaluate(make, self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed, self.eval_traces)
         m = {
             "step": int(n),
             "wall_s": round(self.wall(), 2),

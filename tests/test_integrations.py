@@ -68,20 +68,45 @@ def test_module_prefixed_id_in_fresh_interpreter():
     assert "CEPAMVectorEnv" in out.stdout
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
+ZOO_ALGOS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ppo_lstm": "RecurrentPPO"}
+
+
+@pytest.mark.parametrize("algo", list(ZOO_ALGOS))
 def test_hyperparams_files_have_all_ids(algo):
+    """v0 ids (ppo, sac): the benchmark's randomized suite as the training distribution. v1 ids
+    (every algorithm): the values of the reference curves' config ``configs/v1_<algo>.yaml`` and
+    the suite each id is trained on there."""
     import yaml
+
+    pytest.importorskip("stable_baselines3")
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym_agents.config import load_config
+    from cepam_gym_agents.curves import CONFIG_OF, SUITE_OF
 
     with open(ROOT / "hyperparams" / f"{algo}.yml") as f:
         hp = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 loads them
-    assert set(ENV_IDS) <= set(hp)
-    from cepam_gym.bench.suites import SUITES
-
-    for env_id in ENV_IDS:  # the training distribution is the benchmark's randomized suite
-        randomized = SUITES["randomized-v1" if env_id.endswith("-v1") else "randomized"].env_kwargs
+    ids = [i for i in ENV_IDS if i.endswith("-v1") or algo in ("ppo", "sac")]
+    ids = [i for i in ids if "Joint" not in i]
+    assert set(ids) <= set(hp)
+    for env_id in ids:
         kw = hp[env_id]["env_kwargs"]
-        assert kw["randomize"] == randomized["randomize"] and kw["sensor_noise"] == randomized["sensor_noise"]
-    for env_id in ENV_IDS:
+        if env_id.endswith("-v1"):
+            assert kw == SUITES[SUITE_OF[env_id]].env_kwargs, env_id
+            cfg = load_config(CONFIG_OF[ZOO_ALGOS[algo]])
+            assert hp[env_id]["n_envs"] == cfg.env.num_envs
+            for key, value in cfg.hyperparameters.items():
+                if key == "action_noise":
+                    assert (hp[env_id]["noise_type"], hp[env_id]["noise_std"]) == (
+                        value["type"],
+                        value["sigma"],
+                    )
+                else:
+                    assert hp[env_id][key] == pytest.approx(value), (env_id, key)
+        else:  # the training distribution is the benchmark's randomized suite
+            randomized = SUITES["randomized"].env_kwargs
+            assert kw["randomize"] == randomized["randomize"]
+            assert kw["sensor_noise"] == randomized["sensor_noise"]
+    for env_id in ids:
         env = gym.make(env_id, **hp[env_id]["env_kwargs"])  # the kwargs are accepted
         env.reset(seed=0)
         env.close()

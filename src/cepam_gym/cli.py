@@ -23,7 +23,8 @@ def fresh_dir(path):
 def _run(argv: list[str]) -> int:
     """The main job on the default config: the plant's step response, the paper reproduction
     table, then train an agent on the shipped ``quick`` config (a few minutes on 2 cores) and score it
-    beside the inverse-model baseline on the ``nominal`` and ``randomized`` suites. Everything
+    beside the zero controller, the inverse-model baseline, the MPC and the oracle on the
+    ``nominal-v1`` and ``randomized-v1`` suites, with the normalized score. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
     ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs), ``agent/eval/``
     (table.txt, results.json, plots) and ``summary.md`` (what ran, versions, where everything is,
@@ -39,7 +40,9 @@ def _run(argv: list[str]) -> int:
     )
     ap.add_argument("--episodes", type=int, default=20, help="benchmark episodes per suite")
     ap.add_argument(
-        "--no-train", action="store_true", help="skip training: plant, reproduction, baseline only"
+        "--no-train",
+        action="store_true",
+        help="skip training: plant, reproduction, and the model-based controllers on the v1 suites",
     )
     args = ap.parse_args(argv)
     out = Path(args.out_dir)
@@ -73,20 +76,17 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
     if args.no_train:
         from .bench import cli as bench_cli
 
-        steps.append(["baseline on the nominal and randomized suites", "failed", out / "bench"])
-        code = bench_cli.main(
+        steps.append(
             [
-                "--controller",
-                "baseline",
-                "--suite",
-                "nominal",
-                "--suite",
-                "randomized",
-                "--episodes",
-                str(args.episodes),
-                "--out-dir",
-                str(out / "bench"),
+                "zero, baseline, mpc and oracle on the nominal-v1 and randomized-v1 suites",
+                "failed",
+                out / "bench",
             ]
+        )
+        against = [a for c in REFERENCE_CONTROLLERS for a in ("--controller", c)]
+        suites = ["--suite", "nominal-v1", "--suite", "randomized-v1"]
+        code = bench_cli.main(
+            [*against, *suites, "--episodes", str(args.episodes), "--out-dir", str(out / "bench")]
         )
         steps[-1][1] = "done" if not code else f"exit code {code}"
         where["table"] = out / "bench" / "table.txt"
@@ -98,7 +98,7 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
             f"cepam-gym run: training needs the [train] extra ({e}); `make run` installs it", file=sys.stderr
         )
         return 2
-    print(f"[3/3] train {args.config}, then score the agent beside the baseline", flush=True)
+    print(f"[3/3] train {args.config}, then score it beside {', '.join(REFERENCE_CONTROLLERS)}", flush=True)
     run_dir = fresh_dir(out / "agent")
     where["run_dir"] = run_dir
     steps.append([f"train an agent ({args.config})", "failed", run_dir])
@@ -106,23 +106,23 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
     steps[-1][1] = "done" if not code else f"exit code {code}"
     if code:
         return code
-    steps.append(["score the agent beside the baseline (nominal, randomized)", "failed", run_dir / "eval"])
-    code = evaluate(
+    steps.append(
         [
-            "--run",
-            str(run_dir),
-            "--suite",
-            "nominal",
-            "--suite",
-            "randomized",
-            "--episodes",
-            str(args.episodes),
+            "score the agent beside zero, baseline, mpc and oracle (its version's suites)",
+            "failed",
+            run_dir / "eval",
         ]
     )
+    against = [a for c in REFERENCE_CONTROLLERS for a in ("--against", c)]
+    code = evaluate(["--run", str(run_dir), *against, "--episodes", str(args.episodes)])
     steps[-1][1] = "done" if not code else f"exit code {code}"
     where["table"] = run_dir / "eval" / "table.txt"
     return code
 
+
+# scored beside the trained agent by the main job: the ends of the normalized score (zero, oracle)
+# and the two model-based controllers an agent must beat
+REFERENCE_CONTROLLERS = ("zero", "baseline", "mpc", "oracle")
 
 PLUGIN_GROUP = "cepam_gym.commands"  # commands of other packages: the training package's train, eval
 

@@ -88,6 +88,9 @@ def write_summary(
             table.read_text().rstrip(),
             "```",
         ]
+        cmp = table.parent / "comparison.md"
+        if cmp.is_file():  # the agent against each reference controller, and the goals
+            lines += ["", *cmp.read_text().rstrip().splitlines()[2:]]
     path = out / "summary.md"
     path.write_text("\n".join(lines) + "\n")
     return path

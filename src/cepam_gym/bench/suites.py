@@ -153,6 +153,14 @@ SUITES: dict[str, Suite] = {
             doc="paper section XII: 17.5 cm, stiffness ramps and moves",
         ),
         Suite(
+            "length-v1",
+            "cepam_gym/CEPAMLength-v1",
+            {"task_options": {"load_kinds": ["step"]}},
+            seed=16000,
+            traces=RIG_V1,
+            doc="the length-only v1 task: v1 length references with preview, load steps",
+        ),
+        Suite(
             "stress-v1",
             "cepam_gym/CEPAM-v1",
             {
@@ -194,4 +202,5 @@ REFERENCE_SCORES: dict[str, tuple[float, float]] = {
     "tracking-v1": (3.27682877151217, 0.1022569260021737),
     "stiffness-at-fixed-length-v1": (1.4797215692059955, 0.05156563475731839),
     "stress-v1": (2.4613520171923344, 0.08839917603295552),
+    "length-v1": (2.0380401861186312, 0.028053882361500904),
 }

@@ -1,0 +1,288 @@
+"""Reference learning curves for RL researchers, in the manner of RL Zoo3's benchmark: each
+algorithm from scratch (the policy drives the valves, no baseline in the loop) on each v1 id,
+several seeds, a wall-time budget per run.
+
+    python -m cepam_gym_agents.curves --minutes 3 --jobs 2        # train every run, then report
+    python -m cepam_gym_agents.curves --report-only                # re-read the runs, report
+
+Each run is the shipped config ``v1_<algorithm>`` (``configs/``) with the env id, the suite whose
+plant, loads and references it trains on (``env.suite``, also ``eval.suite``) and the seed set
+here; it trains with ``cepam-gym train`` in its own process, on one core (``--jobs 2`` runs two at
+a time, each pinned to a core with ``taskset`` where it exists). Written to ``--docs``:
+
+* ``curves.csv``: every periodic evaluation (16 episodes, seed 12345, never the suite's own
+  episodes): algorithm, env id, seed, env steps, wall seconds, score, normalized score;
+* ``<id>.png``: normalized score against env steps and against wall time, mean over seeds with
+  the min-max band;
+* ``table.md``: the best model of each run scored on the suite itself (its seeds, 20 episodes),
+  mean and standard deviation over seeds, raw and normalized (0 = zero controller, 100 = oracle,
+  the suite's stored reference scores), beside the baseline's and the MPC's on the same suite.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .config import ConfigError, dump_config, load_config
+
+# each v1 id and the suite it is trained and scored on
+SUITE_OF = {
+    "cepam_gym/CEPAM-v1": "nominal-v1",
+    "cepam_gym/CEPAMLength-v1": "length-v1",
+    "cepam_gym/CEPAMStiffness-v1": "stiffness-at-fixed-length-v1",
+}
+CONFIG_OF = {"PPO": "v1_ppo", "SAC": "v1_sac", "TD3": "v1_td3", "RecurrentPPO": "v1_recurrentppo"}
+MODEL_CONTROLLERS = ("baseline", "mpc")  # scored beside the agents in table.md
+
+
+def run_config(algorithm: str, env_id: str, seed: int, minutes: float):
+    """The config of one run: ``v1_<algorithm>`` on ``env_id`` and its suite, this seed and budget."""
+    from .config import EnvConfig, EvalConfig
+
+    if algorithm not in CONFIG_OF:
+        raise ConfigError(f"unknown algorithm {algorithm!r}; choose from {list(CONFIG_OF)}")
+    if env_id not in SUITE_OF:
+        raise ConfigError(f"unknown env id {env_id!r}; choose from {list(SUITE_OF)}")
+    cfg = load_config(CONFIG_OF[algorithm])
+    suite = SUITE_OF[env_id]
+    own = {k: v for k, v in cfg.env.kwargs.items() if k == "num_threads"}
+    env = EnvConfig.parse({"id": env_id, "num_envs": cfg.env.num_envs, "suite": suite, "kwargs": own})
+    ev = EvalConfig(cfg.eval.every_steps, cfg.eval.episodes, suite, cfg.eval.seed)
+    return cfg.replace(env=env, eval=ev, seed=int(seed), time_limit_minutes=float(minutes))
+
+
+def run_dir(out: Path, algorithm: str, env_id: str, seed: int) -> Path:
+    return out / algorithm / env_id.split("/")[-1] / f"seed{seed}"
+
+
+def train_all(runs: list[tuple], out: Path, minutes: float, jobs: int) -> None:
+    """Train ``runs`` [(algorithm, env id, seed)], ``jobs`` at a time, one core each."""
+    pending = list(runs)
+    active: list[tuple[subprocess.Popen, int, Path]] = []
+    cores = list(range(max(1, jobs)))
+    taskset = shutil.which("taskset")
+    while pending or active:
+        while pending and len(active) < jobs:
+            algo, env_id, seed = pending.pop(0)
+            d = run_dir(out, algo, env_id, seed)
+            if (d / "summary.json").is_file():
+                print(f"skip {d} (done)", flush=True)
+                continue
+            if d.exists():
+                shutil.rmtree(d)
+            d.parent.mkdir(parents=True, exist_ok=True)
+            cfg_path = d.parent / f"seed{seed}.yaml"
+            dump_config(run_config(algo, env_id, seed, minutes), cfg_path)
+            core = [c for c in cores if c not in {a[1] for a in active}][0]
+            cmd = [sys.executable, "-m", "cepam_gym_agents.train", "--config", str(cfg_path)]
+            cmd += ["--out", str(d), "--quiet"]
+            if taskset:
+                cmd = [taskset, "-c", str(core), *cmd]
+            log = open(d.parent / f"seed{seed}.log", "w")
+            print(f"train {algo} {env_id} seed {seed} on core {core} -> {d}", flush=True)
+            active.append((subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT), core, d))
+        time.sleep(2.0)
+        for job in list(active):
+            code = job[0].poll()
+            if code is not None:
+                active.remove(job)
+                print(f"{'done' if code == 0 else f'FAILED (exit {code})'}: {job[2]}", flush=True)
+
+
+# --------------------------------------------------------------------------- the report
+def read_curves(out: Path) -> list[dict]:
+    """Every periodic evaluation of every run under ``out``, normalized with the suite's stored
+    reference scores."""
+    from cepam_gym.bench.metrics import normalized_score
+    from cepam_gym.bench.suites import REFERENCE_SCORES
+
+    rows = []
+    for algo in CONFIG_OF:
+        for env_id, suite in SUITE_OF.items():
+            for d in sorted((out / algo / env_id.split("/")[-1]).glob("seed*")):
+                ev = d / "evaluations.json"
+                if not d.is_dir() or not ev.is_file():
+                    continue
+                for e in json.loads(ev.read_text()):
+                    rows.append(
+                        {
+                            "algorithm": algo,
+                            "env_id": env_id,
+                            "seed": int(d.name[4:]),
+                            "steps": int(e["step"]),
+                            "wall_s": float(e["wall_s"]),
+                            "score": float(e["score"]),
+                            "normalized": normalized_score(e["score"], *REFERENCE_SCORES[suite]),
+                        }
+                    )
+    return rows
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    cols = ["algorithm", "env_id", "seed", "steps", "wall_s", "score", "normalized"]
+    lines = [",".join(cols)]
+    for r in rows:
+        lines.append(",".join(f"{r[c]:.4f}" if isinstance(r[c], float) else str(r[c]) for c in cols))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _band(xs: list[np.ndarray], ys: list[np.ndarray], grid: np.ndarray):
+    """Mean, min and max over seeds of curves interpolated on ``grid``, from the latest first
+    evaluation to the shortest run's end (no extrapolation)."""
+    start, end = max(x[0] for x in xs), min(x[-1] for x in xs)
+    g = grid[(grid >= start) & (grid <= end)]
+    if len(g) == 0:
+        return g, g, g, g
+    vals = np.array([np.interp(g, x, y) for x, y in zip(xs, ys)])
+    return g, vals.mean(0), vals.min(0), vals.max(0)
+
+
+def plot_curves(rows: list[dict], docs: Path) -> list[Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    paths = []
+    for env_id in SUITE_OF:
+        mine = [r for r in rows if r["env_id"] == env_id]
+        if not mine:
+            continue
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+        for algo in CONFIG_OF:
+            runs = {}
+            for r in mine:
+                if r["algorithm"] == algo:
+                    runs.setdefault(r["seed"], []).append(r)
+            if not runs:
+                continue
+            for ax, key, scale in ((axes[0], "steps", 1e-6), (axes[1], "wall_s", 1 / 60)):
+                xs = [np.array([r[key] for r in v]) * scale for v in runs.values()]
+                ys = [np.array([r["normalized"] for r in v]) for v in runs.values()]
+                grid = np.linspace(0.0, max(x[-1] for x in xs), 400)
+                g, mean, lo, hi = _band(xs, ys, grid)
+                (line,) = ax.plot(g, mean, label=f"{algo} ({len(runs)} seeds)")
+                ax.fill_between(g, lo, hi, color=line.get_color(), alpha=0.2)
+        axes[0].set_xlabel("env steps [millions]")
+        axes[1].set_xlabel("wall time [min] (one core per run)")
+        axes[0].set_ylabel("normalized score (0 zero controller, 100 oracle)")
+        for ax in axes:
+            ax.grid(alpha=0.3)
+            ax.set_ylim(-50, 110)
+        axes[0].legend(loc="lower right")
+        fig.suptitle(f"{env_id} (trained and scored on {SUITE_OF[env_id]}): mean and min-max over seeds")
+        fig.tight_layout()
+        p = docs / f"{env_id.split('/')[-1]}.png"
+        fig.savefig(p, dpi=110)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def final_scores(out: Path, episodes: int | None) -> list[dict]:
+    """The best model of every finished run, scored on its suite (the suite's seeds)."""
+    from cepam_gym.bench.harness import run_suite
+
+    rows = []
+    for algo in CONFIG_OF:
+        for env_id, suite in SUITE_OF.items():
+            for d in sorted((out / algo / env_id.split("/")[-1]).glob("seed*")):
+                if not (d / "summary.json").is_file():
+                    continue
+                summary = json.loads((d / "summary.json").read_text())
+                m, _ = run_suite(str(d), suite, episodes=episodes)
+                rows.append(
+                    {
+                        "algorithm": algo,
+                        "env_id": env_id,
+                        "suite": suite,
+                        "seed": int(d.name[4:]),
+                        "score": m["score"],
+                        "steps": summary["steps"],
+                        "wall_s": summary["wall_s"],
+                    }
+                )
+    return rows
+
+
+def table_markdown(finals: list[dict], episodes: int | None) -> str:
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.metrics import normalized_score
+    from cepam_gym.bench.suites import REFERENCE_SCORES
+
+    lines = [
+        "| env id (suite) | algorithm | seeds | score (mean +- sd) | normalized | env steps | wall min |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for env_id, suite in SUITE_OF.items():
+        ends = REFERENCE_SCORES[suite]
+        for algo in CONFIG_OF:
+            mine = [r for r in finals if r["env_id"] == env_id and r["algorithm"] == algo]
+            if not mine:
+                continue
+            s = np.array([r["score"] for r in mine])
+            n = np.array([normalized_score(v, *ends) for v in s])
+            steps = np.mean([r["steps"] for r in mine])
+            wall = np.mean([r["wall_s"] for r in mine]) / 60
+            lines.append(
+                f"| {env_id.split('/')[-1]} ({suite}) | {algo} | {len(mine)} | "
+                f"{s.mean():.3f} +- {s.std():.3f} | {n.mean():.1f} +- {n.std():.1f} | "
+                f"{steps / 1e6:.2f} M | {wall:.1f} |"
+            )
+        if any(r["env_id"] == env_id for r in finals):
+            for c in MODEL_CONTROLLERS:
+                m, _ = run_suite(c, suite, episodes=episodes)
+                lines.append(
+                    f"| {env_id.split('/')[-1]} ({suite}) | *{c}* | - | {m['score']:.3f} | "
+                    f"{normalized_score(m['score'], *ends):.1f} | - | - |"
+                )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m cepam_gym_agents.curves", description=__doc__.split("\n\n")[0]
+    )
+    ap.add_argument("--algos", nargs="+", default=list(CONFIG_OF), choices=list(CONFIG_OF))
+    ap.add_argument("--ids", nargs="+", default=list(SUITE_OF), choices=list(SUITE_OF))
+    ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    ap.add_argument("--minutes", type=float, default=3.0, help="wall-time budget per run [min]")
+    ap.add_argument("--jobs", type=int, default=2, help="runs at a time (one core each)")
+    ap.add_argument("--out", default="runs/curves", help="run directories")
+    ap.add_argument("--docs", default="docs/learning_curves", help="where the CSV, PNGs and table go")
+    ap.add_argument("--episodes", type=int, default=None, help="episodes of the final scoring")
+    ap.add_argument("--report-only", action="store_true", help="do not train; report the runs in --out")
+    args = ap.parse_args(argv)
+    if args.minutes <= 0 or args.jobs < 1 or any(s < 0 for s in args.seeds):
+        ap.error("--minutes must be > 0, --jobs >= 1 and the seeds >= 0")
+    out, docs = Path(args.out), Path(args.docs)
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    if not args.report_only:
+        runs = [(a, i, s) for i in args.ids for a in args.algos for s in args.seeds]
+        train_all(runs, out, args.minutes, args.jobs)
+    docs.mkdir(parents=True, exist_ok=True)
+    rows = read_curves(out)
+    if not rows:
+        print(f"no evaluations under {out}", file=sys.stderr)
+        return 1
+    write_csv(rows, docs / "curves.csv")
+    for p in plot_curves(rows, docs):
+        print(f"wrote {p}")
+    table = table_markdown(final_scores(out, args.episodes), args.episodes)
+    (docs / "table.md").write_text(table)
+    print(table)
+    print(f"wrote {docs}/curves.csv and table.md")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,236 @@
+"""Agents on the v1 ids: every variant trains and loads back, the privileged critic never reaches
+the actor, recurrent policies keep and reset their memory, the reference-curve runner and the goals
+of the comparison table."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytestmark = pytest.mark.train
+
+from cepam_gym_agents.config import ConfigError, TrainConfig  # noqa: E402
+
+V1 = "cepam_gym/CEPAM-v1"
+SMALL_ON_POLICY = {"n_steps": 64, "batch_size": 64, "n_epochs": 1}
+SMALL_OFF_POLICY = {"learning_starts": 64, "batch_size": 32, "buffer_size": 2000}
+
+VARIANTS = {
+    "ppo": ("PPO", SMALL_ON_POLICY, {}, {}),
+    "ppo-residual-history": (
+        "PPO",
+        SMALL_ON_POLICY,
+        {"target_shift": True, "residual": True, "history": 3},
+        {},
+    ),
+    "ppo-privileged-critic": ("PPO", SMALL_ON_POLICY, {"privileged_critic": True, "residual": True}, {}),
+    "recurrent-ppo": ("RecurrentPPO", SMALL_ON_POLICY, {}, {"lstm_hidden_size": 8}),
+    "sac": ("SAC", SMALL_OFF_POLICY, {}, {}),
+    "td3": ("TD3", {**SMALL_OFF_POLICY, "action_noise": {"type": "normal", "sigma": 0.1}}, {}, {}),
+}
+
+
+def _cfg(algo, hp, agent, pk, **env) -> TrainConfig:
+    return TrainConfig.from_dict(
+        {
+            "algorithm": algo,
+            "total_timesteps": 256,
+            "seed": 2,
+            "env": {"id": V1, "num_envs": 2, "kwargs": {"episode_seconds": 2.0, **env}},
+            "agent": agent,
+            "normalize": {"obs": True, "reward": True},
+            "hyperparameters": hp,
+            "policy_kwargs": {"net_arch": [8], **pk},
+            "eval": {"every_steps": 10_000, "episodes": 1},
+            "checkpoint": {"every_steps": 10_000, "replay_buffer": False},
+            "log_every_steps": 100,
+        }
+    )
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """Each variant trained for 256 steps (once per module)."""
+    from cepam_gym_agents.train import train
+
+    root = tmp_path_factory.mktemp("v1agents")
+    for name, spec in VARIANTS.items():
+        assert train(_cfg(*spec), root / name, quiet=True) == 0, name
+    return root
+
+
+@pytest.mark.slow  # trains six agents
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_each_variant_trains_loads_back_and_acts(trained, name):
+    import gymnasium as gym
+
+    from cepam_gym_agents.policy import load_policy
+
+    venv = gym.make_vec(V1, num_envs=3, episode_seconds=2.0)
+    obs, _ = venv.reset(seed=5)
+    pol = load_policy(trained / name, venv)
+    assert pol.recurrent == (VARIANTS[name][0] == "RecurrentPPO")
+    for _ in range(10):
+        a = pol.act(obs)
+        assert a.shape == (3, 2) and a.dtype == np.float32
+        assert np.all(np.isfinite(a)) and np.all(np.abs(a) <= 1)
+        obs, *_ = venv.step(a)
+    summary = json.loads((trained / name / "summary.json").read_text())
+    assert summary["steps"] >= 256
+
+
+@pytest.mark.slow
+def test_privileged_columns_never_reach_the_saved_actor(trained):
+    """The saved model's actions do not change whatever the privileged columns hold, NaN
+    included, while the critic's values do; the deployed policy fills them with NaN."""
+    import gymnasium as gym
+    import torch
+
+    from cepam_gym_agents.policy import load_policy
+
+    venv = gym.make_vec(V1, num_envs=4, episode_seconds=2.0)
+    obs, _ = venv.reset(seed=1)
+    pol = load_policy(trained / "ppo-privileged-critic", venv)
+    f = pol.features
+    assert f.priv_dim > 0 and f.dim == f.actor_dim + f.priv_dim
+    model = pol.model
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(4, f.dim)).astype(np.float32)
+    actions = []
+    for fill in (0.0, 1e3, np.nan, None):
+        y = x.copy()
+        y[:, f.actor_dim :] = rng.normal(size=(4, f.priv_dim)) if fill is None else fill
+        actions.append(model.predict(y, deterministic=True)[0])
+    for a in actions[1:]:
+        np.testing.assert_array_equal(a, actions[0])
+    with torch.no_grad():
+        t = torch.as_tensor(x)
+        t2 = t.clone()
+        t2[:, f.actor_dim :] += 3.0
+        v1, v2 = model.policy.predict_values(t), model.policy.predict_values(t2)
+    assert not torch.allclose(v1, v2), "the critic ignores the privileged columns"
+    # deployed: the privileged part of the features is NaN, and the actions are finite
+    feats, _ = pol.features(obs)
+    assert np.isnan(feats[:, f.actor_dim :]).all() and np.isfinite(feats[:, : f.actor_dim]).all()
+    assert np.isfinite(pol.act(obs)).all()
+
+
+def test_privileged_view_holds_the_true_errors_load_and_plant():
+    import gymnasium as gym
+
+    from cepam_gym import plant as pl
+    from cepam_gym_agents.privileged import PrivilegedView
+
+    venv = gym.make_vec(V1, num_envs=3, randomize={"end_mass_g": [15.0, 25.0]})
+    venv.reset(seed=3)
+    core = venv.unwrapped.core
+    for _ in range(20):
+        venv.step(np.full((3, 2), 0.3, dtype=np.float32))
+    view = PrivilegedView(core)
+    rows = view.view()
+    assert rows.shape == (3, view.dim) and np.isfinite(rows).all()
+    tl, tk, load = core.current_targets()
+    n = len(view._cols)
+    np.testing.assert_allclose(rows[:, n], load / 0.1, rtol=1e-6)
+    np.testing.assert_allclose(rows[:, n + 1], (core.state[:, pl.S_L] - tl) / 5e-3, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(rows[:, n + 2], np.log(core.aux[:, pl.A_STIFF] / tk), rtol=1e-5, atol=1e-5)
+    # the randomized end mass shows as log(value / nominal), the untouched columns as 0
+    from cepam_gym.physics import layout as ix
+
+    j = list(view._cols).index(ix.M_END)
+    nominal = core.nominal.to_array()[ix.M_END]
+    np.testing.assert_allclose(rows[:, j], np.log(core.params[:, ix.M_END] / nominal), rtol=1e-5)
+    assert np.any(np.abs(rows[:, j]) > 1e-3)
+    other = [k for k, c in enumerate(view._cols) if c not in (ix.M_END, ix.P_SUP)]
+    assert np.allclose(rows[:, other], 0.0, atol=1e-6)
+
+
+@pytest.mark.slow
+def test_recurrent_policy_remembers_and_forgets_per_env(trained):
+    import gymnasium as gym
+
+    from cepam_gym_agents.policy import load_policy
+
+    venv = gym.make_vec(V1, num_envs=2, episode_seconds=2.0)
+    obs, _ = venv.reset(seed=4)
+    pol = load_policy(trained / "recurrent-ppo", venv)
+    same = np.repeat(obs[:1], 2, axis=0)
+    first = pol.act(same)
+    np.testing.assert_array_equal(first[0], first[1])
+    later = pol.act(same)  # the same observation again: the memory has changed the action
+    assert not np.array_equal(later[0], first[0])
+    pol.reset([1])  # env 1 starts a new episode: it acts as on its first step, env 0 does not
+    again = pol.act(same)
+    np.testing.assert_allclose(again[1], first[1], rtol=1e-6)
+    assert not np.allclose(again[0], first[0])
+
+
+# --------------------------------------------------------------------------- configs
+def test_recurrent_ppo_name_is_case_insensitive_and_checks_lstm_kwargs():
+    cfg = _cfg("recurrentppo", SMALL_ON_POLICY, {}, {"lstm_hidden_size": 8})
+    assert cfg.algorithm == "RecurrentPPO"
+    with pytest.raises(ConfigError, match="lstm_hidden_sise"):
+        _cfg("RecurrentPPO", SMALL_ON_POLICY, {}, {"lstm_hidden_sise": 8})
+    with pytest.raises(ConfigError, match="action_noise.*RecurrentPPO"):
+        _cfg("RecurrentPPO", {"action_noise": {"sigma": 0.1}}, {}, {})
+
+
+def test_privileged_critic_is_for_ppo_only():
+    with pytest.raises(ConfigError, match="privileged_critic.*SAC"):
+        _cfg("SAC", SMALL_OFF_POLICY, {"privileged_critic": True}, {})
+
+
+def test_v1_configs_are_shipped_and_the_curve_runner_sets_id_suite_seed():
+    from cepam_gym_agents.config import shipped_configs
+    from cepam_gym_agents.curves import CONFIG_OF, SUITE_OF, run_config
+
+    assert set(CONFIG_OF.values()) <= set(shipped_configs())
+    cfg = run_config("SAC", "cepam_gym/CEPAMStiffness-v1", 7, 2.5)
+    assert cfg.env.id == "cepam_gym/CEPAMStiffness-v1" and cfg.seed == 7
+    assert cfg.env.suite == cfg.eval.suite == SUITE_OF[cfg.env.id] == "stiffness-at-fixed-length-v1"
+    assert cfg.time_limit_minutes == 2.5 and cfg.env.kwargs["num_threads"] == 1
+    with pytest.raises(ConfigError, match="unknown env id"):
+        run_config("PPO", "cepam_gym/CEPAM-v0", 0, 1.0)
+
+
+def test_curves_are_normalized_with_the_reference_scores_and_plotted(tmp_path):
+    from cepam_gym.bench.suites import REFERENCE_SCORES
+    from cepam_gym_agents.curves import plot_curves, read_curves, write_csv
+
+    zero, oracle = REFERENCE_SCORES["nominal-v1"]
+    for seed, scores in ((0, [zero, oracle]), (1, [zero, (zero + oracle) / 2])):
+        d = tmp_path / "runs" / "PPO" / "CEPAM-v1" / f"seed{seed}"
+        d.mkdir(parents=True)
+        ev = [{"step": 1000 * (i + 1), "wall_s": 10.0 * (i + 1), "score": s} for i, s in enumerate(scores)]
+        (d / "evaluations.json").write_text(json.dumps(ev))
+    rows = read_curves(tmp_path / "runs")
+    assert [round(r["normalized"], 6) for r in rows] == [0.0, 100.0, 0.0, 50.0]
+    write_csv(rows, tmp_path / "curves.csv")
+    lines = (tmp_path / "curves.csv").read_text().splitlines()
+    assert lines[0].startswith("algorithm,env_id,seed,steps") and len(lines) == 5
+    (png,) = plot_curves(rows, tmp_path)
+    assert png.name == "CEPAM-v1.png" and png.stat().st_size > 10_000
+
+
+def test_comparison_goals_of_the_v1_suites():
+    from cepam_gym_agents.evaluate import compare
+
+    def row(suite, controller, score):
+        return {"suite": suite, "controller": controller, "score": score, "failure_rate": 0.0}
+
+    rows = [
+        row("randomized-v1", "agent", 0.5),
+        row("randomized-v1", "baseline", 0.8),
+        row("randomized-v1", "mpc", 0.45),
+        row("nominal-v1", "agent", 0.094),
+        row("nominal-v1", "oracle", 0.086),
+        row("nominal-v1", "zero", 2.7),
+    ]
+    got = {(c["suite"], c["reference"]): c for c in compare(rows)}
+    assert got[("randomized-v1", "baseline")]["goal_met"] is True  # 0.625 <= 0.70
+    assert got[("randomized-v1", "mpc")]["goal_met"] is False  # worse than the MPC
+    assert got[("nominal-v1", "oracle")]["goal_met"] is True  # within 10 %
+    assert got[("nominal-v1", "zero")]["goal_met"] is None  # no goal against the zero controller
