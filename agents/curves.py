@@ -217,14 +217,16 @@ def final_scores(out: Path, episodes: int | None) -> list[dict]:
 def table_markdown(finals: list[dict], episodes: int | None) -> str:
     from cepam_gym.bench.harness import run_suite
     from cepam_gym.bench.metrics import normalized_score
-    from cepam_gym.bench.suites import REFERENCE_SCORES
+    from cepam_gym.bench.suites import REFERENCE_SCORES, SUITES
 
     lines = [
-        "| env id (suite) | algorithm | seeds | score (mean +- sd) | normalized | env steps | wall min |",
-        "|---|---|---|---|---|---|---|",
+        "| algo | env id (suite) | seeds | normalized (mean +- sd) | score (mean +- sd) | n_timesteps "
+        "| wall min | eval episodes |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for env_id, suite in SUITE_OF.items():
         ends = REFERENCE_SCORES[suite]
+        n_eval = episodes or SUITES[suite].episodes
         for algo in CONFIG_OF:
             mine = [r for r in finals if r["env_id"] == env_id and r["algorithm"] == algo]
             if not mine:
@@ -234,16 +236,16 @@ def table_markdown(finals: list[dict], episodes: int | None) -> str:
             steps = np.mean([r["steps"] for r in mine])
             wall = np.mean([r["wall_s"] for r in mine]) / 60
             lines.append(
-                f"| {env_id.split('/')[-1]} ({suite}) | {algo} | {len(mine)} | "
-                f"{s.mean():.3f} +- {s.std():.3f} | {n.mean():.1f} +- {n.std():.1f} | "
-                f"{steps / 1e6:.2f} M | {wall:.1f} |"
+                f"| {algo} | {env_id.split('/')[-1]} ({suite}) | {len(mine)} | "
+                f"**{n.mean():.1f}** +- {n.std():.1f} | {s.mean():.3f} +- {s.std():.3f} | "
+                f"{steps / 1e6:.2f} M | {wall:.1f} | {n_eval} |"
             )
         if any(r["env_id"] == env_id for r in finals):
             for c in MODEL_CONTROLLERS:
                 m, _ = run_suite(c, suite, episodes=episodes)
                 lines.append(
-                    f"| {env_id.split('/')[-1]} ({suite}) | *{c}* | - | {m['score']:.3f} | "
-                    f"{normalized_score(m['score'], *ends):.1f} | - | - |"
+                    f"| *{c}* | {env_id.split('/')[-1]} ({suite}) | - | "
+                    f"{normalized_score(m['score'], *ends):.1f} | {m['score']:.3f} | - | - | {n_eval} |"
                 )
     return "\n".join(lines) + "\n"
 
