@@ -142,7 +142,14 @@ def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
 
 
 class CEPAMBatch:
-    """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`."""
+    """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`.
+
+    The mechanism the muscle drives is the class's ``MECH`` (:data:`cepam_gym.plant.RIG` here);
+    :class:`cepam_gym.envs.joint.JointBatch` drives a hinge on the same arrays and kernel by
+    overriding the task hooks (``_resolve_task``, ``_check_task_units``, ``_make_randomizer``,
+    ``_layout``, ``_task_vector``, ``_hinge_row``, ``reset``)."""
+
+    MECH = pl.RIG
 
     def __init__(
         self,
@@ -166,18 +173,7 @@ class CEPAMBatch:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
-        if isinstance(task, str):
-            if task not in TASKS:
-                raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
-            task = TASKS[task]
-        if task_options:
-            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
-            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
-            task = dataclasses.replace(task, **opts)
-        if reward_weights:
-            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
-            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
-        self.task = task
+        self.task = self._resolve_task(task, task_options, reward_weights)
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
@@ -192,7 +188,7 @@ class CEPAMBatch:
                 stacklevel=3,
             )
         self.randomize = check_randomize(randomize)
-        self.randomizer = Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
+        self.randomizer = self._make_randomizer()
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
@@ -214,7 +210,7 @@ class CEPAMBatch:
                 f"got {preview_steps!r}"
             )
         self.preview_steps = int(preview_steps)
-        self.obs_layout = rig_layout(task, self.nominal, self.preview_steps)
+        self.obs_layout = self._layout()
         self.task_vec = self._task_vector()
         self.obs_dim = self.obs_layout.size
         # --- arrays
@@ -225,8 +221,10 @@ class CEPAMBatch:
         # (tasks.kernel.env_step_single) on two slabs its arrays are views of
         self.fast_single = n == 1 and not self.latency and not self.supply_drift
         if n == 1:
-            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt)
+            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt, self.MECH)
             self.state, self.aux, self.inputs, self.params = v["state"], v["aux"], v["inputs"], v["params"]
+            self.hinge = v["hinge"]
+            self.hinge[:] = self._hinge_row()
             self.target_l, self.target_k, self.load = v["target_l"], v["target_k"], v["load"]
             self.t_idx, self.prev_action, self.rewards = v["t_idx"], v["actions"], v["rewards"]
             self.terms, self.reasons, self.noise, self.info_row = (
@@ -240,6 +238,7 @@ class CEPAMBatch:
             self.task_vec = v["task"]
         else:
             self.params = np.repeat(nominal_row[None], n, axis=0)
+            self.hinge = self._hinge_row()[None].copy()  # one mechanism shared by the batch
             self.state = np.zeros((n, pl.N_STATE))
             self.aux = np.zeros((n, pl.N_AUX))
             self.inputs = np.zeros((n, pl.N_INPUT))
@@ -262,6 +261,8 @@ class CEPAMBatch:
             self.state,
             self.prev_action,
             self.params,
+            self.hinge,
+            self.MECH,
             self.mode,
             self.sub_dt,
             self.n_sub,
@@ -278,6 +279,33 @@ class CEPAMBatch:
             self.aux,
             self.reasons,
         )
+
+    # ------------------------------------------------------------- task hooks
+    def _resolve_task(self, task, task_options, reward_weights) -> TaskSpec:
+        """The env's :class:`~cepam_gym.tasks.spec.TaskSpec`: ``task`` (a name of
+        :data:`~cepam_gym.tasks.TASKS` or a spec) with the kwargs' overrides, checked."""
+        if isinstance(task, str):
+            if task not in TASKS:
+                raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
+            task = TASKS[task]
+        if task_options:
+            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
+            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
+            task = dataclasses.replace(task, **opts)
+        if reward_weights:
+            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
+            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
+        return task
+
+    def _make_randomizer(self) -> Randomizer:
+        return Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
+
+    def _layout(self):
+        return rig_layout(self.task, self.nominal, self.preview_steps)
+
+    def _hinge_row(self) -> np.ndarray:
+        """The mechanism's constants (:mod:`cepam_gym.physics.hinge`; unused by the rig)."""
+        return tk.no_hinge()[0]
 
     def _check_task_units(self) -> None:
         """Task ranges in SI against the plant: lengths [m] within the end stops."""
@@ -376,6 +404,8 @@ class CEPAMBatch:
             self.state,
             self.aux,
             self.params,
+            self.hinge,
+            self.MECH,
             self.target_l,
             self.target_k,
             self.t_idx,
