@@ -376,6 +376,18 @@ class CEPAMBatch:
         self._normal_pos[rows] += 1
         return out
 
+    PIN_KEYS = ("target_length", "target_stiffness", "load_mass")
+
+    def apply_options(self, options: dict | None) -> None:
+        """``reset(options=...)``: pin any of target_length [m], target_stiffness [N/m],
+        load_mass [kg] for the whole episode (scalars, or per-env arrays for the vector env)."""
+        if not options:
+            return
+        bad = set(options) - set(self.PIN_KEYS)
+        if bad:
+            raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.PIN_KEYS)}")
+        self.pin_targets(**options)
+
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
         ``indices`` (scalars or per-env arrays); call right after :meth:`reset`. Used by the
