@@ -28,7 +28,9 @@ if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
 
 ID = "cepam_gym/CEPAMJoint-v1"
 MODES = ["valve", "pwm", "pressure"]
-_OPTS = dict(initial_angle=0.8, initial_stiffness=0.4, external_torque=0.02, target_angle=0.8, target_stiffness=0.4)
+_OPTS = dict(
+    initial_angle=0.8, initial_stiffness=0.4, external_torque=0.02, target_angle=0.8, target_stiffness=0.4
+)
 _KEYS = ("angle", "muscle_length", "pressure_c", "pressure_e")
 
 
@@ -108,7 +110,9 @@ def test_make_vec_gives_the_native_batched_env():
     np.testing.assert_allclose(layout.decode(obs)["angle"], info["angle"], atol=1e-6)
     obs, r, term, trunc, info = env.step(env.action_space.sample())
     assert set(info) >= {"angle", "joint_stiffness", "reward_angle", "termination_reason", "_angle"}
-    np.testing.assert_allclose(r, sum(info[f"reward_{t}"] for t in ("angle", "stiffness", "effort", "air", "burst")))
+    np.testing.assert_allclose(
+        r, sum(info[f"reward_{t}"] for t in ("angle", "stiffness", "effort", "air", "burst"))
+    )
     env.close()
 
 

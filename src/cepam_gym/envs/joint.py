@@ -18,9 +18,6 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
-from ..params import pressure_cap_of
-from ..physics import api
-from ..physics import layout as ix
 from ..mujoco.joint_task import (
     JointGeometry,
     JointRewardWeights,
@@ -29,6 +26,9 @@ from ..mujoco.joint_task import (
     joint_layout,
     joint_planned_schedules,
 )
+from ..params import pressure_cap_of
+from ..physics import api
+from ..physics import layout as ix
 from ..tasks import kernel as tk
 from ..tasks.spec import check_kwargs
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
@@ -101,7 +101,9 @@ class JointBatch(CEPAMBatch):
         sub-step, target angles outside the joint's range, a torque with no reachable target."""
         s = float(pl.stability_number(row, self.sub_dt)[0])
         if s > STABILITY_LIMIT:
-            return f"the integration is unstable at sub_dt {self.sub_dt * 1e3:.3g} ms (stability number {s:.2f})"
+            return (
+                f"the integration is unstable at sub_dt {self.sub_dt * 1e3:.3g} ms (stability number {s:.2f})"
+            )
         try:
             self.task.check_range(self.geometry, row)
         except ValueError as e:
@@ -239,7 +241,9 @@ class JointBatch(CEPAMBatch):
 
 def _check_mujoco_renderer(renderer: str) -> None:
     if renderer != "mujoco":
-        raise ValueError(f"the joint env renders with MuJoCo only: renderer must be 'mujoco', got {renderer!r}")
+        raise ValueError(
+            f"the joint env renders with MuJoCo only: renderer must be 'mujoco', got {renderer!r}"
+        )
 
 
 class _Frames:

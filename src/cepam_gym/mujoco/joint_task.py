@@ -314,7 +314,9 @@ def joint_planned_schedules(
         shaped = shape_reference(k, rng, spec, p, L, K, load, n_steps, dt)
         if shaped is not None:
             try:
-                Ls, Ks = project(*shaped, _equivalent_load(geom, geom.angle(shaped[0], p), torque, p), p, spec)
+                Ls, Ks = project(
+                    *shaped, _equivalent_load(geom, geom.angle(shaped[0], p), torque, p), p, spec
+                )
             except ValueError:
                 continue
             ta, tk = geom.angle(Ls, p), Ks * r2
