@@ -143,6 +143,11 @@ def test_vector_element_i_is_the_single_env_with_stream_i():
         steps = [e.step(a[i]) for i, e in enumerate(singles)]
         np.testing.assert_array_equal(vo, np.stack([s[0] for s in steps]))
         np.testing.assert_array_equal(vr, [s[1] for s in steps])
+        # the single env's info (Python floats) is the vector env's info arrays, key by key
+        vinfo = venv.core.info_arrays(True)
+        for key, value in steps[1][4].items():
+            if key != "termination_reason":
+                assert value == vinfo[key][1], key
 
 
 def test_bad_input_errors():
@@ -202,3 +207,26 @@ def test_rgb_frame_follows_the_angle(mujoco):
     assert f0.shape == (480, 480, 3) and f0.std() > 5
     assert (np.abs(f0.astype(int) - f1.astype(int)).max(axis=2) > 12).mean() > 0.005
     env.close()
+
+
+@pytest.mark.parametrize("mode", ["valve", "pressure"])
+def test_the_joint_baseline_drives_v1(mode):
+    """``make_controller("baseline", env)`` resolves to the joint baseline on v1 as on v0 and
+    holds the reference (zero actions do not)."""
+    from cepam_gym.control import make_controller
+    from cepam_gym.control.joint_baseline import JointInverseStaticController
+
+    errors = {}
+    for name in ("zero", "baseline"):
+        env = gym.make(ID, action_mode=mode)
+        ctl = make_controller(name, env)
+        obs, info = env.reset(seed=0)
+        ctl.reset()
+        err = []
+        for _ in range(250):
+            obs, r, term, trunc, info = env.step(ctl.act(obs, info))
+            err.append(abs(info["angle"] - info["target_angle"]))
+        errors[name] = np.degrees(np.mean(err))
+        if name == "baseline":
+            assert isinstance(ctl, JointInverseStaticController)
+    assert errors["baseline"] < 2.0 and errors["zero"] > 3.0, errors

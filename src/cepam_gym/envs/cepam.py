@@ -244,6 +244,12 @@ class CEPAMEnv(gym.Env, EzPickle):
     def _info(self, scored: bool) -> dict[str, Any]:
         return _info_single(self.core, scored)
 
+    def _fast_info(self) -> dict[str, Any]:
+        """The info of a step taken by the one-call single step (``core.info_row``)."""
+        info = dict(zip(_STEP_KEYS, self.core.info_row.tolist()))
+        info["redraws"] = int(self.core.redraws[0])
+        return info
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         if seed is not None or not hasattr(self, "_seeded"):
@@ -265,8 +271,7 @@ class CEPAMEnv(gym.Env, EzPickle):
             if not (math.isfinite(x0) and math.isfinite(x1)):
                 raise ValueError(f"action contains NaN or inf: {action!r}")
             reward, reason = core.step_single(x0, x1)
-            info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
-            info["redraws"] = int(core.redraws[0])
+            info = self._fast_info()
         else:
             core.step(core.check_actions(action))
             reward, reason = float(core.rewards[0]), int(core.reasons[0])

@@ -72,7 +72,6 @@ class JointBatch(CEPAMBatch):
     def __init__(self, num_envs: int = 1, task: str | JointTask = "joint_v1", joint=None, **kwargs: Any):
         self.geometry = JointGeometry.from_kwargs(joint)
         super().__init__(num_envs, task=task, **kwargs)
-        self.fast_single = False  # the rig's one-call single step writes the rig's info
         self.initial = np.zeros((self.num_envs, 2))  # (angle, joint stiffness) each episode starts at
 
     # ------------------------------------------------------------- task hooks
@@ -206,6 +205,36 @@ class JointBatch(CEPAMBatch):
         raise NotImplementedError("the joint env pins targets through reset(options=...)")
 
     # ------------------------------------------------------------ measurements
+    def info_single(self, scored: bool) -> dict[str, Any]:
+        """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays (a
+        single env's step is mostly Python overhead)."""
+        g, r = self.geometry, self.geometry.lever_arm
+        x, a = self.state[0].tolist(), self.aux[0].tolist()
+        p = self.params[0]
+        k = min(max(int(self.t_idx[0]) - (1 if scored else 0), 0), self.n_steps - 1)
+        theta = float(g.angle(x[pl.S_L], p))
+        ks = a[pl.A_STIFF] * r**2
+        info = {
+            "angle": theta,
+            "angular_velocity": -x[pl.S_V] / r,
+            "muscle_length": x[pl.S_L],
+            "muscle_force": a[pl.A_FORCE],
+            "muscle_torque": -r * a[pl.A_FORCE],
+            "stiffness": a[pl.A_STIFF],
+            "joint_stiffness": ks,
+            "joint_stiffness_total": ks + float(g.link_mass * p[ix.GRAV] * g.link_com * np.cos(theta)),
+            "pressure_c": a[pl.A_PC],
+            "pressure_e": a[pl.A_PE],
+            "air_used": a[pl.A_AIR] if scored else 0.0,
+            "external_torque": float(self.load[0, k]),
+            "target_angle": float(self.target_l[0, k]),
+            "target_stiffness": float(self.target_k[0, k]),
+        }
+        if scored:
+            info.update(zip(_TERM_KEYS, self.terms[0].tolist()))
+        info["redraws"] = int(self.redraws[0])
+        return info
+
     def info_arrays(self, scored: bool) -> dict[str, np.ndarray]:
         """Per-env info arrays (SI): the joint's quantities (as
         :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.measure`), loads, targets, reward terms."""
@@ -237,6 +266,19 @@ class JointBatch(CEPAMBatch):
             out.update(zip(_TERM_KEYS, np.ascontiguousarray(self.terms.T)))
         out["redraws"] = self.redraws.copy()
         return out
+
+
+def _expose(env, core: JointBatch) -> None:
+    """What the joint's controllers read of a joint env (as of ``CEPAMJoint-v0``,
+    :class:`~cepam_gym.control.joint_baseline.JointInverseStaticController`): the nominal plant,
+    geometry, task, observation layout, action mode and timing."""
+    env.obs_layout, env.geometry, env.task = core.obs_layout, core.geometry, core.task
+    env.nominal, env.nominal_row = core.nominal, core.nominal.to_array()
+    env.setpoint_max, env.action_mode, env.control_dt = (
+        core.nominal.pressure_cap,
+        core.action_mode,
+        core.control_dt,
+    )
 
 
 def _check_mujoco_renderer(renderer: str) -> None:
@@ -412,13 +454,13 @@ class CEPAMJointV1Env(CEPAMEnv):
         self, task: str = "joint_v1", render_mode: str | None = None, renderer: str = "mujoco", **kwargs: Any
     ):
         super().__init__(task=task, render_mode=render_mode, renderer=renderer, **kwargs)
-        self.obs_layout = self.core.obs_layout
-        self.geometry = self.core.geometry
+        _expose(self, self.core)
 
     def _info(self, scored: bool) -> dict[str, Any]:
-        info = {k: v[0].item() for k, v in self.core.info_arrays(scored).items()}
-        info["redraws"] = int(info["redraws"])
-        return info
+        return self.core.info_single(scored)
+
+    def _fast_info(self) -> dict[str, Any]:
+        return self.core.info_single(True)
 
     def render(self):
         if self.render_mode is None:
@@ -451,7 +493,7 @@ class CEPAMJointVectorEnv(CEPAMVectorEnv):
 
     def __init__(self, num_envs: int = 1, task: str = "joint_v1", renderer: str = "mujoco", **kwargs: Any):
         super().__init__(num_envs=num_envs, task=task, renderer=renderer, **kwargs)
-        self.obs_layout = self.core.obs_layout
+        _expose(self, self.core)
 
     def _infos(self, scored: bool) -> dict[str, np.ndarray]:
         return self.core.info_arrays(scored)
