@@ -4,7 +4,9 @@ gymnax style: pure functions over an explicit state array and a frozen parameter
 compiled kernel :func:`advance_block` advances a block of up to :data:`BLOCK` plants, vectorised
 across them; :func:`step` maps it over a batch of N plants (serially for small N, over all cores
 with ``numba.prange`` for large N). There is no other copy of the equations: single envs, vector
-envs, the baseline's simulations and the tests all run :func:`advance_block`.
+envs, the baseline's simulations and the tests all run :func:`advance_block`, and
+:func:`advance_block_hinge` is the same block kernel with the free end driving a hinge
+(``cepam_gym/CEPAMJoint-v1``, :mod:`cepam_gym.physics.hinge`).
 
 Arrays (all float64, batch-first):
 
@@ -255,7 +257,9 @@ def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
 # bladders) in volumes_at, which both callers use for V(L); valves and air in substep_rates /
 # substep_air; new measurements in end_of_step. The mechanics is the caller's: friction with a
 # state of its own goes into the plant's load step (physics.load.load_step_k, a new S_* column)
-# and, for the coupling, into the MuJoCo model (joint frictionloss).
+# and, for the coupling, into the MuJoCo model (joint frictionloss). The joint env's hinge is that
+# load step in muscle coordinates plus the link's weight (physics.hinge; the HINGE branch of
+# _lane_substep), so it follows such changes too.
 
 
 @jit_inline

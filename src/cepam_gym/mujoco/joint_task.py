@@ -66,10 +66,16 @@ class JointGeometry:
         return cls(**{k: float(v) for k, v in joint.items()})
 
     @property
+    def com_inertia(self) -> float:
+        """The link's moment of inertia about its centre of mass [kg m^2]: a rod of
+        ``link_length`` (the MJCF's ``diaginertia``)."""
+        return self.link_mass * self.link_length**2 / 12.0
+
+    @property
     def axis_inertia(self) -> float:
-        """The link's moment of inertia about the hinge [kg m^2]: a rod of ``link_length`` about
-        its centre of mass (the MJCF's ``diaginertia``) moved to the axis by ``link_com``."""
-        return self.link_mass * self.link_length**2 / 12.0 + self.link_mass * self.link_com**2
+        """The link's moment of inertia about the hinge [kg m^2]: :attr:`com_inertia` moved to
+        the axis by ``link_com`` (what MuJoCo computes from the MJCF)."""
+        return self.com_inertia + self.link_mass * self.link_com**2
 
     def hinge_row(self) -> np.ndarray:
         """The hinge row of the batched kernel (:data:`cepam_gym.physics.hinge.HINGE_FIELDS`):
@@ -415,6 +421,6 @@ def joint_xml(geom: JointGeometry, p, sub_dt: float = 5e-4, width: int = 480, he
         solref=max(0.002, 2.0 * sub_dt),
         lc=geom.link_com,
         m=geom.link_mass,
-        inertia=geom.link_mass * geom.link_length**2 / 12.0,
+        inertia=geom.com_inertia,
         l=geom.link_length,
     )
