@@ -456,25 +456,35 @@ class CEPAMBatch:
         self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
         tl, tkk, load, initial = self._schedules(idx, rngs)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
-        p = self.params[idx]
-        weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
-        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
-        self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
-        self.aux[idx] = pl.measure(self.state[idx], p)
-        self.t_idx[idx] = 0
+        self._start(idx, initial)
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
         self._observe()
 
+    def _start(self, idx: np.ndarray, initial: np.ndarray) -> None:
+        """Envs ``idx`` at rest at their ``initial`` (length, stiffness) rows under their first
+        load: chamber pressures of the inverse static model, step 0."""
+        p = self.params[idx]
+        weight = (p[:, ix.M_END] + self.load[idx, 0]) * p[:, ix.GRAV]
+        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
+        self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
+        self.aux[idx] = pl.measure(self.state[idx], p)
+        self.t_idx[idx] = 0
+
+    def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
+        """``(target_l, target_k, load, initial)`` of envs drawing from ``rngs`` on parameter
+        ``rows`` (:func:`~cepam_gym.tasks.references.planned_schedules`); ``RuntimeError`` when
+        the task finds no reachable target for some row."""
+        return planned_schedules(rngs, self.task, rows, self.n_steps, self.control_dt)
+
     def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
-        """:func:`~cepam_gym.tasks.references.planned_schedules` of the envs ``idx``. A plant for
-        which the task finds no
+        """:meth:`_plan` of the envs ``idx``. A plant for which the task finds no
         reachable target (``RuntimeError``) is redrawn with its schedule, env by env from its own
         stream (the generators are rewound first, so every env draws as it would alone)."""
         states = [r.bit_generator.state for r in rngs]
         try:
-            return planned_schedules(rngs, self.task, self.params[idx], self.n_steps, self.control_dt)
+            return self._plan(rngs, self.params[idx])
         except RuntimeError:
             pass
         for r, st in zip(rngs, states):
@@ -483,9 +493,7 @@ class CEPAMBatch:
         for j, (i, rng) in enumerate(zip(idx, rngs)):
             for attempt in range(MAX_REDRAWS + 2):
                 try:
-                    one = planned_schedules(
-                        [rng], self.task, self.params[i : i + 1], self.n_steps, self.control_dt
-                    )
+                    one = self._plan([rng], self.params[i : i + 1])
                     break
                 except RuntimeError:
                     if attempt == MAX_REDRAWS + 1:

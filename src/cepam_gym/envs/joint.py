@@ -33,7 +33,7 @@ from ..tasks import kernel as tk
 from ..tasks.spec import check_kwargs
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
 from .core import CEPAMBatch
-from .randomization import MAX_REDRAWS, STABILITY_LIMIT, Randomizer
+from .randomization import STABILITY_LIMIT, Randomizer
 
 __all__ = ["JOINT_TASKS", "JointBatch", "CEPAMJointV1Env", "CEPAMJointVectorEnv", "REWARD_TERMS"]
 
@@ -133,48 +133,18 @@ class JointBatch(CEPAMBatch):
         return self.geometry.hinge_row()
 
     # ------------------------------------------------------------------ reset
-    def reset(self, indices=None) -> None:
-        """New episodes for ``indices`` (all if None): plant rows, schedules, state at rest."""
-        idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
-        rngs = [self.rngs[i] for i in idx]
-        self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
-        for i, rng in zip(idx, rngs):
-            self._episode(int(i), rng)
-        self._start(idx)
-        self.prev_action[idx] = 0.0
-        self.queue[:, idx] = 0.0
-        self._draw_noise(idx)
-        self._observe()
+    def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
+        """:func:`~cepam_gym.mujoco.joint_task.joint_planned_schedules` (the rig's sampler
+        through the joint's mechanism map, then the references)."""
+        return joint_planned_schedules(
+            rngs, self.task, self.geometry, rows, self._nominal_row, self.n_steps, self.control_dt
+        )
 
-    def _episode(self, i: int, rng: np.random.Generator) -> None:
-        """Env ``i``'s schedules (:func:`~cepam_gym.mujoco.joint_task.joint_planned_schedules`).
-        A plant the task cannot run (angles outside its range, no reachable target) is redrawn
-        from the env's own stream and counted in ``redraws``; past ``MAX_REDRAWS`` the nominal
-        plant (checked when the env was built) is used."""
-        for attempt in range(MAX_REDRAWS + 2):
-            p = self.params[i]
-            try:
-                self.task.check_range(self.geometry, p)
-                ta, tkk, tau, init = joint_planned_schedules(
-                    rng, self.task, self.geometry, p, self.n_steps, self.control_dt
-                )
-                break
-            except (ValueError, RuntimeError):
-                if attempt == MAX_REDRAWS + 1 or not self.randomize:
-                    raise
-                self.redraws[i] += 1
-                if attempt >= MAX_REDRAWS:
-                    self.params[i] = self.randomizer.fallback()
-                else:
-                    rows, extra = self.randomizer.draw([rng])
-                    self.params[i], self.redraws[i] = rows[0], self.redraws[i] + extra[0]
-        self.target_l[i], self.target_k[i], self.load[i] = ta, tkk, tau
-        self.initial[i] = init
-
-    def _start(self, idx: np.ndarray) -> None:
-        """Envs ``idx`` at rest at their initial angle with the chamber pressures of the inverse
-        static model for their initial joint stiffness under the first external torque, clipped
-        to ``[0, min(supply, burst)]`` (as :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`)."""
+    def _start(self, idx: np.ndarray, initial: np.ndarray) -> None:
+        """Envs ``idx`` at rest at their ``initial`` (angle, joint stiffness) rows with the chamber
+        pressures of the inverse static model under the first external torque, clipped to
+        ``[0, min(supply, burst)]`` (as :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`)."""
+        self.initial[idx] = initial
         p = self.params[idx]
         g, q = self.geometry, p.T  # q[col]: one column of the rows
         a0, k0 = self.initial[idx, 0], self.initial[idx, 1]
@@ -198,7 +168,7 @@ class JointBatch(CEPAMBatch):
             self.initial[i] = apply_reset_options(
                 options, sched, tuple(self.initial[i]), self.geometry, self.params[i]
             )
-        self._start(np.arange(self.num_envs))
+        self._start(np.arange(self.num_envs), self.initial.copy())
         self._observe()
 
     def pin_targets(self, **kwargs):

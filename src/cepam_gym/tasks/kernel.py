@@ -3,9 +3,10 @@
 One compiled function per block of envs (:func:`_env_block`) calls the plant kernel
 (:func:`cepam_gym.plant.advance_block`, the only copy of the equations, or its hinge form
 :func:`~cepam_gym.plant.advance_block_hinge` for the joint env) and then the task's observation
-and reward terms, through :func:`mechanism_view` (the rig's length or the joint's angle). The single env and the vector env both call :func:`env_step`;
-keeping the per-step task arithmetic compiled is what makes a single env faster than
-Gymnasium's Pendulum and a batch of 4096 envs run at millions of steps per second.
+and reward terms, through :func:`mechanism_view` (the rig's length or the joint's angle). The
+single env and the vector env both call :func:`env_step`; keeping the per-step task arithmetic
+compiled is what makes a single env faster than Gymnasium's Pendulum and a batch of 4096 envs
+run at millions of steps per second.
 """
 
 from __future__ import annotations
