@@ -230,3 +230,29 @@ def test_the_joint_baseline_drives_v1(mode):
         if name == "baseline":
             assert isinstance(ctl, JointInverseStaticController)
     assert errors["baseline"] < 2.0 and errors["zero"] > 3.0, errors
+
+
+def test_step_set_points_are_reachable_through_the_mechanism_map():
+    """The joint's set-points come from the rig's batched sampler through the mechanism map:
+    at every step the inverse static model holds the target angle and joint stiffness under that
+    step's external torque (and the link's weight at the target angle) with pressures inside the
+    task's margin."""
+    from cepam_gym.params import pressure_cap_of
+
+    env = gym.make_vec(ID, num_envs=6, task="joint", randomize={"end_mass_g": [15, 25]})
+    env.reset(seed=4)
+    core, g = env.core, env.geometry
+    for i in range(core.num_envs):
+        p = core.params[i]
+        ta, kj, tau = core.target_l[i], core.target_k[i], core.load[i]
+        assert len(np.unique(ta)) >= 2  # set-points change over the episode
+        pc, pe, _ = api.static_pressures(
+            g.length(ta, p), kj / g.lever_arm**2, g.equivalent_weight(ta, tau, p), p
+        )
+        top = core.task.pressure_margin * pressure_cap_of(p)
+        assert (pc >= 0).all() and (pe >= 0).all() and (pc <= top).all() and (pe <= top).all()
+
+
+def test_a_randomize_range_outside_the_joint_is_refused_at_build():
+    with pytest.raises(ValueError, match="cpam_rest_length_cm"):
+        gym.make(ID, randomize={"cpam_rest_length_cm": [18.0, 19.5]})
