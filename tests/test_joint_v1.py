@@ -256,3 +256,11 @@ def test_step_set_points_are_reachable_through_the_mechanism_map():
 def test_a_randomize_range_outside_the_joint_is_refused_at_build():
     with pytest.raises(ValueError, match="cpam_rest_length_cm"):
         gym.make(ID, randomize={"cpam_rest_length_cm": [18.0, 19.5]})
+
+
+@pytest.mark.parametrize("name", ["mpc", "oracle"])
+def test_rig_only_controllers_refuse_the_joint_clearly(name):
+    from cepam_gym.control import make_controller
+
+    with pytest.raises(TypeError, match="rig envs only"):
+        make_controller(name, gym.make(ID))
