@@ -33,7 +33,7 @@ from ..tasks import kernel as tk
 from ..tasks.spec import check_kwargs
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
 from .core import CEPAMBatch
-from .randomization import STABILITY_LIMIT, Randomizer
+from .randomization import Randomizer, unstable
 
 __all__ = ["JOINT_TASKS", "JointBatch", "CEPAMJointV1Env", "CEPAMJointVectorEnv", "REWARD_TERMS"]
 
@@ -98,11 +98,9 @@ class JointBatch(CEPAMBatch):
     def _check_plant(self, row: np.ndarray) -> str | None:
         """Why parameter row ``row`` cannot run the joint task (``None`` if it can): an unstable
         sub-step, target angles outside the joint's range, a torque with no reachable target."""
-        s = float(pl.stability_number(row, self.sub_dt)[0])
-        if s > STABILITY_LIMIT:
-            return (
-                f"the integration is unstable at sub_dt {self.sub_dt * 1e3:.3g} ms (stability number {s:.2f})"
-            )
+        why = unstable(row, self.sub_dt)
+        if why:
+            return why
         try:
             self.task.check_range(self.geometry, row)
         except ValueError as e:

@@ -48,8 +48,9 @@ def unreachable_load(row: np.ndarray, task: TaskSpec) -> float | None:
     return None
 
 
-def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
-    """Why this parameter row cannot run the task (``None`` if it can)."""
+def unstable(row: np.ndarray, sub_dt: float) -> str | None:
+    """Why the explicit integration of this parameter row is unstable at ``sub_dt`` (``None``
+    if it is not)."""
     s = float(pl.stability_number(row, sub_dt)[0])
     if s > STABILITY_LIMIT:
         return (
@@ -57,6 +58,14 @@ def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
             f"{s:.2f} > {STABILITY_LIMIT}; valve conductance and heat transfer against the "
             "smallest chamber volume)"
         )
+    return None
+
+
+def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
+    """Why this parameter row cannot run the task (``None`` if it can)."""
+    why = unstable(row, sub_dt)
+    if why:
+        return why
     load = unreachable_load(row, task)
     if load is not None:
         return (
