@@ -23,13 +23,14 @@ def _same_infos(ours: dict, ref: dict, where) -> None:
         np.testing.assert_array_equal(np.asarray(ours[k])[m], np.asarray(v)[m], err_msg=f"{where} {k}")
 
 
+@pytest.mark.parametrize("env_id", [ID, "cepam_gym/CEPAMJoint-v1"])  # the joint runs the same classes
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
-def test_equals_gymnasium_sync_vector_env_of_single_envs(mode):
+def test_equals_gymnasium_sync_vector_env_of_single_envs(mode, env_id):
     n, horizon, seed = 3, 7, 4
     # a burst in one env: terminations as well as truncations
     kw = {"max_episode_steps": horizon, "plant": {"supply_pressure_kpa": 330.0}}
-    ours = gym.make_vec(ID, num_envs=n, autoreset_mode=mode.value, **kw)
-    ref = SyncVectorEnv([lambda i=i: gym.make(ID, stream=i, **kw) for i in range(n)], autoreset_mode=mode)
+    ours = gym.make_vec(env_id, num_envs=n, autoreset_mode=mode.value, **kw)
+    ref = SyncVectorEnv([lambda i=i: gym.make(env_id, stream=i, **kw) for i in range(n)], autoreset_mode=mode)
     assert ours.autoreset_mode == mode and ours.metadata["autoreset_mode"] == mode
     o1, i1 = ours.reset(seed=seed)
     o2, i2 = ref.reset(seed=[seed] * n)

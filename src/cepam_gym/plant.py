@@ -4,7 +4,9 @@ gymnax style: pure functions over an explicit state array and a frozen parameter
 compiled kernel :func:`advance_block` advances a block of up to :data:`BLOCK` plants, vectorised
 across them; :func:`step` maps it over a batch of N plants (serially for small N, over all cores
 with ``numba.prange`` for large N). There is no other copy of the equations: single envs, vector
-envs, the baseline's simulations and the tests all run :func:`advance_block`.
+envs, the baseline's simulations and the tests all run :func:`advance_block`, and
+:func:`advance_block_hinge` is the same block kernel with the free end driving a hinge
+(``cepam_gym/CEPAMJoint-v1``, :mod:`cepam_gym.physics.hinge`).
 
 Arrays (all float64, batch-first):
 
@@ -30,6 +32,7 @@ from ._jit import fmax, fmin, jit, jit_inline, sqrt, strided_tuple
 from .physics import layout as ix
 from .physics.air import chamber_rates, pressure_abs, pressure_abs_inv, state_from_pressure, temperature
 from .physics.friction import friction_force, friction_slip
+from .physics.hinge import hinge_constants, link_weight_force
 from .physics.load import load_constants, load_step_k
 from .physics.muscle import (
     chamber_volumes,
@@ -105,6 +108,9 @@ N_AUX = 16
 
 PROPORTIONAL, ONOFF, PRESSURE = 0, 1, 2
 MODES = {"valve": PROPORTIONAL, "pwm": ONOFF, "pressure": PRESSURE}
+# the mechanics a block of plants drives: the rig's free end (physics.load), or a hinge through a
+# rack and pinion (physics.hinge, the rig's load step in muscle coordinates plus the link's weight)
+RIG, HINGE = 0, 1
 
 _MIN_MASS = 1e-15  # kg: keeps T = U/(m cv) defined if a chamber were ever emptied
 _PARALLEL_MIN_BATCH = (
@@ -251,7 +257,9 @@ def substep_air(mc, uc, me, ue, dmc, duc, dme, due, ratio_c, ratio_e, dt):
 # bladders) in volumes_at, which both callers use for V(L); valves and air in substep_rates /
 # substep_air; new measurements in end_of_step. The mechanics is the caller's: friction with a
 # state of its own goes into the plant's load step (physics.load.load_step_k, a new S_* column)
-# and, for the coupling, into the MuJoCo model (joint frictionloss).
+# and, for the coupling, into the MuJoCo model (joint frictionloss). The joint env's hinge is that
+# load step in muscle coordinates plus the link's weight (physics.hinge; the HINGE branch of
+# _lane_substep), so it follows such changes too.
 
 
 @jit_inline
@@ -330,7 +338,8 @@ _W_DTM, _W_DVF, _W_DAMP = _W_FEXT + 1, _W_FEXT + 2, _W_FEXT + 3  # load_constant
 _W_VALVES = _W_FEXT + 4  # tau, conductance, order, zeta, decay of valve_setup
 _W_VC, _W_VE, _W_DVC, _W_DVAC, _W_DVAE, _W_INVC, _W_INVE = range(_W_VALVES + 5, _W_VALVES + 12)
 _W_AIR, _W_PMAX, _W_STOP, _W_DMC, _W_DME = range(_W_VALVES + 12, _W_VALVES + 17)
-_W_P = _W_VALVES + 17  # the parameter row, N_PARAMS rows
+_W_LINK, _W_INVR = _W_VALVES + 17, _W_VALVES + 18  # hinge only: link weight per sin(theta), 1 / r
+_W_P = _W_VALVES + 19  # the parameter row, N_PARAMS rows
 W_SIZE = (_W_P + ix.N_PARAMS) * BLOCK
 _NP = ix.N_PARAMS  # literal for strided_tuple
 
@@ -342,7 +351,7 @@ def _w(row, i):
 
 
 @jit_inline
-def _lane_substep(W, i, mode, dt):
+def _lane_substep(W, i, mode, dt, mech):
     """One sub-step of plant ``i`` of a block, read from and written back to ``W``.
 
     Per sub-step: pressures at ``L`` -> spools -> flows -> force at ``L`` -> load step (kick with
@@ -393,10 +402,13 @@ def _lane_substep(W, i, mode, dt):
         W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], pc, pe, sup, dt
     )
     L_old = L
+    f_total = force + W[_w(_W_FEXT, i)]
+    if mech == HINGE:  # a compile-time constant: the rig's loop has no trace of it
+        f_total += link_weight_force(L, p[ix.L_MAX], W[_w(_W_LINK, i)], W[_w(_W_INVR, i)])
     L, v, stop = load_step_k(
         L,
         W[_w(S_V, i)],
-        force + W[_w(_W_FEXT, i)],
+        f_total,
         W[_w(_W_DTM, i)],
         W[_w(_W_DVF, i)],
         W[_w(_W_DAMP, i)],
@@ -425,22 +437,81 @@ def _lane_substep(W, i, mode, dt):
 
 
 @jit_inline
-def _substeps_mode(W, n, mode, dt, n_sub):
+def _substeps_mode(W, n, mode, dt, n_sub, mech):
     for _ in range(n_sub):
         for i in range(n):
-            _lane_substep(W, i, mode, dt)
+            _lane_substep(W, i, mode, dt, mech)
 
 
 @jit
 def _substeps(W, n, mode, dt, n_sub):
-    """``n_sub`` sub-steps of the first ``n`` plants of a block (the mode is made a compile-time
-    constant of each loop, so its branches vanish)."""
+    """``n_sub`` sub-steps of the first ``n`` plants of a rig block (the mode is made a
+    compile-time constant of each loop, so its branches vanish)."""
     if mode == ONOFF:
-        _substeps_mode(W, n, ONOFF, dt, n_sub)
+        _substeps_mode(W, n, ONOFF, dt, n_sub, RIG)
     elif mode == PRESSURE:
-        _substeps_mode(W, n, PRESSURE, dt, n_sub)
+        _substeps_mode(W, n, PRESSURE, dt, n_sub, RIG)
     else:
-        _substeps_mode(W, n, PROPORTIONAL, dt, n_sub)
+        _substeps_mode(W, n, PROPORTIONAL, dt, n_sub, RIG)
+
+
+@jit
+def _substeps_hinge(W, n, mode, dt, n_sub):
+    """:func:`_substeps` of a hinge block (a function of its own, compiled only when used)."""
+    if mode == ONOFF:
+        _substeps_mode(W, n, ONOFF, dt, n_sub, HINGE)
+    elif mode == PRESSURE:
+        _substeps_mode(W, n, PRESSURE, dt, n_sub, HINGE)
+    else:
+        _substeps_mode(W, n, PROPORTIONAL, dt, n_sub, HINGE)
+
+
+@jit_inline
+def _lane_in(W, i, x, inp, p, mode, dt, mass, damping, f_ext):
+    """Load plant ``i`` of a block into ``W``: state row ``x``, inputs ``inp``, parameter row
+    ``p``, the valve constants and the load step's constants for a moving ``mass`` [kg] with
+    viscous ``damping`` [N s/m] under the constant force ``f_ext`` [N, extension positive]."""
+    for f in range(N_STATE):
+        W[_w(f, i)] = x[f]
+    for f in range(N_INPUT):
+        W[_w(_W_IN + f, i)] = inp[f]
+    for f in range(ix.N_PARAMS):
+        W[_w(_W_P + f, i)] = p[f]
+    tau, cvalve, order, zeta, decay = valve_setup(mode, p, dt)
+    W[_w(_W_VALVES, i)], W[_w(_W_VALVES + 1, i)], W[_w(_W_VALVES + 2, i)] = tau, cvalve, order
+    W[_w(_W_VALVES + 3, i)], W[_w(_W_VALVES + 4, i)] = zeta, decay
+    W[_w(_W_FEXT, i)] = f_ext
+    W[_w(_W_DTM, i)], W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)] = load_constants(mass, damping, p[ix.F_COUL], dt)
+    vol_c, vol_e, dvc, dvac, dvae = volumes_at(x[S_L], p)
+    W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = (
+        vol_c,
+        vol_e,
+        1.0 / vol_c,
+        1.0 / vol_e,
+    )
+    W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
+    W[_w(_W_AIR, i)] = 0.0
+    W[_w(_W_PMAX, i)] = -np.inf
+    W[_w(_W_STOP, i)] = 0.0
+    W[_w(_W_DMC, i)] = 0.0
+    W[_w(_W_DME, i)] = 0.0
+
+
+@jit_inline
+def _lane_out(W, i, x, p, a):
+    """Plant ``i`` of a block back to its state row ``x``; its ``aux`` row ``a``."""
+    for f in range(N_STATE):
+        x[f] = W[_w(f, i)]
+    end_of_step(
+        x,
+        p,
+        W[_w(_W_PMAX, i)],
+        W[_w(_W_AIR, i)],
+        W[_w(_W_DMC, i)],
+        W[_w(_W_DME, i)],
+        W[_w(_W_STOP, i)],
+        a,
+    )
 
 
 @jit
@@ -453,52 +524,36 @@ def advance_block(state, inputs, params, lo, n, mode, dt, n_sub, out, aux, W):
     for i in range(n):
         r = lo + i
         p = params[0] if shared else params[r]
-        for f in range(N_STATE):
-            W[_w(f, i)] = state[r, f]
-        for f in range(N_INPUT):
-            W[_w(_W_IN + f, i)] = inputs[r, f]
-        for f in range(ix.N_PARAMS):
-            W[_w(_W_P + f, i)] = p[f]
-        tau, cvalve, order, zeta, decay = valve_setup(mode, p, dt)
-        W[_w(_W_VALVES, i)], W[_w(_W_VALVES + 1, i)], W[_w(_W_VALVES + 2, i)] = tau, cvalve, order
-        W[_w(_W_VALVES + 3, i)], W[_w(_W_VALVES + 4, i)] = zeta, decay
         mass = p[ix.M_END] + inputs[r, I_LOAD]
         # gravity and external force, down (extension) positive
-        W[_w(_W_FEXT, i)] = mass * p[ix.GRAV] + inputs[r, I_FEXT]
-        W[_w(_W_DTM, i)], W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)] = load_constants(
-            mass, p[ix.DAMP], p[ix.F_COUL], dt
-        )
-        vol_c, vol_e, dvc, dvac, dvae = volumes_at(state[r, S_L], p)
-        W[_w(_W_VC, i)], W[_w(_W_VE, i)], W[_w(_W_INVC, i)], W[_w(_W_INVE, i)] = (
-            vol_c,
-            vol_e,
-            1.0 / vol_c,
-            1.0 / vol_e,
-        )
-        W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)] = dvc, dvac, dvae
-        W[_w(_W_AIR, i)] = 0.0
-        W[_w(_W_PMAX, i)] = -np.inf
-        W[_w(_W_STOP, i)] = 0.0
-        W[_w(_W_DMC, i)] = 0.0
-        W[_w(_W_DME, i)] = 0.0
+        f_ext = mass * p[ix.GRAV] + inputs[r, I_FEXT]
+        _lane_in(W, i, state[r], inputs[r], p, mode, dt, mass, p[ix.DAMP], f_ext)
     _substeps(W, n, mode, dt, n_sub)
     for i in range(n):
         r = lo + i
+        _lane_out(W, i, out[r], params[0] if shared else params[r], aux[r])
+
+
+@jit
+def advance_block_hinge(state, inputs, params, hinge, lo, n, mode, dt, n_sub, out, aux, W):
+    """:func:`advance_block` of plants driving a hinge (:mod:`cepam_gym.physics.hinge`):
+    ``hinge`` (N or 1, N_HINGE) rows of the mechanism's constants; the state stays in muscle
+    coordinates (``S_L``, ``S_V``), the hinge angle is ``(L_max - L) / r``. ``inputs[:, I_FEXT]``
+    is the external torque over the lever arm, ``tau_ext / r`` [N, extension positive]."""
+    shared = params.shape[0] == 1
+    shared_h = hinge.shape[0] == 1
+    for i in range(n):
+        r = lo + i
         p = params[0] if shared else params[r]
-        x = out[r]
-        a = aux[r]
-        for f in range(N_STATE):
-            x[f] = W[_w(f, i)]
-        end_of_step(
-            x,
-            p,
-            W[_w(_W_PMAX, i)],
-            W[_w(_W_AIR, i)],
-            W[_w(_W_DMC, i)],
-            W[_w(_W_DME, i)],
-            W[_w(_W_STOP, i)],
-            a,
-        )
+        mass, damping, link, inv_r = hinge_constants(p, hinge[0] if shared_h else hinge[r], inputs[r, I_LOAD])
+        f_ext = (p[ix.M_END] + inputs[r, I_LOAD]) * p[ix.GRAV] + inputs[r, I_FEXT]
+        _lane_in(W, i, state[r], inputs[r], p, mode, dt, mass, damping, f_ext)
+        W[_w(_W_LINK, i)] = link
+        W[_w(_W_INVR, i)] = inv_r
+    _substeps_hinge(W, n, mode, dt, n_sub)
+    for i in range(n):
+        r = lo + i
+        _lane_out(W, i, out[r], params[0] if shared else params[r], aux[r])
 
 
 @jit

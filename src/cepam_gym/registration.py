@@ -23,6 +23,15 @@ MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
 # ids that need the [mujoco] extra (imported only by gym.make): not in ENV_IDS, which lists the
 # rig envs with native vector entry points
 MUJOCO_ENV_IDS = {"cepam_gym/CEPAMJoint-v0": "cepam_gym.mujoco.joint:CEPAMJointEnv"}
+# the joint on the batched kernel (MuJoCo only to render): id -> (entry point, vector entry point,
+# default kwargs)
+JOINT_ENV_IDS: dict[str, tuple[str, str, dict]] = {
+    "cepam_gym/CEPAMJoint-v1": (
+        "cepam_gym.envs.joint:CEPAMJointV1Env",
+        "cepam_gym.envs.joint:CEPAMJointVectorEnv",
+        {"task": "joint_v1", "preview_steps": PREVIEW_STEPS},
+    ),
+}
 
 
 def register_envs() -> None:
@@ -36,6 +45,15 @@ def register_envs() -> None:
             max_episode_steps=MAX_EPISODE_STEPS,
             kwargs=dict(kwargs),
         )
+    for env_id, (entry_point, vector_entry_point, kwargs) in JOINT_ENV_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(
+                id=env_id,
+                entry_point=entry_point,
+                vector_entry_point=vector_entry_point,
+                max_episode_steps=MAX_EPISODE_STEPS,
+                kwargs=dict(kwargs),
+            )
     for env_id, entry_point in MUJOCO_ENV_IDS.items():
         if env_id not in gym.registry:
             gym.register(

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import plant as pl
 from ..physics import api
 from ..physics import layout as ix
 from ..tasks.schedules import stiffness_interval
@@ -173,14 +174,26 @@ class InverseStaticController:
 
 def core_of(env):
     """The :class:`~cepam_gym.envs.core.CEPAMBatch` inside a rig env (single, vector, wrapped or
-    the SB3 adapter): its task, observation layout, nominal plant and timing."""
+    the SB3 adapter): its task, observation layout, nominal plant and timing. ``TypeError`` when
+    there is none, or when it drives the joint (``cepam_gym/CEPAMJoint-v1``: the rig's model
+    and task do not apply; its controller is ``joint_baseline``)."""
+    core = _find_core(env)
+    if getattr(core, "MECH", pl.RIG) != pl.RIG:
+        raise TypeError(
+            "this controller drives the rig envs only; on the joint env use 'baseline' "
+            "(make_controller resolves it to joint_baseline), 'zero' or 'random'"
+        )
+    return core
+
+
+def _find_core(env):
     for attr in ("core", "unwrapped", "venv", "env"):
         obj = getattr(env, attr, None)
         if attr == "core" and obj is not None:
             return obj
         if obj is not None and obj is not env:
             try:
-                return core_of(obj)
+                return _find_core(obj)
             except TypeError:
                 pass
     raise TypeError(f"cannot find the CE-PAM env inside {env!r}")

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
-from ..registration import MUJOCO_ENV_IDS
+from ..registration import JOINT_ENV_IDS, MUJOCO_ENV_IDS
 
 AGENT_LOADERS_GROUP = "cepam_gym.controllers"
 DEFAULT_AGENT_LOADER = "agent"
@@ -42,7 +42,9 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}
 # the joint env's classes, as Gymnasium entry points: one list of where they live
-_JOINT_ENV_CLASSES = tuple(MUJOCO_ENV_IDS.values())
+_JOINT_ENV_CLASSES = tuple(MUJOCO_ENV_IDS.values()) + tuple(
+    entry for single, vector, _kwargs in JOINT_ENV_IDS.values() for entry in (single, vector)
+)
 
 
 @runtime_checkable
@@ -98,7 +100,8 @@ def load_factory(target: str | Callable[..., Any]) -> Callable[..., Any]:
 
 
 def is_joint_env(env) -> bool:
-    """Whether ``env`` (single, wrapped, Gymnasium vector or SB3 vector) runs the MuJoCo joint.
+    """Whether ``env`` (single, wrapped, Gymnasium vector or SB3 vector) runs the joint (v0 in
+    MuJoCo or v1 on the batched kernel).
     Never imports MuJoCo: a joint env exists only once its module has been imported."""
     classes = []
     for target in _JOINT_ENV_CLASSES:

@@ -59,8 +59,6 @@ _STATE_COLS = np.array([pl.S_L, pl.S_V])
 # names of the integer ``info["termination_reason"]`` codes (index = code; tasks.kernel's order)
 TERMINATION_NAMES = ("none", "burst", "non_finite_state")
 assert len(TERMINATION_NAMES) == len(tk.TERMINATION_REASONS)
-# info keys only a stepped env has (a reset env's info lacks them)
-_SCORED_KEYS = (*_TERM_KEYS, "termination_reason")
 
 
 def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
@@ -79,7 +77,6 @@ def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
     return out
 
 
-_PIN_KEYS = ("target_length", "target_stiffness", "load_mass")
 RENDERERS = ("numpy", "mujoco")
 
 
@@ -92,17 +89,6 @@ def _check_renderer(renderer: str) -> None:
         from ..mujoco._mj import require_mujoco
 
         require_mujoco()  # fail now, with the install hint, rather than at the first render()
-
-
-def _apply_options(core: CEPAMBatch, options: dict | None) -> None:
-    """``reset(options=...)``: pin any of target_length [m], target_stiffness [N/m], load_mass [kg]
-    for the whole episode (scalars, or per-env arrays for the vector env)."""
-    if not options:
-        return
-    bad = set(options) - set(_PIN_KEYS)
-    if bad:
-        raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(_PIN_KEYS)}")
-    core.pin_targets(**options)
 
 
 _DOC = """
@@ -233,9 +219,9 @@ class CEPAMEnv(gym.Env, EzPickle):
         self, task: str = "cepam", render_mode: str | None = None, renderer: str = "numpy", **kwargs: Any
     ):
         EzPickle.__init__(self, task=task, render_mode=render_mode, renderer=renderer, **kwargs)
-        _check_renderer(renderer)
+        self._check_renderer(renderer)
         self.renderer = renderer
-        self.core = CEPAMBatch(1, task=task, **kwargs)
+        self.core = self._core_class(1, task=task, **kwargs)
         self._obs_row = self.core.obs[0]
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -248,6 +234,22 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._renderer = None
         self._mujoco = None
 
+    # hooks of the joint env (cepam_gym.envs.joint), which runs the same classes on its own core
+    _core_class = CEPAMBatch
+
+    @staticmethod
+    def _check_renderer(renderer: str) -> None:
+        _check_renderer(renderer)
+
+    def _info(self, scored: bool) -> dict[str, Any]:
+        return _info_single(self.core, scored)
+
+    def _fast_info(self) -> dict[str, Any]:
+        """The info of a step taken by the one-call single step (``core.info_row``)."""
+        info = dict(zip(_STEP_KEYS, self.core.info_row.tolist()))
+        info["redraws"] = int(self.core.redraws[0])
+        return info
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         if seed is not None or not hasattr(self, "_seeded"):
@@ -255,8 +257,8 @@ class CEPAMEnv(gym.Env, EzPickle):
             self.core.seed(int(self.np_random.integers(2**63)) if seed is None else seed)
             self._seeded = True
         self.core.reset()
-        _apply_options(self.core, options)
-        info = _info_single(self.core, scored=False)
+        self.core.apply_options(options)
+        info = self._info(scored=False)
         if self.render_mode == "human":
             self.render()
         return self.core.obs[0].copy(), info
@@ -269,12 +271,11 @@ class CEPAMEnv(gym.Env, EzPickle):
             if not (math.isfinite(x0) and math.isfinite(x1)):
                 raise ValueError(f"action contains NaN or inf: {action!r}")
             reward, reason = core.step_single(x0, x1)
-            info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
-            info["redraws"] = int(core.redraws[0])
+            info = self._fast_info()
         else:
             core.step(core.check_actions(action))
             reward, reason = float(core.rewards[0]), int(core.reasons[0])
-            info = _info_single(core, scored=True)
+            info = self._info(scored=True)
         info["termination_reason"] = int(reason)
         if self.render_mode == "human":
             self.render()
@@ -393,12 +394,12 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             autoreset_mode=autoreset_mode,
             **kwargs,
         )
-        _check_renderer(renderer)
+        self._check_renderer(renderer)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.renderer = renderer
         self._mujoco = None
-        self.core = CEPAMBatch(num_envs, task=task, **kwargs)
+        self.core = self._core_class(num_envs, task=task, **kwargs)
         self.num_envs = self.core.num_envs
         if max_episode_steps is not None and (
             int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
@@ -417,17 +418,28 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)  # envs to reset at the next step
 
+    # hooks of the joint env (cepam_gym.envs.joint): its core, info and reward-term names
+    _core_class = CEPAMBatch
+    _term_keys = _TERM_KEYS
+
+    @staticmethod
+    def _check_renderer(renderer: str) -> None:
+        _check_renderer(renderer)
+
+    def _infos(self, scored: bool) -> dict[str, np.ndarray]:
+        return _info_arrays(self.core, scored)
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         if seed is not None or not hasattr(self, "_seeded"):
             self.core.seed(int(self.np_random.integers(2**63)) if seed is None else seed)
             self._seeded = True
         self.core.reset()
-        _apply_options(self.core, options)
+        self.core.apply_options(options)
         self._elapsed[:] = 0
         self._autoreset[:] = False
         everyone = np.ones(self.num_envs, dtype=bool)
-        return self.core.obs.copy(), _with_masks(_info_arrays(self.core, scored=False), everyone)
+        return self.core.obs.copy(), _with_masks(self._infos(scored=False), everyone)
 
     def step(self, actions):
         core = self.core
@@ -451,26 +463,27 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             truncated = np.zeros(self.num_envs, dtype=bool)
         done = terminated | truncated
         stepped = ~self._autoreset if pending.size else np.ones(self.num_envs, dtype=bool)
-        infos = _info_arrays(core, scored=True)
+        infos = self._infos(scored=True)
         infos["termination_reason"] = core.reasons.copy()
         rewards = core.rewards.copy()
         obs = core.obs.copy()
         if next_step:
             self._autoreset = done
-            for k in _TERM_KEYS:
+            for k in self._term_keys:
                 infos[k][~stepped] = 0.0
-            return obs, rewards, terminated, truncated, _with_masks(infos, stepped, _SCORED_KEYS)
+            scored_keys = (*self._term_keys, "termination_reason")
+            return obs, rewards, terminated, truncated, _with_masks(infos, stepped, scored_keys)
         if done.any():
             idx = np.flatnonzero(done)
             final = _with_masks(infos, done, infos.keys())
             core.reset(idx)
             self._elapsed[idx] = 0
-            infos = _info_arrays(core, scored=True)  # the new episode's info for the reset envs
+            infos = self._infos(scored=True)  # the new episode's info for the reset envs
             infos["termination_reason"] = core.reasons.copy()
             infos["termination_reason"][idx] = tk.TERMINATION_NONE
-            for k in _TERM_KEYS:
+            for k in self._term_keys:
                 infos[k][idx] = 0.0
-            infos = _with_masks(infos, ~done, _SCORED_KEYS)
+            infos = _with_masks(infos, ~done, (*self._term_keys, "termination_reason"))
             infos["final_obs"] = np.where(done[:, None], obs, 0.0).astype(np.float32)
             infos["_final_obs"] = done
             infos["final_info"] = final

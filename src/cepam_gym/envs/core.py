@@ -142,7 +142,14 @@ def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
 
 
 class CEPAMBatch:
-    """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`."""
+    """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`.
+
+    The mechanism the muscle drives is the class's ``MECH`` (:data:`cepam_gym.plant.RIG` here);
+    :class:`cepam_gym.envs.joint.JointBatch` drives a hinge on the same arrays and kernel by
+    overriding the task hooks (``_resolve_task``, ``_check_task_units``, ``_make_randomizer``,
+    ``_layout``, ``_task_vector``, ``_hinge_row``, ``reset``)."""
+
+    MECH = pl.RIG
 
     def __init__(
         self,
@@ -166,18 +173,7 @@ class CEPAMBatch:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
-        if isinstance(task, str):
-            if task not in TASKS:
-                raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
-            task = TASKS[task]
-        if task_options:
-            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
-            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
-            task = dataclasses.replace(task, **opts)
-        if reward_weights:
-            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
-            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
-        self.task = task
+        self.task = self._resolve_task(task, task_options, reward_weights)
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
@@ -192,7 +188,7 @@ class CEPAMBatch:
                 stacklevel=3,
             )
         self.randomize = check_randomize(randomize)
-        self.randomizer = Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
+        self.randomizer = self._make_randomizer()
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
@@ -214,7 +210,7 @@ class CEPAMBatch:
                 f"got {preview_steps!r}"
             )
         self.preview_steps = int(preview_steps)
-        self.obs_layout = rig_layout(task, self.nominal, self.preview_steps)
+        self.obs_layout = self._layout()
         self.task_vec = self._task_vector()
         self.obs_dim = self.obs_layout.size
         # --- arrays
@@ -225,8 +221,10 @@ class CEPAMBatch:
         # (tasks.kernel.env_step_single) on two slabs its arrays are views of
         self.fast_single = n == 1 and not self.latency and not self.supply_drift
         if n == 1:
-            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt)
+            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt, self.MECH)
             self.state, self.aux, self.inputs, self.params = v["state"], v["aux"], v["inputs"], v["params"]
+            self.hinge = v["hinge"]
+            self.hinge[:] = self._hinge_row()
             self.target_l, self.target_k, self.load = v["target_l"], v["target_k"], v["load"]
             self.t_idx, self.prev_action, self.rewards = v["t_idx"], v["actions"], v["rewards"]
             self.terms, self.reasons, self.noise, self.info_row = (
@@ -240,6 +238,7 @@ class CEPAMBatch:
             self.task_vec = v["task"]
         else:
             self.params = np.repeat(nominal_row[None], n, axis=0)
+            self.hinge = self._hinge_row()[None].copy()  # one mechanism shared by the batch
             self.state = np.zeros((n, pl.N_STATE))
             self.aux = np.zeros((n, pl.N_AUX))
             self.inputs = np.zeros((n, pl.N_INPUT))
@@ -262,6 +261,8 @@ class CEPAMBatch:
             self.state,
             self.prev_action,
             self.params,
+            self.hinge,
+            self.MECH,
             self.mode,
             self.sub_dt,
             self.n_sub,
@@ -278,6 +279,33 @@ class CEPAMBatch:
             self.aux,
             self.reasons,
         )
+
+    # ------------------------------------------------------------- task hooks
+    def _resolve_task(self, task, task_options, reward_weights) -> TaskSpec:
+        """The env's :class:`~cepam_gym.tasks.spec.TaskSpec`: ``task`` (a name of
+        :data:`~cepam_gym.tasks.TASKS` or a spec) with the kwargs' overrides, checked."""
+        if isinstance(task, str):
+            if task not in TASKS:
+                raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
+            task = TASKS[task]
+        if task_options:
+            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
+            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
+            task = dataclasses.replace(task, **opts)
+        if reward_weights:
+            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
+            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
+        return task
+
+    def _make_randomizer(self) -> Randomizer:
+        return Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
+
+    def _layout(self):
+        return rig_layout(self.task, self.nominal, self.preview_steps)
+
+    def _hinge_row(self) -> np.ndarray:
+        """The mechanism's constants (:mod:`cepam_gym.physics.hinge`; unused by the rig)."""
+        return tk.no_hinge()[0]
 
     def _check_task_units(self) -> None:
         """Task ranges in SI against the plant: lengths [m] within the end stops."""
@@ -348,6 +376,18 @@ class CEPAMBatch:
         self._normal_pos[rows] += 1
         return out
 
+    PIN_KEYS = ("target_length", "target_stiffness", "load_mass")
+
+    def apply_options(self, options: dict | None) -> None:
+        """``reset(options=...)``: pin any of target_length [m], target_stiffness [N/m],
+        load_mass [kg] for the whole episode (scalars, or per-env arrays for the vector env)."""
+        if not options:
+            return
+        bad = set(options) - set(self.PIN_KEYS)
+        if bad:
+            raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.PIN_KEYS)}")
+        self.pin_targets(**options)
+
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
         ``indices`` (scalars or per-env arrays); call right after :meth:`reset`. Used by the
@@ -376,6 +416,8 @@ class CEPAMBatch:
             self.state,
             self.aux,
             self.params,
+            self.hinge,
+            self.MECH,
             self.target_l,
             self.target_k,
             self.t_idx,
@@ -414,25 +456,35 @@ class CEPAMBatch:
         self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
         tl, tkk, load, initial = self._schedules(idx, rngs)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
-        p = self.params[idx]
-        weight = (p[:, ix.M_END] + load[:, 0]) * p[:, ix.GRAV]
-        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
-        self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
-        self.aux[idx] = pl.measure(self.state[idx], p)
-        self.t_idx[idx] = 0
+        self._start(idx, initial)
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
         self._observe()
 
+    def _start(self, idx: np.ndarray, initial: np.ndarray) -> None:
+        """Envs ``idx`` at rest at their ``initial`` (length, stiffness) rows under their first
+        load: chamber pressures of the inverse static model, step 0."""
+        p = self.params[idx]
+        weight = (p[:, ix.M_END] + self.load[idx, 0]) * p[:, ix.GRAV]
+        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
+        self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
+        self.aux[idx] = pl.measure(self.state[idx], p)
+        self.t_idx[idx] = 0
+
+    def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
+        """``(target_l, target_k, load, initial)`` of envs drawing from ``rngs`` on parameter
+        ``rows`` (:func:`~cepam_gym.tasks.references.planned_schedules`); ``RuntimeError`` when
+        the task finds no reachable target for some row."""
+        return planned_schedules(rngs, self.task, rows, self.n_steps, self.control_dt)
+
     def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
-        """:func:`~cepam_gym.tasks.references.planned_schedules` of the envs ``idx``. A plant for
-        which the task finds no
+        """:meth:`_plan` of the envs ``idx``. A plant for which the task finds no
         reachable target (``RuntimeError``) is redrawn with its schedule, env by env from its own
         stream (the generators are rewound first, so every env draws as it would alone)."""
         states = [r.bit_generator.state for r in rngs]
         try:
-            return planned_schedules(rngs, self.task, self.params[idx], self.n_steps, self.control_dt)
+            return self._plan(rngs, self.params[idx])
         except RuntimeError:
             pass
         for r, st in zip(rngs, states):
@@ -441,9 +493,7 @@ class CEPAMBatch:
         for j, (i, rng) in enumerate(zip(idx, rngs)):
             for attempt in range(MAX_REDRAWS + 2):
                 try:
-                    one = planned_schedules(
-                        [rng], self.task, self.params[i : i + 1], self.n_steps, self.control_dt
-                    )
+                    one = self._plan([rng], self.params[i : i + 1])
                     break
                 except RuntimeError:
                     if attempt == MAX_REDRAWS + 1:

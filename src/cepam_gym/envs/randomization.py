@@ -48,8 +48,9 @@ def unreachable_load(row: np.ndarray, task: TaskSpec) -> float | None:
     return None
 
 
-def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
-    """Why this parameter row cannot run the task (``None`` if it can)."""
+def unstable(row: np.ndarray, sub_dt: float) -> str | None:
+    """Why the explicit integration of this parameter row is unstable at ``sub_dt`` (``None``
+    if it is not)."""
     s = float(pl.stability_number(row, sub_dt)[0])
     if s > STABILITY_LIMIT:
         return (
@@ -57,6 +58,14 @@ def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
             f"{s:.2f} > {STABILITY_LIMIT}; valve conductance and heat transfer against the "
             "smallest chamber volume)"
         )
+    return None
+
+
+def check_plant(row: np.ndarray, task: TaskSpec, sub_dt: float) -> str | None:
+    """Why this parameter row cannot run the task (``None`` if it can)."""
+    why = unstable(row, sub_dt)
+    if why:
+        return why
     load = unreachable_load(row, task)
     if load is not None:
         return (
@@ -82,20 +91,31 @@ def sample_params(
 
 
 class Randomizer:
-    """Checked ranges of ``randomize`` and the per-env draws (see the module doc)."""
+    """Checked ranges of ``randomize`` and the per-env draws (see the module doc). ``check``:
+    why a parameter row cannot run the env (``None`` if it can); default :func:`check_plant` of
+    the rig task ``task`` (the joint env passes its own)."""
 
     def __init__(
-        self, ranges: Mapping[str, tuple[float, float]], nominal: PlantParams, task: TaskSpec, sub_dt: float
+        self,
+        ranges: Mapping[str, tuple[float, float]],
+        nominal: PlantParams,
+        task: TaskSpec,
+        sub_dt: float,
+        check=None,
     ):
         self.ranges = dict(ranges)
         self.nominal = nominal
         self.nominal_row = nominal.to_array()
         self.task, self.sub_dt = task, sub_dt
-        why = check_plant(self.nominal_row, task, sub_dt)
+        self.check = check if check is not None else self._check_rig
+        why = self.check(self.nominal_row)
         if why:
             raise ValueError(f"the nominal plant cannot run this env: {why}")
         if self.ranges:
             self._check_ranges()
+
+    def _check_rig(self, row: np.ndarray) -> str | None:
+        return check_plant(row, self.task, self.sub_dt)
 
     def _row(self, values: Mapping[str, float], what: str) -> np.ndarray:
         try:
@@ -104,7 +124,7 @@ class Randomizer:
             raise ValueError(f"randomize: {what} is not a valid plant: {e}") from None
 
     def _check(self, values: Mapping[str, float], what: str) -> None:
-        why = check_plant(self._row(values, what), self.task, self.sub_dt)
+        why = self.check(self._row(values, what))
         if why:
             raise ValueError(f"randomize: {what}: {why}; narrow that range")
 

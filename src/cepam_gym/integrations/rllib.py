@@ -51,7 +51,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ..registration import ENV_IDS, MUJOCO_ENV_IDS, register_envs
+from ..registration import ENV_IDS, JOINT_ENV_IDS, MUJOCO_ENV_IDS, register_envs
 
 DEFAULT_ID = "cepam_gym/CEPAM-v0"
 DEFAULT_NAME = "cepam_gym"
@@ -85,11 +85,17 @@ def env_seed(base_seed: int | None, worker_index: int = 0, vector_index: int = 0
 def valid_keys(env_id: str) -> tuple[str, ...]:
     """env_config keys accepted for ``env_id``: the env's constructor kwargs plus EXTRA_KEYS."""
     register_envs()
-    if env_id not in ENV_IDS and env_id not in MUJOCO_ENV_IDS:
-        raise ValueError(
-            f"env_config['id']: unknown id {env_id!r}; valid: {sorted(ENV_IDS) + sorted(MUJOCO_ENV_IDS)}"
-        )
-    if env_id in ENV_IDS:
+    known = sorted(ENV_IDS) + sorted(JOINT_ENV_IDS) + sorted(MUJOCO_ENV_IDS)
+    if env_id not in known:
+        raise ValueError(f"env_config['id']: unknown id {env_id!r}; valid: {known}")
+    if env_id in JOINT_ENV_IDS:
+        from ..envs.core import CEPAMBatch
+        from ..envs.joint import CEPAMJointV1Env, JointBatch
+
+        # as the rig's: the env forwards **kwargs to JointBatch, which forwards the rest to CEPAMBatch
+        sources = (CEPAMJointV1Env.__init__, JointBatch.__init__, CEPAMBatch.__init__)
+        fixed = {"task", "num_envs"}
+    elif env_id in ENV_IDS:
         from ..envs.cepam import CEPAMEnv
         from ..envs.core import CEPAMBatch
 

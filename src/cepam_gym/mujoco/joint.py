@@ -197,7 +197,10 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.nominal = resolve_params(plant)
         self.randomize = check_randomize(randomize)
         self.geometry = JointGeometry.from_kwargs(joint)
-        opts = check_kwargs(JointTask, task_options, "task_options", exclude=("scales",))
+        # v0 draws set-points only: the v1 reference fields are not options here
+        opts = check_kwargs(
+            JointTask, task_options, "task_options", exclude=("scales", "references", "move_s")
+        )
         self.task = JointTask(**{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()})
         self.weights = JointRewardWeights(
             **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")

@@ -17,8 +17,10 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..physics import layout as ix
-from ..tasks.layout import ObsColumn, ObsLayout
-from ..tasks.schedules import load_profile, segments, stiffness_interval
+from ..physics.hinge import H_DAMP, H_INERTIA, H_MASS_MOMENT, H_R, N_HINGE
+from ..tasks.layout import ObsColumn, ObsLayout, preview_fields
+from ..tasks.references import project, shape_reference
+from ..tasks.schedules import episode_schedules, load_profile, segments, stiffness_interval
 from ..tasks.spec import LOAD_KINDS, TaskScales, TaskSpec
 from ._mj import scene_header
 
@@ -63,7 +65,27 @@ class JointGeometry:
             raise ValueError(f"joint: unknown keys {sorted(bad)}; valid: {sorted(names)}")
         return cls(**{k: float(v) for k, v in joint.items()})
 
-    # geometry through the pinion, for a plant parameter row p
+    @property
+    def com_inertia(self) -> float:
+        """The link's moment of inertia about its centre of mass [kg m^2]: a rod of
+        ``link_length`` (the MJCF's ``diaginertia``)."""
+        return self.link_mass * self.link_length**2 / 12.0
+
+    @property
+    def axis_inertia(self) -> float:
+        """The link's moment of inertia about the hinge [kg m^2]: :attr:`com_inertia` moved to
+        the axis by ``link_com`` (what MuJoCo computes from the MJCF)."""
+        return self.com_inertia + self.link_mass * self.link_com**2
+
+    def hinge_row(self) -> np.ndarray:
+        """The hinge row of the batched kernel (:data:`cepam_gym.physics.hinge.HINGE_FIELDS`):
+        the same mechanism as the MJCF of :func:`joint_xml`."""
+        h = np.zeros(N_HINGE)
+        h[H_R], h[H_INERTIA] = self.lever_arm, self.axis_inertia
+        h[H_MASS_MOMENT], h[H_DAMP] = self.link_mass * self.link_com, self.joint_damping
+        return h
+
+    # geometry through the pinion, for a plant parameter row p (or the transposed rows of a batch)
     def length(self, angle, p):
         """Muscle length [m] at joint angle [rad]: ``L = L_max - r theta``."""
         return p[ix.L_MAX] - self.lever_arm * np.asarray(angle, dtype=float)
@@ -100,6 +122,9 @@ class JointTask:
     load_kinds: tuple[str, ...] = LOAD_KINDS  # profile of the external torque
     segment_duration: tuple[float, float] = (2.0, 4.0)
     pressure_margin: float = 0.85
+    # reference shapes drawn per episode (tasks.references; ("step",): the v0 set-points)
+    references: tuple[str, ...] = ("step",)
+    move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s]
     # one unit of the angle reward term: 10 deg, the error the joint benchmark scores as 1 (as 20 %
     # of stiffness is, which JointRewardWeights.stiffness = 5 prices alike); angular velocity per
     # 5 rad/s and joint stiffness per 1 N m/rad in the observation
@@ -121,6 +146,8 @@ class JointTask:
             load_kinds=tuple(self.load_kinds),
             segment_duration=tuple(self.segment_duration),
             pressure_margin=self.pressure_margin,
+            references=tuple(self.references),
+            move_s=self.move_s,
         )
 
     def check_range(self, geom: JointGeometry, p) -> None:
@@ -147,7 +174,24 @@ class JointTask:
             load_kinds=tuple(self.load_kinds),
             segment_duration=tuple(self.segment_duration),
             pressure_margin=self.pressure_margin,
+            references=tuple(self.references),
+            move_s=self.move_s,
         )
+
+    def unreachable_torque(self, geom: JointGeometry, p) -> float | None:
+        """An external torque [N m] of the task's range (held constant) for which no target angle
+        has a reachable joint stiffness on plant row ``p`` (``None`` when both ends are feasible):
+        a necessary condition for the schedules to be solvable, as the rig's
+        :func:`~cepam_gym.envs.randomization.unreachable_load`."""
+        spec = self.muscle_spec(geom, p)
+        th = np.linspace(*self.angle_range, 33)
+        L = geom.length(th, p)
+        for tau in self.torque_range:
+            w = geom.equivalent_weight(th, tau, p)
+            k_lo, k_hi = stiffness_interval(L, w, w, p, spec)
+            if not np.any(k_hi > k_lo):
+                return float(tau)
+        return None
 
 
 @dataclass(frozen=True)
@@ -179,9 +223,13 @@ JOINT_FIELDS = (
 )
 
 
-def joint_layout(task: JointTask, max_angle: float, supply_pressure: float) -> ObsLayout:
+def joint_layout(
+    task: JointTask, max_angle: float, supply_pressure: float, preview_steps: int = 0
+) -> ObsLayout:
     """The joint env's observation: angles about half of full flexion ``max_angle`` [rad],
-    pressures per nominal ``supply_pressure`` [Pa], the task's velocity and stiffness scales."""
+    pressures per nominal ``supply_pressure`` [Pa], the task's velocity and stiffness scales; then
+    ``preview_steps`` preview columns of target angle and target stiffness
+    (:func:`~cepam_gym.tasks.layout.preview_fields`, scaled like the targets)."""
     s, half, ps = task.scales, 0.5 * max_angle, supply_pressure
     cols = (
         ObsColumn("angle", half, half, "rad"),
@@ -194,7 +242,13 @@ def joint_layout(task: JointTask, max_angle: float, supply_pressure: float) -> O
         ObsColumn("previous_action_c"),
         ObsColumn("previous_action_e"),
     )
-    return ObsLayout(cols, JOINT_FIELDS, s.obs_clip)
+    names = preview_fields(preview_steps, True, "angle")
+    cols += tuple(
+        ObsColumn(name, c.scale, c.offset, c.unit)
+        for name in names
+        for c in [cols[5] if name.startswith("target_angle") else cols[6]]
+    )
+    return ObsLayout(cols, JOINT_FIELDS + names, s.obs_clip)
 
 
 def joint_schedules(
@@ -234,6 +288,80 @@ def joint_schedules(
             initial = target
         else:
             ta[a:b], tk[a:b] = target
+    return ta, tk, torque, initial
+
+
+def _equivalent_load(geom: JointGeometry, angle, torque, p):
+    """The hanging load [kg] on the rig that the joint's loads at ``angle`` amount to (what the
+    reference helpers of :mod:`cepam_gym.tasks.references` take): the equivalent weight less the
+    end mass, over g."""
+    return geom.equivalent_weight(angle, torque, p) / p[ix.GRAV] - p[ix.M_END]
+
+
+def joint_muscle_map(geom: JointGeometry, nominal_row):
+    """The joint as :func:`~cepam_gym.tasks.schedules.episode_schedules` sees a mechanism:
+    ``muscle(position, torque, rows) -> (muscle length [m], equivalent weight [N])``, where the
+    position is a muscle length of the *nominal* plant (``L_max - r theta``: the task's
+    ``muscle_spec`` draws angles that way) and ``rows`` the plant row(s) of the episode."""
+    l_max = float(nominal_row[ix.L_MAX])
+
+    def muscle(position, torque, rows):
+        q = np.asarray(rows).T  # q[col]: a column of rows, or the value of one row
+        theta = (l_max - np.asarray(position, dtype=float)) / geom.lever_arm
+        return geom.length(theta, q), geom.equivalent_weight(theta, torque, q)
+
+    return muscle
+
+
+def joint_planned_schedules(
+    rngs, task: JointTask, geom: JointGeometry, params, nominal_row, n_steps: int, dt: float
+):
+    """Schedules of several joint envs at once, ``(target_angle, target_stiffness,
+    external_torque, initial)`` (arrays (n_envs, n_steps), ``initial`` (n_envs, 2) = angle, joint
+    stiffness): the rig's batched sampler (:func:`~cepam_gym.tasks.schedules.episode_schedules`
+    through :func:`joint_muscle_map`; env i draws only from ``rngs[i]``), then each episode's
+    targets shaped by a reference kind drawn from ``task.references`` (the rig's
+    :func:`~cepam_gym.tasks.references.shape_reference` in muscle coordinates, the joint's loads
+    as an equivalent hanging load; the link's weight depends on the angle, so a shaped reference
+    is projected once more at its own angles; one that cannot be made reachable falls back to
+    ``min_jerk`` moves, then to the set-points). With references other than ``step`` an episode
+    starts at rest on its reference's first point. ``RuntimeError`` when a plant row leaves the
+    task's angles outside the joint's range or has no reachable target (the env redraws it)."""
+    params = np.atleast_2d(np.asarray(params, dtype=float))
+    for row in params:
+        try:
+            task.check_range(geom, row)
+        except ValueError as e:
+            raise RuntimeError(str(e)) from None
+    spec = task.muscle_spec(geom, nominal_row)
+    r, l_max = geom.lever_arm, float(nominal_row[ix.L_MAX])
+    pos, k_muscle, torque, initial = episode_schedules(
+        rngs, spec, params, n_steps, dt, muscle=joint_muscle_map(geom, nominal_row)
+    )
+    ta, tk = (l_max - pos) / r, k_muscle * r**2
+    initial = np.stack([(l_max - initial[:, 0]) / r, initial[:, 1] * r**2], axis=1)
+    if tuple(task.references) == ("step",):
+        return ta, tk, torque, initial
+    for i, rng in enumerate(rngs):
+        p = params[i if params.shape[0] > 1 else 0]
+        spec_i = task.muscle_spec(geom, p)
+        kind = task.references[int(rng.integers(len(task.references)))]
+        L, K = geom.length(ta[i], p), tk[i] / r**2
+        for k in (kind, "min_jerk"):
+            shaped = shape_reference(
+                k, rng, spec_i, p, L, K, _equivalent_load(geom, ta[i], torque[i], p), n_steps, dt
+            )
+            if shaped is None:
+                continue
+            try:
+                Ls, Ks = project(
+                    *shaped, _equivalent_load(geom, geom.angle(shaped[0], p), torque[i], p), p, spec_i
+                )
+            except ValueError:
+                continue
+            ta[i], tk[i] = geom.angle(Ls, p), Ks * r**2
+            initial[i] = ta[i, 0], tk[i, 0]
+            break
     return ta, tk, torque, initial
 
 
@@ -328,6 +456,6 @@ def joint_xml(geom: JointGeometry, p, sub_dt: float = 5e-4, width: int = 480, he
         solref=max(0.002, 2.0 * sub_dt),
         lc=geom.link_com,
         m=geom.link_mass,
-        inertia=geom.link_mass * geom.link_length**2 / 12.0,
+        inertia=geom.com_inertia,
         l=geom.link_length,
     )

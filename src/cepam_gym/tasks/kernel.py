@@ -1,10 +1,12 @@
 """The fused control step of every CE-PAM env: actions -> plant -> observation, reward, flags.
 
 One compiled function per block of envs (:func:`_env_block`) calls the plant kernel
-(:func:`cepam_gym.plant.advance_block`, the only copy of the equations) and then the task's
-observation and reward terms. The single env and the vector env both call :func:`env_step`;
-keeping the per-step task arithmetic compiled is what makes a single env faster than
-Gymnasium's Pendulum and a batch of 4096 envs run at millions of steps per second.
+(:func:`cepam_gym.plant.advance_block`, the only copy of the equations, or its hinge form
+:func:`~cepam_gym.plant.advance_block_hinge` for the joint env) and then the task's observation
+and reward terms, through :func:`mechanism_view` (the rig's length or the joint's angle). The
+single env and the vector env both call :func:`env_step`; keeping the per-step task arithmetic
+compiled is what makes a single env faster than Gymnasium's Pendulum and a batch of 4096 envs
+run at millions of steps per second.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from numba import njit, prange
 from .. import plant as pl
 from .._jit import jit
 from ..physics import layout as ix
+from ..physics.hinge import H_R, N_HINGE
 from .layout import OBS_FIELDS, ObsLayout, preview_fields
 from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
 
@@ -32,6 +35,8 @@ __all__ = [
     "valve_commands",
     "env_step",
     "observe",
+    "mechanism_view",
+    "no_hinge",
 ]
 
 # The task vector: everything the kernel needs to know of the task, flattened (built by
@@ -68,12 +73,18 @@ N_NOISE = 5
 
 
 def task_vector(
-    weights, scales, layout: ObsLayout, setpoint_max: float, track_stiffness: bool = True
+    weights,
+    scales,
+    layout: ObsLayout,
+    setpoint_max: float,
+    track_stiffness: bool = True,
+    position: str = "length",
 ) -> np.ndarray:
     """The task vector of a task: ``weights`` the five reward weights in REWARD_TERMS order,
     ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout (at
     most :data:`MAX_OBS` columns), ``setpoint_max`` [Pa] the gauge pressure of the action +1 in
-    pressure mode."""
+    pressure mode, ``position`` the name of the tracked position in the preview columns
+    (``"length"`` on the rig, ``"angle"`` on the joint)."""
     v = np.zeros(N_TASK)
     v[T_W_TRACK : T_W_BURST + 1] = [float(w) for w in weights]
     v[T_TRACK_K] = float(track_stiffness)
@@ -92,11 +103,11 @@ def task_vector(
     v[T_OBS : T_OBS + 3 * n : 3] = layout.sources()[:n]
     v[T_OBS + 1 : T_OBS + 3 * n : 3] = layout.offsets()[:n]
     v[T_OBS + 2 : T_OBS + 3 * n : 3] = layout.scales()[:n]
-    steps = sum(name.startswith("target_length_+") for name in preview)
+    steps = sum(name.startswith(f"target_{position}_+") for name in preview)
     if steps:
-        if preview != preview_fields(steps, track_stiffness):
+        if preview != preview_fields(steps, track_stiffness, position):
             raise ValueError(
-                f"preview columns must be {preview_fields(steps, track_stiffness)}, got {preview}"
+                f"preview columns must be {preview_fields(steps, track_stiffness, position)}, got {preview}"
             )
         v[T_PREVIEW] = steps
         v[T_PREV_L_OFF] = layout.columns[n].offset
@@ -138,12 +149,31 @@ def write_preview(tl_row, tk_row, k_next, task, obs):
 
 
 @jit
-def write_obs(x, aux, target_l, target_k, prev_a, p, task, noise, obs):
-    """Scaled float observation of one rig env (what a real rig measures, plus targets and
-    a_{t-1}): the quantities of :data:`OBS_FIELDS`, encoded by the task's layout."""
+def mechanism_view(x, stiffness, p, h, mech):
+    """``(position, velocity, stiffness)`` the task sees of plant state row ``x`` with muscle
+    stiffness ``stiffness`` [N/m]: on the rig the muscle's length [m], rate [m/s] and stiffness;
+    on a hinge (``mech == plant.HINGE``, hinge row ``h``, :mod:`cepam_gym.physics.hinge`) the
+    joint angle ``(L_max - L) / r`` [rad], its rate [rad/s] and the joint stiffness ``K r^2``
+    [N m/rad]."""
+    if mech == pl.HINGE:
+        r = h[H_R]
+        return (p[ix.L_MAX] - x[pl.S_L]) / r, -x[pl.S_V] / r, stiffness * r * r
+    return x[pl.S_L], x[pl.S_V], stiffness
+
+
+def no_hinge() -> np.ndarray:
+    """The hinge argument of a rig's kernel call (read only by hinge blocks)."""
+    return np.zeros((1, N_HINGE))
+
+
+@jit
+def write_obs(pos, vel, aux, target_l, target_k, prev_a, p, task, noise, obs):
+    """Scaled float observation of one env (what a real rig or joint measures, plus targets and
+    a_{t-1}): the quantities of :data:`OBS_FIELDS` (the joint's: angle and angular velocity for
+    ``pos``, ``vel``), encoded by the task's layout."""
     vals = (
-        x[pl.S_L] + noise[0],
-        x[pl.S_V] + noise[1],
+        pos + noise[0],
+        vel + noise[1],
         aux[pl.A_PC] + noise[2],
         aux[pl.A_PE] + noise[3],
         p[ix.P_SUP] - p[ix.P_ATM] + noise[4],
@@ -200,6 +230,8 @@ def _env_block(
     state,
     actions,
     params,
+    hinge,
+    mech,
     mode,
     dt,
     n_sub,
@@ -219,6 +251,10 @@ def _env_block(
 ):
     """One control step of envs ``lo .. lo + n - 1`` (one plant block, ``n <= plant.BLOCK``).
 
+    ``mech``: :data:`cepam_gym.plant.RIG` (``loads`` are hanging masses [kg]) or
+    :data:`cepam_gym.plant.HINGE` (``hinge`` rows, ``loads`` external torques [N m], targets in
+    rad and N m/rad).
+
     Each env's action (the plant receives it now) is clipped to [-1, 1] in place, so the caller's
     buffer then holds what was applied; the plant block advances; then each env's reward terms,
     observation and termination reason are written."""
@@ -229,9 +265,16 @@ def _env_block(
         a[1] = max(-1.0, min(1.0, a[1]))
         inp = inputs[i]
         inp[pl.I_CMD_C], inp[pl.I_CMD_E] = valve_commands(mode, a[0], a[1], task[T_SETPOINT_MAX])
-        inp[pl.I_LOAD] = loads[i, min(t_idx[i], n_t - 1)]
-        inp[pl.I_FEXT] = 0.0
-    pl.advance_block(state, inputs, params, lo, n, mode, dt, n_sub, state, aux, W)
+        if mech == pl.HINGE:  # the external torque acts on the muscle as tau / r
+            inp[pl.I_LOAD] = 0.0
+            inp[pl.I_FEXT] = loads[i, min(t_idx[i], n_t - 1)] / hinge[0 if hinge.shape[0] == 1 else i, H_R]
+        else:
+            inp[pl.I_LOAD] = loads[i, min(t_idx[i], n_t - 1)]
+            inp[pl.I_FEXT] = 0.0
+    if mech == pl.HINGE:
+        pl.advance_block_hinge(state, inputs, params, hinge, lo, n, mode, dt, n_sub, state, aux, W)
+    else:
+        pl.advance_block(state, inputs, params, lo, n, mode, dt, n_sub, state, aux, W)
     for i in range(lo, lo + n):
         k = min(t_idx[i], n_t - 1)
         k1 = min(t_idx[i] + 1, n_t - 1)
@@ -239,12 +282,12 @@ def _env_block(
         ax = aux[i]
         burst = ax[pl.A_BURST] != 0.0
         a = actions[i]
-        reward = reward_terms(
-            x[pl.S_L], tl[i, k], ax[pl.A_STIFF], tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms[i]
-        )
         p = params[0] if params.shape[0] == 1 else params[i]
+        pos, vel, K = mechanism_view(x, ax[pl.A_STIFF], p, hinge[0 if hinge.shape[0] == 1 else i], mech)
+        reward = reward_terms(pos, tl[i, k], K, tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms[i])
         write_obs(
-            x,
+            pos,
+            vel,
             ax,
             tl[i, k1],
             tk[i, k1],
@@ -265,6 +308,8 @@ def _env_step_serial(
     state,
     actions,
     params,
+    hinge,
+    mech,
     mode,
     dt,
     n_sub,
@@ -290,6 +335,8 @@ def _env_step_serial(
             state,
             actions,
             params,
+            hinge,
+            mech,
             mode,
             dt,
             n_sub,
@@ -314,6 +361,8 @@ def _env_step_parallel(
     state,
     actions,
     params,
+    hinge,
+    mech,
     mode,
     dt,
     n_sub,
@@ -339,6 +388,8 @@ def _env_step_parallel(
             state,
             actions,
             params,
+            hinge,
+            mech,
             mode,
             dt,
             n_sub,
@@ -365,14 +416,16 @@ def env_step(*args):
 
 
 @jit
-def observe(state, aux, params, tl, tk, t_idx, prev_actions, task, noise, obs):
+def observe(state, aux, params, hinge, mech, tl, tk, t_idx, prev_actions, task, noise, obs):
     """Observations of a batch without stepping (after reset)."""
     n_t = tl.shape[1]
     for i in range(state.shape[0]):
         k = min(t_idx[i], n_t - 1)
         p = params[0] if params.shape[0] == 1 else params[i]
         rz = noise[0] if noise.shape[0] == 1 else noise[i]
-        write_obs(state[i], aux[i], tl[i, k], tk[i, k], prev_actions[i], p, task, rz, obs[i])
+        h = hinge[0 if hinge.shape[0] == 1 else i]
+        pos, vel, _k = mechanism_view(state[i], aux[i, pl.A_STIFF], p, h, mech)
+        write_obs(pos, vel, aux[i], tl[i, k], tk[i, k], prev_actions[i], p, task, rz, obs[i])
         write_preview(tl[i], tk[i], t_idx[i], task, obs[i])
 
 
@@ -388,6 +441,7 @@ _SINGLE_FIELDS = (
     ("state", pl.N_STATE),
     ("actions", 2),
     ("params", ix.N_PARAMS),
+    ("hinge", N_HINGE),
     ("inputs", pl.N_INPUT),
     ("aux", pl.N_AUX),
     ("terms", N_TERMS),
@@ -403,23 +457,23 @@ _o = 0
 for _name, _size in _SINGLE_FIELDS:
     _OFF[_name] = _o
     _o += _size
-_F_STATE, _F_ACT, _F_PARAMS, _F_INPUTS, _F_AUX = (
-    _OFF[k] for k in ("state", "actions", "params", "inputs", "aux")
+_F_STATE, _F_ACT, _F_PARAMS, _F_HINGE, _F_INPUTS, _F_AUX = (
+    _OFF[k] for k in ("state", "actions", "params", "hinge", "inputs", "aux")
 )
 _F_TERMS, _F_REW, _F_NOISE, _F_TASK, _F_DT, _F_INFO, _F_W = (
     _OFF[k] for k in ("terms", "rewards", "noise", "task", "dt", "info", "W")
 )
 _F_SCHED = _o  # then target length, target stiffness and load, n_steps each
-_I_T, _I_REASON, _I_MODE, _I_NSUB = range(4)
+_I_T, _I_REASON, _I_MODE, _I_NSUB, _I_MECH = range(5)
 
 
-def single_slabs(n_steps: int, mode: int, n_sub: int, dt: float):
+def single_slabs(n_steps: int, mode: int, n_sub: int, dt: float, mech: int = pl.RIG):
     """``(F, I, views)`` of a single env: the two slabs and named (1, k) views into them (state,
-    actions, params, inputs, aux, terms, rewards (1,), noise, task (N_TASK,), target_l, target_k,
-    load, t_idx (1,), reasons (1,), info (N_INFO,))."""
+    actions, params, hinge, inputs, aux, terms, rewards (1,), noise, task (N_TASK,), target_l,
+    target_k, load, t_idx (1,), reasons (1,), info (N_INFO,))."""
     F = np.zeros(_F_SCHED + 3 * n_steps)
-    I = np.zeros(4, dtype=np.int64)
-    I[_I_MODE], I[_I_NSUB] = mode, n_sub
+    I = np.zeros(5, dtype=np.int64)
+    I[_I_MODE], I[_I_NSUB], I[_I_MECH] = mode, n_sub, mech
     F[_F_DT] = dt
     v = {name: F[_OFF[name] : _OFF[name] + size].reshape(1, size) for name, size in _SINGLE_FIELDS}
     v["rewards"] = v["rewards"].reshape(1)
@@ -453,6 +507,8 @@ def env_step_single(F, I, obs, a0, a1):
         state,
         actions,
         F[_F_PARAMS : _F_PARAMS + ix.N_PARAMS].reshape((1, ix.N_PARAMS)),
+        F[_F_HINGE : _F_HINGE + N_HINGE].reshape((1, N_HINGE)),
+        I[_I_MECH],
         I[_I_MODE],
         F[_F_DT],
         I[_I_NSUB],

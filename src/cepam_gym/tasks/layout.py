@@ -118,10 +118,11 @@ class ObsLayout:
         return np.asarray(obs, dtype=float)[..., c] * col.scale + col.offset
 
 
-def preview_fields(steps: int, track_stiffness: bool) -> tuple[str, ...]:
-    """Names of the preview columns: the target length of each of the next ``steps`` control
-    steps after the one the ``target_*`` columns show, then (if tracked) their stiffnesses."""
-    names = tuple(f"target_length_+{j}" for j in range(1, steps + 1))
+def preview_fields(steps: int, track_stiffness: bool, position: str = "length") -> tuple[str, ...]:
+    """Names of the preview columns: the target position (``length`` on the rig, ``angle`` on the
+    joint) of each of the next ``steps`` control steps after the one the ``target_*`` columns
+    show, then (if tracked) their stiffnesses."""
+    names = tuple(f"target_{position}_+{j}" for j in range(1, steps + 1))
     if track_stiffness:
         names += tuple(f"target_stiffness_+{j}" for j in range(1, steps + 1))
     return names

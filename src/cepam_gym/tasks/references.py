@@ -43,6 +43,7 @@ __all__ = [
     "smooth_reference",
     "stiffness_ramp",
     "planned_schedules",
+    "shape_reference",
 ]
 _SLOWDOWN = 0.7  # factor on the frequency (or 1/factor on a move) per followability retry
 _RETRIES = 8
@@ -236,16 +237,16 @@ def planned_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
     for i, rng in enumerate(rngs):
         p = params[i if params.shape[0] > 1 else 0]
         kind = spec.references[int(rng.integers(len(spec.references)))]
-        shaped = _shape(kind, rng, spec, p, tl[i], tk[i], load[i], n_steps, dt)
+        shaped = shape_reference(kind, rng, spec, p, tl[i], tk[i], load[i], n_steps, dt)
         if shaped is None and kind != "step":
-            shaped = _shape("min_jerk", rng, spec, p, tl[i], tk[i], load[i], n_steps, dt)
+            shaped = shape_reference("min_jerk", rng, spec, p, tl[i], tk[i], load[i], n_steps, dt)
         if shaped is not None:
             tl[i], tk[i] = shaped
             initial[i] = tl[i, 0], tk[i, 0]
     return tl, tk, load, initial
 
 
-def _shape(kind, rng, spec, p, tl, tk, load, n_steps, dt):
+def shape_reference(kind, rng, spec, p, tl, tk, load, n_steps, dt):
     """One episode's reference of ``kind`` from its step schedule, or None when not reachable."""
     try:
         if kind == "min_jerk":

@@ -105,11 +105,21 @@ def stiffness_interval(length, w_lo, w_hi, params, spec: TaskSpec):
     return k_lo, k_hi
 
 
-def sample_target(rng, spec: TaskSpec, w_lo: float, w_hi: float, params_row) -> tuple[float, float]:
-    """One reachable ``(length, stiffness)`` target for weights in ``[w_lo, w_hi]`` [N]."""
+def sample_target(
+    rng, spec: TaskSpec, w_lo: float, w_hi: float, params_row, muscle=None
+) -> tuple[float, float]:
+    """One reachable ``(length, stiffness)`` target for weights in ``[w_lo, w_hi]`` [N]. With a
+    ``muscle`` map (:func:`episode_schedules`), ``w_lo, w_hi`` are the segment's load extremes and
+    the position drawn is mapped to the muscle's length and weights."""
     for _ in range(_TRIES):
         L = spec.fixed_length if spec.fixed_length is not None else rng.uniform(*spec.length_range)
-        k_lo, k_hi = stiffness_interval(L, w_lo, w_hi, params_row, spec)
+        if muscle is None:
+            k_lo, k_hi = stiffness_interval(L, w_lo, w_hi, params_row, spec)
+        else:
+            length, weight_lo = muscle(L, w_lo, params_row)
+            k_lo, k_hi = stiffness_interval(
+                length, weight_lo, muscle(L, w_hi, params_row)[1], params_row, spec
+            )
         k_lo, k_hi = float(k_lo), float(k_hi)
         if k_hi > k_lo:
             # shrink by 5 % of the width on both sides: targets stay strictly inside
@@ -138,9 +148,16 @@ def _draw(rng, spec: TaskSpec, n_steps: int, dt: float):
     return load, segs, cand_l, cand_u
 
 
-def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
+def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float, muscle=None):
     """Schedules of several envs at once: ``(target_length, target_stiffness, load, initial)``
     with arrays of shape (n_envs, n_steps) and ``initial`` (n_envs, 2) = length, stiffness.
+
+    ``muscle``: for another mechanism than the rig's (the joint), a map
+    ``muscle(position, load, rows) -> (muscle length [m], weight [N])`` from the mechanism's
+    target position (drawn in ``spec.length_range``) and load (in ``spec.load_range``, held over
+    a segment at its extremes) to what the muscle sees (``rows``: parameter row(s), one per
+    element or one for all). The targets returned are then positions, and stiffnesses the
+    muscle's [N/m]. ``None``: the rig (position = length, load = hanging mass).
 
     Env i uses only ``rngs[i]`` (in the same order whatever the batch), so a batch of envs gets
     exactly the schedules single envs with the same generators would get. Targets come from
@@ -154,7 +171,10 @@ def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
     draws = [_draw(rng, spec, n_steps, dt) for rng in rngs]
     loads = np.stack([d[0] for d in draws]) if m else np.empty((0, n_steps))
     per_env = params if params.shape[0] > 1 else params[[0] * m]
-    weights = (per_env[:, ix.M_END, None] + loads) * per_env[:, ix.GRAV, None]  # [N], (m, n_steps)
+    if muscle is None:
+        weights = (per_env[:, ix.M_END, None] + loads) * per_env[:, ix.GRAV, None]  # [N], (m, n_steps)
+    else:  # the loads themselves: their extremes per segment go through the map
+        weights = loads
     # segments of all envs, the real ones first (they tile each env's row), then one initial
     # pseudo-segment (step 0) per env
     n_seg = np.array([len(d[1]) - 1 for d in draws], dtype=np.int64)
@@ -179,9 +199,14 @@ def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
         ]
     )
     prow = params[np.repeat(seg_env, _CANDIDATES)] if params.shape[0] > 1 else params[0]
-    k_lo, k_hi = stiffness_interval(
-        cand_l.ravel(), np.repeat(w_lo, _CANDIDATES), np.repeat(w_hi, _CANDIDATES), prow, spec
-    )
+    if muscle is None:
+        k_lo, k_hi = stiffness_interval(
+            cand_l.ravel(), np.repeat(w_lo, _CANDIDATES), np.repeat(w_hi, _CANDIDATES), prow, spec
+        )
+    else:
+        length, weight_lo = muscle(cand_l.ravel(), np.repeat(w_lo, _CANDIDATES), prow)
+        weight_hi = muscle(cand_l.ravel(), np.repeat(w_hi, _CANDIDATES), prow)[1]
+        k_lo, k_hi = stiffness_interval(length, weight_lo, weight_hi, prow, spec)
     k_lo, k_hi = k_lo.reshape(-1, _CANDIDATES), k_hi.reshape(-1, _CANDIDATES)
     ok = k_hi > k_lo
     c = ok.argmax(axis=1)  # the first feasible candidate of each segment
@@ -193,7 +218,7 @@ def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
     # env's own generator, after its draws, as a single env would)
     for j in sorted(np.flatnonzero(~ok.any(axis=1)), key=lambda j: (seg_env[j], seg_idx[j])):
         i = seg_env[j]
-        target_l[j], target_k[j] = sample_target(rngs[i], spec, w_lo[j], w_hi[j], per_env[i])
+        target_l[j], target_k[j] = sample_target(rngs[i], spec, w_lo[j], w_hi[j], per_env[i], muscle)
     n_real = len(env_of)
     seg_len = np.concatenate([[b - a for a, b in d[1][:-1]] for d in draws] or [[]]).astype(np.int64)
     tl = np.repeat(target_l[:n_real], seg_len).reshape(m, n_steps)
