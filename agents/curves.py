@@ -13,7 +13,7 @@ a time, each pinned to a core with ``taskset`` where it exists). Written to ``--
 * ``curves.csv``: every periodic evaluation (16 episodes, seed 12345, never the suite's own
   episodes): algorithm, env id, seed, env steps, wall seconds, score, normalized score;
 * ``<id>.png``: normalized score against env steps and against wall time, mean over seeds with
-  the min-max band;
+  the min-max band (the raw score for the joint, which has no oracle and so no normalized score);
 * ``table.md``: the best model of each run scored on the suite itself (its seeds, 20 episodes),
   mean and standard deviation over seeds, raw and normalized (0 = zero controller, 100 = oracle,
   the suite's stored reference scores), beside the baseline's and the MPC's on the same suite.
@@ -39,9 +39,12 @@ SUITE_OF = {
     "cepam_gym/CEPAM-v1": "nominal-v1",
     "cepam_gym/CEPAMLength-v1": "length-v1",
     "cepam_gym/CEPAMStiffness-v1": "stiffness-at-fixed-length-v1",
+    "cepam_gym/CEPAMJoint-v1": "joint-v1",
 }
 CONFIG_OF = {"PPO": "v1_ppo", "SAC": "v1_sac", "TD3": "v1_td3", "RecurrentPPO": "v1_recurrentppo"}
-MODEL_CONTROLLERS = ("baseline", "mpc")  # scored beside the agents in table.md
+# scored beside the agents in table.md (the MPC plans through the rig's kernel only)
+MODEL_CONTROLLERS = {"joint-v1": ("baseline",)}
+RIG_CONTROLLERS = ("baseline", "mpc")
 
 
 def run_config(algorithm: str, env_id: str, seed: int, minutes: float):
@@ -101,7 +104,7 @@ def train_all(runs: list[tuple], out: Path, minutes: float, jobs: int) -> None:
 # --------------------------------------------------------------------------- the report
 def read_curves(out: Path) -> list[dict]:
     """Every periodic evaluation of every run under ``out``, normalized with the suite's stored
-    reference scores."""
+    reference scores (None for a suite without: the joint)."""
     from cepam_gym.bench.metrics import normalized_score
     from cepam_gym.bench.suites import REFERENCE_SCORES
 
@@ -121,7 +124,9 @@ def read_curves(out: Path) -> list[dict]:
                             "steps": int(e["step"]),
                             "wall_s": float(e["wall_s"]),
                             "score": float(e["score"]),
-                            "normalized": normalized_score(e["score"], *REFERENCE_SCORES[suite]),
+                            "normalized": normalized_score(e["score"], *REFERENCE_SCORES[suite])
+                            if suite in REFERENCE_SCORES
+                            else None,
                         }
                     )
     return rows
@@ -131,7 +136,12 @@ def write_csv(rows: list[dict], path: Path) -> None:
     cols = ["algorithm", "env_id", "seed", "steps", "wall_s", "score", "normalized"]
     lines = [",".join(cols)]
     for r in rows:
-        lines.append(",".join(f"{r[c]:.4f}" if isinstance(r[c], float) else str(r[c]) for c in cols))
+        lines.append(
+            ",".join(
+                f"{r[c]:.4f}" if isinstance(r[c], float) else ("" if r[c] is None else str(r[c]))
+                for c in cols
+            )
+        )
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -157,6 +167,7 @@ def plot_curves(rows: list[dict], docs: Path) -> list[Path]:
         mine = [r for r in rows if r["env_id"] == env_id]
         if not mine:
             continue
+        key_y = "normalized" if mine[0]["normalized"] is not None else "score"
         fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
         for algo in CONFIG_OF:
             runs = {}
@@ -167,17 +178,23 @@ def plot_curves(rows: list[dict], docs: Path) -> list[Path]:
                 continue
             for ax, key, scale in ((axes[0], "steps", 1e-6), (axes[1], "wall_s", 1 / 60)):
                 xs = [np.array([r[key] for r in v]) * scale for v in runs.values()]
-                ys = [np.array([r["normalized"] for r in v]) for v in runs.values()]
+                ys = [np.array([r[key_y] for r in v]) for v in runs.values()]
                 grid = np.linspace(0.0, max(x[-1] for x in xs), 400)
                 g, mean, lo, hi = _band(xs, ys, grid)
                 (line,) = ax.plot(g, mean, label=f"{algo} ({len(runs)} seeds)")
                 ax.fill_between(g, lo, hi, color=line.get_color(), alpha=0.2)
         axes[0].set_xlabel("env steps [millions]")
         axes[1].set_xlabel("wall time [min] (one core per run)")
-        axes[0].set_ylabel("normalized score (0 zero controller, 100 oracle)")
+        if key_y == "normalized":
+            axes[0].set_ylabel("normalized score (0 zero controller, 100 oracle)")
+        else:
+            axes[0].set_ylabel("score (lower is better; no oracle, so no normalized score)")
         for ax in axes:
             ax.grid(alpha=0.3)
-            ax.set_ylim(-50, 110)
+            if key_y == "normalized":
+                ax.set_ylim(-50, 110)
+            else:
+                ax.set_yscale("log")
         axes[0].legend(loc="lower right")
         fig.suptitle(f"{env_id} (trained and scored on {SUITE_OF[env_id]}): mean and min-max over seeds")
         fig.tight_layout()
@@ -225,27 +242,33 @@ def table_markdown(finals: list[dict], episodes: int | None) -> str:
         "|---|---|---|---|---|---|---|---|",
     ]
     for env_id, suite in SUITE_OF.items():
-        ends = REFERENCE_SCORES[suite]
+        ends = REFERENCE_SCORES.get(suite)
+
+        def norm(v, ends=ends):
+            return float("nan") if ends is None else normalized_score(v, *ends)
+
         n_eval = episodes or SUITES[suite].episodes
         for algo in CONFIG_OF:
             mine = [r for r in finals if r["env_id"] == env_id and r["algorithm"] == algo]
             if not mine:
                 continue
             s = np.array([r["score"] for r in mine])
-            n = np.array([normalized_score(v, *ends) for v in s])
+            n = np.array([norm(v) for v in s])
             steps = np.mean([r["steps"] for r in mine])
             wall = np.mean([r["wall_s"] for r in mine]) / 60
             lines.append(
                 f"| {algo} | {env_id.split('/')[-1]} ({suite}) | {len(mine)} | "
-                f"**{n.mean():.1f}** +- {n.std():.1f} | {s.mean():.3f} +- {s.std():.3f} | "
+                f"{'-' if ends is None else f'**{n.mean():.1f}** +- {n.std():.1f}'} | "
+                f"{s.mean():.3f} +- {s.std():.3f} | "
                 f"{steps / 1e6:.2f} M | {wall:.1f} | {n_eval} |"
             )
         if any(r["env_id"] == env_id for r in finals):
-            for c in MODEL_CONTROLLERS:
+            for c in MODEL_CONTROLLERS.get(suite, RIG_CONTROLLERS):
                 m, _ = run_suite(c, suite, episodes=episodes)
+                nc = "-" if ends is None else f"{norm(m['score']):.1f}"
                 lines.append(
-                    f"| *{c}* | {env_id.split('/')[-1]} ({suite}) | - | "
-                    f"{normalized_score(m['score'], *ends):.1f} | {m['score']:.3f} | - | - | {n_eval} |"
+                    f"| *{c}* | {env_id.split('/')[-1]} ({suite}) | - | {nc} | {m['score']:.3f} "
+                    f"| - | - | {n_eval} |"
                 )
     return "\n".join(lines) + "\n"
 

@@ -125,8 +125,13 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--run {run}: not a training run directory (no config.yaml)")
     from .policy import load_run_config
 
-    v1 = load_run_config(run).env.id.endswith("-v1")
-    suites = args.suite or (["nominal-v1", "randomized-v1"] if v1 else ["nominal", "randomized"])
+    env_id = load_run_config(run).env.id
+    v1 = env_id.endswith("-v1")
+    if "Joint" in env_id:  # the batched joint (v1): its own suite
+        default = ["joint-v1"]
+    else:
+        default = ["nominal-v1", "randomized-v1"] if v1 else ["nominal", "randomized"]
+    suites = args.suite or default
     if "all" in suites:  # the rig suites of the agent's version: it is trained on their observations
         suites = [s for s in SUITES if SUITES[s].traces is (RIG_V1 if v1 else RIG)]
     bad = [s for s in suites if s not in SUITES]

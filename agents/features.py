@@ -55,9 +55,9 @@ class Features:
             + self.raw_dim * len(cfg.obs_filters_s)
         )
         if cfg.obs_filters_s:
-            from cepam_gym.control.baseline import core_of
+            from cepam_gym.control.baseline import find_core
 
-            dt = core_of(env).control_dt
+            dt = find_core(env).control_dt
             self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None

@@ -164,9 +164,9 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
 
 
 def _core(env):
-    from cepam_gym.control.baseline import core_of
+    from cepam_gym.control.baseline import find_core
 
-    return core_of(env)
+    return find_core(env)
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -269,12 +269,10 @@ def _policy(cfg: TrainConfig, env) -> tuple:
 def _eval_env_spec(cfg: TrainConfig) -> tuple[str, dict, object]:
     """(env id, kwargs, trace spec) of the periodic evaluation: the eval suite's, else the
     training env scored as the benchmark scores its version (v1 ids: the settling allowance)."""
-    from cepam_gym.bench.metrics import RIG, RIG_V1
-    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.bench.suites import SUITES, trace_spec_for
 
     if cfg.eval.suite is None:
-        spec = RIG_V1 if cfg.env.id.endswith("-v1") else RIG
-        return cfg.env.id, dict(cfg.env.kwargs), spec
+        return cfg.env.id, dict(cfg.env.kwargs), trace_spec_for(cfg.env.id)
     s = SUITES[cfg.eval.suite]
     return s.env_id, dict(s.env_kwargs), s.traces
 

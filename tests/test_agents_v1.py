@@ -234,3 +234,17 @@ def test_comparison_goals_of_the_v1_suites():
     assert got[("randomized-v1", "mpc")]["goal_met"] is False  # worse than the MPC
     assert got[("nominal-v1", "oracle")]["goal_met"] is True  # within 10 %
     assert got[("nominal-v1", "zero")]["goal_met"] is None  # no goal against the zero controller
+
+
+@pytest.mark.slow  # trains
+def test_an_agent_trains_on_the_batched_joint_and_drives_it_through_the_registry(tmp_path):
+    """CEPAMJoint-v1 runs on the batched kernel: agents train on it and the bench loads them
+    (the MuJoCo joint, v0, still refuses agents: tests/test_controllers.py)."""
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym_agents.train import train
+
+    cfg = _cfg("PPO", SMALL_ON_POLICY, {}, {})
+    cfg = cfg.replace(env=cfg.env.__class__("cepam_gym/CEPAMJoint-v1", 2, None, {"episode_seconds": 2.0}))
+    assert train(cfg, tmp_path / "joint", quiet=True) == 0
+    m, _ = run_suite(str(tmp_path / "joint"), "joint-v1", episodes=2)
+    assert np.isfinite(m["score"]) and m["score"] > 0 and "angle_rmse_deg" in m

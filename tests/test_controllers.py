@@ -177,7 +177,7 @@ def test_joint_env_gets_the_joint_variants(monkeypatch, tmp_path):
         ctl.reset()
         assert ctl.act(obs, info).shape == (2, 2)
         monkeypatch.setattr(registry, "agent_loaders", lambda: {"agent": _EntryPoint(lambda spec, e: None)})
-        with pytest.raises(ValueError, match="cannot drive the joint env"):
+        with pytest.raises(ValueError, match="cannot drive the MuJoCo joint env"):
             make_controller(str(tmp_path), env)
     finally:
         env.close()

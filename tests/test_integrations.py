@@ -85,8 +85,9 @@ def test_hyperparams_files_have_all_ids(algo):
 
     with open(ROOT / "hyperparams" / f"{algo}.yml") as f:
         hp = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 loads them
-    ids = [i for i in ENV_IDS if i.endswith("-v1") or algo in ("ppo", "sac")]
-    ids = [i for i in ids if "Joint" not in i]
+    from cepam_gym.registration import JOINT_ENV_IDS
+
+    ids = [i for i in ENV_IDS if i.endswith("-v1") or algo in ("ppo", "sac")] + list(JOINT_ENV_IDS)
     assert set(ids) <= set(hp)
     for env_id in ids:
         kw = hp[env_id]["env_kwargs"]

@@ -28,6 +28,7 @@ within 2 deg, overshoot on steps of at least 5 deg, ``angle_rmse_deg / 10 deg`` 
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -101,6 +102,8 @@ JOINT = TraceSpec(
     plot_stiffness=("joint stiffness", "N m/rad", 1.0),
     plot_load=("external torque", "mN m", 1000.0),
 )
+# the v1 joint: tracking with preview, the same allowance as the rig's v1 suites
+JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
 
 
 def _rms(x, mask):

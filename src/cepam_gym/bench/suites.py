@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from .metrics import JOINT, RIG, RIG_V1, TraceSpec
+from .metrics import JOINT, JOINT_V1, RIG, RIG_V1, TraceSpec
 
 # Plausible spread of a hand-made CE-PAM and its rig around the nominal (default, calibrated)
 # parameters, in the keys' own units: centred on the nominal value except the Coulomb friction,
@@ -161,6 +161,14 @@ SUITES: dict[str, Suite] = {
             doc="the length-only v1 task: v1 length references with preview, load steps",
         ),
         Suite(
+            "joint-v1",
+            "cepam_gym/CEPAMJoint-v1",
+            {},
+            seed=17000,
+            traces=JOINT_V1,
+            doc="the batched hinge driven by the CE-PAM: v1 angle and joint-stiffness references, preview",
+        ),
+        Suite(
             "stress-v1",
             "cepam_gym/CEPAM-v1",
             {
@@ -177,6 +185,12 @@ SUITES: dict[str, Suite] = {
         ),
     )
 }
+
+
+def trace_spec_for(env_id: str) -> TraceSpec:
+    """How the benchmark scores an env id: the trace spec of the first suite that runs it (the
+    nominal one of its version), else the v0 rig's."""
+    return next((s.traces for s in SUITES.values() if s.env_id == env_id), RIG)
 
 
 def available(name: str) -> bool:

@@ -177,7 +177,7 @@ def core_of(env):
     the SB3 adapter): its task, observation layout, nominal plant and timing. ``TypeError`` when
     there is none, or when it drives the joint (``cepam_gym/CEPAMJoint-v1``: the rig's model
     and task do not apply; its controller is ``joint_baseline``)."""
-    core = _find_core(env)
+    core = find_core(env)
     if getattr(core, "MECH", pl.RIG) != pl.RIG:
         raise TypeError(
             "this controller drives the rig envs only; on the joint env use 'baseline' "
@@ -186,14 +186,16 @@ def core_of(env):
     return core
 
 
-def _find_core(env):
+def find_core(env):
+    """The batched core (:class:`~cepam_gym.envs.core.CEPAMBatch` or the joint's subclass) inside
+    any env that runs on the batched kernel; ``TypeError`` when there is none (the MuJoCo joint)."""
     for attr in ("core", "unwrapped", "venv", "env"):
         obj = getattr(env, attr, None)
         if attr == "core" and obj is not None:
             return obj
         if obj is not None and obj is not env:
             try:
-                return _find_core(obj)
+                return find_core(obj)
             except TypeError:
                 pass
     raise TypeError(f"cannot find the CE-PAM env inside {env!r}")

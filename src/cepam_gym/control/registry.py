@@ -154,12 +154,24 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
     loader_name, agent_spec = _split_loader(name, loaders)
     if loader_name is None:
         raise ValueError(_unknown(name, loaders))
-    if is_joint_env(env):
+    if is_joint_env(env) and not _batched(env):
         raise ValueError(
-            f"controller {name!r}: a trained agent cannot drive the joint env (agents are "
-            f"trained on the rig's observations); use one of {controller_names()}"
+            f"controller {name!r}: a trained agent cannot drive the MuJoCo joint env "
+            f"(cepam_gym/CEPAMJoint-v0; agents train on the batched kernel, CEPAMJoint-v1 included); "
+            f"use one of {controller_names()}"
         )
     return loaders[loader_name].load()(agent_spec, env)
+
+
+def _batched(env) -> bool:
+    """Whether ``env`` runs on the batched kernel (it holds a ``CEPAMBatch``): what agents train on."""
+    from .baseline import find_core
+
+    try:
+        find_core(env)
+    except TypeError:
+        return False
+    return True
 
 
 def check_controller_spec(spec: str | Path) -> None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
+from typing import ClassVar
 
 import numpy as np
 
@@ -125,6 +126,8 @@ class JointTask:
     # reference shapes drawn per episode (tasks.references; ("step",): the v0 set-points)
     references: tuple[str, ...] = ("step",)
     move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s]
+    # the joint task always tracks a joint stiffness (read by the bench, the trainer's logging)
+    track_stiffness: ClassVar[bool] = True
     # one unit of the angle reward term: 10 deg, the error the joint benchmark scores as 1 (as 20 %
     # of stiffness is, which JointRewardWeights.stiffness = 5 prices alike); angular velocity per
     # 5 rad/s and joint stiffness per 1 N m/rad in the observation
