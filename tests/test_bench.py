@@ -275,3 +275,31 @@ def test_reference_oracle_score_is_current_on_nominal_v1():
 
     m, _ = run_suite("oracle", "nominal-v1")
     assert m["score"] == pytest.approx(REFERENCE_SCORES["nominal-v1"][1], rel=1e-9)
+
+
+def test_bench_skips_a_controller_the_env_does_not_take_and_says_so(capsys):
+    """The rig's MPC cannot drive the joint: the pair is skipped with a note, the rest runs."""
+    import json
+
+    from cepam_gym.bench.cli import main
+
+    assert (
+        main(
+            [
+                "--controller",
+                "zero",
+                "--controller",
+                "mpc",
+                "--suite",
+                "joint-v1",
+                "--episodes",
+                "1",
+                "--json",
+            ]
+        )
+        == 0
+    )
+    out, err = capsys.readouterr()
+    rows = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+    assert [r["controller"] for r in rows] == ["zero"] and rows[0]["suite"] == "joint-v1"
+    assert "skipped mpc on joint-v1" in err

@@ -172,6 +172,11 @@ class InverseStaticController:
         return action[0] if single else action
 
 
+class UnsupportedEnvError(TypeError):
+    """A controller was asked to drive an env it is not built for (the rig's model-based
+    controllers on the joint): the benchmark skips such pairs and says so."""
+
+
 def core_of(env):
     """The :class:`~cepam_gym.envs.core.CEPAMBatch` inside a rig env (single, vector, wrapped or
     the SB3 adapter): its task, observation layout, nominal plant and timing. ``TypeError`` when
@@ -179,7 +184,7 @@ def core_of(env):
     and task do not apply; its controller is ``joint_baseline``)."""
     core = find_core(env)
     if getattr(core, "MECH", pl.RIG) != pl.RIG:
-        raise TypeError(
+        raise UnsupportedEnvError(
             "this controller drives the rig envs only; on the joint env use 'baseline' "
             "(make_controller resolves it to joint_baseline), 'zero' or 'random'"
         )
