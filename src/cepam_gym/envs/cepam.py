@@ -281,20 +281,23 @@ class CEPAMEnv(gym.Env, EzPickle):
             self.render()
         return self._obs_row.copy(), reward, reason != 0, False, info
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
-            return None
+    def _frame(self):
+        """The current frame of env 0 (RGB array); the joint env draws its own."""
         if self.renderer == "mujoco":
             if self._mujoco is None:
                 from ..mujoco.rig import RigRenderer
 
                 self._mujoco = RigRenderer()
-            frame = self._mujoco.render_core(self.core, 0)
-        else:
-            from .render import draw
+            return self._mujoco.render_core(self.core, 0)
+        from .render import draw
 
-            frame = draw(self.core, 0)
+        return draw(self.core, 0)
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
+            return None
+        frame = self._frame()
         if self.render_mode == "rgb_array":
             return frame
         if self._renderer is None:

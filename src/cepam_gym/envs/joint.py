@@ -430,23 +430,11 @@ class CEPAMJointV1Env(CEPAMEnv):
     def _fast_info(self) -> dict[str, Any]:
         return self.core.info_single(True)
 
-    def render(self):
-        if self.render_mode is None:
-            import gymnasium as gym
-
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array'")
-            return None
+    def _frame(self):
+        """The v0 MuJoCo model posed at env 0's angle (nothing is simulated in MuJoCo)."""
         if self._mujoco is None:
             self._mujoco = _Frames(self.core)
-        frame = self._mujoco.frame(0)
-        if self.render_mode == "rgb_array":
-            return frame
-        if self._renderer is None:
-            from ..viewer import FrameWindow
-
-            self._renderer = FrameWindow(frame.shape)
-        self._renderer.show(frame)
-        return None
+        return self._mujoco.frame(0)
 
 
 class CEPAMJointVectorEnv(CEPAMVectorEnv):
