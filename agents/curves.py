@@ -55,9 +55,15 @@ def run_config(algorithm: str, env_id: str, seed: int, minutes: float):
         raise ConfigError(f"unknown algorithm {algorithm!r}; choose from {list(CONFIG_OF)}")
     if env_id not in SUITE_OF:
         raise ConfigError(f"unknown env id {env_id!r}; choose from {list(SUITE_OF)}")
+    import yaml
+
+    from .config import resolve_config_path
+
     cfg = load_config(CONFIG_OF[algorithm])
     suite = SUITE_OF[env_id]
-    own = {k: v for k, v in cfg.env.kwargs.items() if k == "num_threads"}
+    # the config's own env kwargs (its resolved ones also hold its default suite's), over this suite's
+    raw = yaml.safe_load(resolve_config_path(CONFIG_OF[algorithm]).read_text())
+    own = (raw.get("env") or {}).get("kwargs") or {}
     env = EnvConfig.parse({"id": env_id, "num_envs": cfg.env.num_envs, "suite": suite, "kwargs": own})
     ev = EvalConfig(cfg.eval.every_steps, cfg.eval.episodes, suite, cfg.eval.seed)
     return cfg.replace(env=env, eval=ev, seed=int(seed), time_limit_minutes=float(minutes))

@@ -62,14 +62,15 @@ class Features:
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None
         # privileged columns (training: a PrivilegedView of the env; deployed: NaN)
-        self.privileged = None
+        self.privileged = None  # the view the columns are read from: set for training only
         self.priv_dim = 0
         if cfg.privileged_critic:
             from cepam_gym.control.baseline import core_of
 
             from .privileged import PrivilegedView
 
-            self.priv_dim = PrivilegedView(core_of(env)).dim
+            self._view = PrivilegedView(core_of(env))
+            self.priv_dim = self._view.dim
         self.actor_dim = self.frame_dim * cfg.history
         self.dim = self.actor_dim + self.priv_dim
         self._priv_last: np.ndarray | None = None  # the rows before the latest autoreset
@@ -276,10 +277,6 @@ def make_agent_vec_env(venv, cfg: AgentConfig):
     features = Features(venv, cfg, venv.observation_space.shape[0])
     if features.trivial:
         return venv
-    if features.priv_dim:
-        from cepam_gym.control.baseline import core_of
-
-        from .privileged import PrivilegedView
-
-        features.privileged = PrivilegedView(core_of(venv))
+    if features.priv_dim:  # training: the privileged columns come from this env
+        features.privileged = features._view
     return AgentVecEnv(venv, features)
