@@ -1,0 +1,103 @@
+"""Reference trajectories of plant v1 and the v1 env ids, recorded once and compared bit for bit by
+``tests/test_golden_v1.py``: a restructuring (or a speed-up) must leave them as they are.
+``python tests/golden_v1.py`` re-records, only when a change of v1 behaviour is intended and named
+in the commit (a behaviour change belongs in a new version: v2 ids and presets).
+
+What is covered: the plant kernel (both v1 presets, every valve mode, friction on; the hinge
+mechanics through the joint id); every v1 id, single and native vector env, every action mode, with short
+episodes so that resets (reference planning, randomized plants, redraws) are inside the record;
+sensor noise, supply drift and action latency (the randomized-v1 suite's kwargs); the info values
+the benchmark reads."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+GOLDEN = Path(__file__).parent / "data" / "golden_v1.npz"
+RIG_IDS = ("cepam_gym/CEPAM-v1", "cepam_gym/CEPAMLength-v1", "cepam_gym/CEPAMStiffness-v1")
+JOINT_ID = "cepam_gym/CEPAMJoint-v1"
+MODES = ("valve", "pwm", "pressure")
+N_STEPS = 120
+# 1.2 s episodes: a reset every 60 steps, so two planned references per recorded env
+SHORT = {"episode_seconds": 1.2}
+EPISODE_STEPS = 60
+# the randomized-v1 suite's plant spread, noise and drift, plus a latency (a kwarg no suite uses)
+ROBUST = {"supply_drift_kpa": 5.0, "sensor_noise": {"length_mm": 0.1, "pressure_kpa": 0.5}}
+INFO_KEYS = ("length", "pressure_c", "pressure_e", "stiffness", "target_length", "target_stiffness")
+
+
+def plant_trajectories() -> dict[str, np.ndarray]:
+    """The plant kernel alone, fixed inputs: each v1 preset and valve mode, 18 plants in 2 blocks."""
+    from cepam_gym import plant as pl
+    from cepam_gym import preset
+
+    out = {}
+    rng = np.random.default_rng(4321)
+    for name in ("balloon", "rubber_tube"):
+        p = preset(name).to_array()[None]
+        for mode_name, mode in pl.MODES.items():
+            n = 18
+            x = pl.initial_state(p, np.linspace(0.152, 0.19, n), 60e3, 40e3)
+            rows = []
+            for k in range(N_STEPS // 2):
+                inp = np.zeros((n, pl.N_INPUT))
+                u = rng.uniform(-1, 1, (n, 2))
+                inp[:, :2] = (u + 1) * 120e3 if mode == pl.PRESSURE else u
+                inp[:, pl.I_LOAD] = 0.1 + 0.05 * np.sin(0.1 * k + np.arange(n))
+                x, aux = pl.step(x, inp, p, mode)
+                rows.append(np.concatenate([x, aux], axis=1))
+            out[f"plant/{name}/{mode_name}"] = np.stack(rows)
+    return out
+
+
+def _info_row(info: dict) -> list[float]:
+    return [float(info[k]) for k in INFO_KEYS if k in info]
+
+
+def env_trajectories() -> dict[str, np.ndarray]:
+    """Each v1 id and action mode: a single env and a 12-env vector env, seeded, random actions,
+    short episodes; the rig ids also with the randomized-v1 spread, noise, drift and latency."""
+    import gymnasium as gym
+
+    import cepam_gym  # noqa: F401
+    from cepam_gym.bench.suites import SUITES
+
+    randomized = dict(SUITES["randomized-v1"].env_kwargs)
+    out = {}
+    for env_id in (*RIG_IDS, JOINT_ID):
+        variants = {"nominal": dict(SHORT)}
+        if env_id != JOINT_ID:
+            variants["robust"] = {**SHORT, **randomized, **ROBUST, "action_latency_steps": 1}
+        for variant, kwargs in variants.items():
+            for mode in MODES:
+                env = gym.make(env_id, action_mode=mode, max_episode_steps=EPISODE_STEPS, **kwargs)
+                obs, info = env.reset(seed=7)
+                rng = np.random.default_rng(99)
+                rows = []
+                for _ in range(N_STEPS):
+                    obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+                    rows.append(np.concatenate([obs, [r, float(term), float(trunc)], _info_row(info)]))
+                    if term or trunc:
+                        obs, info = env.reset()
+                        rows.append(np.concatenate([obs, [0.0, 0.0, 0.0], _info_row(info)]))
+                out[f"single/{env_id}/{variant}/{mode}"] = np.array(rows)
+                venv = gym.make_vec(
+                    env_id, num_envs=12, action_mode=mode, max_episode_steps=EPISODE_STEPS, **kwargs
+                )
+                obs, _ = venv.reset(seed=11)
+                rows = []
+                for _ in range(N_STEPS):
+                    obs, r, term, trunc, info = venv.step(rng.uniform(-1, 1, (12, 2)).astype(np.float32))
+                    rows.append(np.concatenate([obs, r[:, None], term[:, None], trunc[:, None]], axis=1))
+                out[f"vector/{env_id}/{variant}/{mode}"] = np.stack(rows)
+                venv.close()
+    return out
+
+
+if __name__ == "__main__":
+    data = {**plant_trajectories(), **env_trajectories()}
+    GOLDEN.parent.mkdir(exist_ok=True)
+    np.savez_compressed(GOLDEN, **data)
+    print(f"wrote {len(data)} trajectories to {GOLDEN}")
