@@ -9,7 +9,7 @@ control steps per second (N * calls / time) and the batching speed-up, i.e. the 
 throughput relative to N = 1. There is no separate "pure numpy" reference: the honest
 comparison available in the same run is the batch against the single plant.
 
-Batches of ``plant._PARALLEL_MIN_BATCH`` or more use the ``prange`` kernel; if another process
+Batches of ``plant.PARALLEL_MIN_BATCH`` or more use the ``prange`` kernel; if another process
 keeps a CPU busy its threads wait for the scheduler and a call can take milliseconds, so the load
 average is printed too. Every batch size runs the structure-of-arrays block kernel
 (``plant.advance_block``, ``plant.BLOCK`` plants per SIMD block); ``--threads 1`` gives the
@@ -35,7 +35,7 @@ import numba
 import numpy as np
 
 from cepam_gym import plant
-from cepam_gym.params import PlantParams, preset
+from cepam_gym.plant.params import PlantParams, preset
 
 DT = 5e-4
 N_SUB = 40
@@ -128,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(
         f"# numba {numba.__version__}, {numba.get_num_threads()} threads "
-        f"(parallel kernel for N >= {plant._PARALLEL_MIN_BATCH}), {os.cpu_count()} CPUs, "
+        f"(parallel kernel for N >= {plant.PARALLEL_MIN_BATCH}), {os.cpu_count()} CPUs, "
         f"{platform.processor() or platform.machine()}, Python {platform.python_version()}"
     )
     rows = [measure(n, args.seconds) for n in args.sizes]

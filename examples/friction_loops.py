@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cepam_gym.params import PlantParams
 from cepam_gym.physics import api
 from cepam_gym.physics.friction import friction_force, friction_slip
+from cepam_gym.plant.params import PlantParams
 
 
 def loop(params: PlantParams, pc: float, pe: float, amplitude: float = 3e-3, n: int = 600):

@@ -20,7 +20,7 @@ def plant_trajectories() -> dict[str, np.ndarray]:
     The keys keep the names the presets had when recorded ("balloon" is now ``balloon_v0``,
     "rubber_tube" ``rubber_tube_v0``; plant v1 took the old names)."""
     from cepam_gym import plant as pl
-    from cepam_gym.params import preset
+    from cepam_gym.plant.params import preset
 
     out = {}
     rng = np.random.default_rng(1234)

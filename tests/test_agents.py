@@ -326,7 +326,7 @@ def test_residual_features_terminal_obs_and_peek():
     import gymnasium as gym
 
     from cepam_gym.control import InverseStaticController
-    from cepam_gym.envs.sb3 import make_sb3_vec_env
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
     from cepam_gym_agents.config import AgentConfig
     from cepam_gym_agents.features import Features, make_agent_vec_env
 

@@ -110,7 +110,7 @@ def _find_cycle(graph: dict[str, dict[str, int]]) -> list[str] | None:
 
 def test_the_graph_reader_sees_imports_inside_functions():
     # the check below is only as good as this reader: a known import inside a function
-    assert "cepam_gym.control" in _graph()["cepam_gym.mujoco.video"]
+    assert "cepam_gym.control" in _graph()["cepam_gym.video"]
     assert "cepam_gym.mujoco.rig" in _graph()["cepam_gym.envs.cepam"]  # inside render()
     assert _find_cycle({"a": {"b": 1}, "b": {"c": 1}, "c": {"a": 1}}) == ["a", "b", "c", "a"]
     assert _find_cycle({"a": {"b": 1}, "b": {}}) is None
@@ -154,9 +154,10 @@ def test_no_module_path_of_the_training_code_in_the_library():
     assert not bad, bad
 
 
-def test_nothing_imports_the_sb3_adapter_but_its_old_path():
+def test_nothing_in_the_library_imports_the_sb3_adapter():
+    """The adapter imports stable-baselines3; it is imported only by its users."""
     users = [n for n, edges in _graph().items() if "cepam_gym.integrations.sb3" in edges]
-    assert users == ["cepam_gym.envs.sb3"]
+    assert users == []
 
 
 def test_importing_the_library_loads_no_torch_and_no_training_code():
@@ -175,63 +176,58 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
 
 
 # --------------------------------------------------------------------------- layers
-# Each module's layer by its longest matching name prefix; a module imports nothing of a higher
-# layer. The MuJoCo modules sit where their job is: the coupling beside the plant, the joint's
-# task beside the tasks, the rig renderer and the joint env with the envs, ``cepam-gym video`` on top.
-LAYERS = {
-    "foundation": (
-        "cepam_gym._jit",
-        "cepam_gym.units",
-        "cepam_gym.registration",
-        "cepam_gym.viewer",
-        "cepam_gym.mujoco._mj",
-    ),
-    "physics": ("cepam_gym.physics",),
-    "plant": ("cepam_gym", "cepam_gym.params", "cepam_gym.plant", "cepam_gym.mujoco.coupling"),
-    "tasks": ("cepam_gym.tasks", "cepam_gym.mujoco.joint_task"),
-    "envs": (
-        "cepam_gym.envs",
-        "cepam_gym.mujoco.rig",
-        "cepam_gym.mujoco.joint",
-        "cepam_gym.mujoco.joint_sim",
-        "cepam_gym.mujoco.joint_view",
-    ),
-    "control": ("cepam_gym.control",),
-    "bench": ("cepam_gym.bench",),
-    "top": (
-        "cepam_gym.cli",
-        "cepam_gym.demo",
-        "cepam_gym.validation",
-        "cepam_gym.integrations",
-        "cepam_gym.rllib",
-        "cepam_gym.mujoco",
-        "cepam_gym.mujoco.video",
-    ),
-}
-ORDER = list(LAYERS)
-# upward imports that are the point of a module, each with its reason
-UPWARD_OK = {
-    ("cepam_gym.envs.sb3", "cepam_gym.integrations.sb3"): "the adapter's old import path, kept as an alias",
-}
+# The folders are the layers, bottom-up; a module imports nothing of a higher layer, and a module
+# of a folder imports nothing of a folder above its own. The package root's own modules are either
+# foundations (imported by everything) or applications on top (the CLI and its commands).
+FOLDER_LAYERS = (
+    "physics",  # pure functions over parameter rows: no state layout, no RNG, no reward
+    "plant",  # parameters, state layout, the sub-step and its compiled kernels, the MuJoCo coupling
+    "tasks",  # references, loads, observation layouts, reward terms, termination; the joint's task
+    "mujoco",  # rendering and the MuJoCo reference simulations only
+    "envs",  # the Gymnasium API, single and batched: the rig's and both joints'
+    "control",  # every controller behind one protocol and a registry
+    "bench",  # suites, metrics, the harness
+    "validation",  # the paper's experiments, calibration
+    "integrations",  # adapters to SB3 and RLlib
+)
+ROOT_FOUNDATION = {"_jit", "units", "registration", "viewer", "_cli_errors", "run_summary"}
+ROOT_TOP = {"cli", "demo", "video", "rllib"}
+LAYERS = ["foundation", *FOLDER_LAYERS, "top"]
+# the package's face (``cepam_gym/__init__``: the PlantParams re-export and the registration)
+FACE = PKG
+
+
+def _folder_layer(name: str) -> str:
+    parts = name.split(".")
+    if name == FACE:
+        return "top"
+    if len(parts) == 2 or (len(parts) > 2 and parts[1] not in FOLDER_LAYERS):
+        top = parts[1]
+        assert top in ROOT_FOUNDATION | ROOT_TOP | set(FOLDER_LAYERS), (
+            f"{name}: a module at the package root must be named in ROOT_FOUNDATION or ROOT_TOP "
+            "of tests/test_architecture.py, or live in one of the layer folders"
+        )
+        return "foundation" if top in ROOT_FOUNDATION else "top" if top in ROOT_TOP else top
+    return parts[1]
 
 
 def _layer(name: str) -> str:
-    best, layer = -1, None
-    for lay, prefixes in LAYERS.items():
-        for p in prefixes:
-            if (name == p or name.startswith(p + ".")) and len(p) > best:
-                best, layer = len(p), lay
-    assert layer is not None, f"{name}: give it a layer in tests/test_architecture.py LAYERS"
-    return layer
+    return _folder_layer(name)
 
 
 def _upward(name: str, graph) -> list[str]:
-    rank = ORDER.index(_layer(name))
+    rank = LAYERS.index(_layer(name))
     return [
         f"{name} ({_layer(name)}) imports {t} ({_layer(t)}) at line {line}"
         for t, line in sorted(graph[name].items())
-        if ORDER.index(_layer(t)) > rank and (name, t) not in UPWARD_OK
+        if LAYERS.index(_layer(t)) > rank
     ]
+
+
+def test_the_folders_are_the_layers():
+    """Every folder of the package is a layer (a new folder must be placed in FOLDER_LAYERS)."""
+    folders = {p.name for p in (SRC / PKG).iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert folders - {"data", "presets"} == set(FOLDER_LAYERS)
 
 
 def test_every_module_has_a_layer():
@@ -239,10 +235,11 @@ def test_every_module_has_a_layer():
         _layer(name)
 
 
-@pytest.mark.parametrize("layer", [lay for lay in ORDER if lay != "top"])
+@pytest.mark.parametrize("layer", [lay for lay in LAYERS if lay != "top"])
 def test_layers_import_only_downward(layer):
-    """physics imports nothing above it; plant nothing of tasks, envs, control, bench; tasks nothing
-    of envs, control, bench; envs (the joint env included) nothing of control or bench."""
+    """physics imports nothing above it; plant nothing of tasks, mujoco, envs...; tasks nothing of
+    mujoco, envs, control...; mujoco nothing of envs or control; envs (both joints included) nothing
+    of control, bench or integrations. Imports inside functions count."""
     graph = _graph()
     bad = [v for name in MODULES if _layer(name) == layer for v in _upward(name, graph)]
     assert not bad, bad

@@ -153,7 +153,7 @@ def test_joint_suite_needs_mujoco_only_when_used():
             "from cepam_gym.bench import harness, cli, report\n"
             "from cepam_gym.bench.suites import SUITES, available\n"
             "assert 'joint' in SUITES and not available('joint') and available('nominal')\n"
-            "assert 'cepam_gym.mujoco.joint' not in sys.modules\n",
+            "assert 'cepam_gym.envs.joint_mujoco' not in sys.modules\n",
         ],
         capture_output=True,
         text=True,
@@ -199,7 +199,7 @@ def test_joint_reward_weighs_angle_and_stiffness_like_its_score():
     import math
 
     from cepam_gym.bench.metrics import JOINT
-    from cepam_gym.mujoco.joint_task import JointRewardWeights, JointTask
+    from cepam_gym.tasks.joint import JointRewardWeights, JointTask
 
     w = JointRewardWeights()
     per_score_unit_angle = w.angle * math.radians(JOINT.score_norm) / JointTask().scales.tracking_unit

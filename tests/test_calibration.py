@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from cepam_gym import validation as cal
-from cepam_gym.params import PlantParams, preset
+from cepam_gym.plant.params import PlantParams, preset
 from cepam_gym.validation import Experiment, load_experiments, simulate
 from cepam_gym.validation.cli import calibrate_main
 

@@ -155,7 +155,7 @@ def test_rig_envs_are_told_apart_without_importing_mujoco():
         "from cepam_gym.control import make_controller, InverseStaticController\n"
         "env = gym.make('cepam_gym/CEPAM-v0')\n"
         "assert type(make_controller('baseline', env)) is InverseStaticController\n"
-        "assert 'cepam_gym.mujoco.joint' not in sys.modules\n"
+        "assert 'cepam_gym.envs.joint_mujoco' not in sys.modules\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr

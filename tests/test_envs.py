@@ -290,7 +290,7 @@ def test_import_does_not_import_torch():
 
 def test_sb3_vec_env_adapter_steps_and_reports_terminal_obs():
     pytest.importorskip("stable_baselines3")
-    from cepam_gym.envs.sb3 import make_sb3_vec_env
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
 
     venv = make_sb3_vec_env("cepam_gym/CEPAMLength-v0", num_envs=4, seed=0, max_episode_steps=10)
     obs = venv.reset()

@@ -19,9 +19,9 @@ import pytest
 
 import cepam_gym  # noqa: F401  (registers the ids)
 from cepam_gym.envs.joint import CEPAMJointV1Env, CEPAMJointVectorEnv
-from cepam_gym.mujoco.joint_task import JointGeometry
-from cepam_gym.params import PlantParams
 from cepam_gym.physics import api
+from cepam_gym.plant.params import PlantParams
+from cepam_gym.tasks.joint import JointGeometry
 
 if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
     os.environ["MUJOCO_GL"] = "egl"  # headless; must be set before mujoco is imported
@@ -40,7 +40,7 @@ def mujoco():
 
 
 def _pair(mode):
-    from cepam_gym.mujoco.joint import CEPAMJointEnv
+    from cepam_gym.envs.joint_mujoco import CEPAMJointEnv
 
     v1 = CEPAMJointV1Env(action_mode=mode, preview_steps=10)
     ref = CEPAMJointEnv(plant="balloon", action_mode=mode)  # the same plant (v1) in MuJoCo
@@ -237,7 +237,7 @@ def test_step_set_points_are_reachable_through_the_mechanism_map():
     at every step the inverse static model holds the target angle and joint stiffness under that
     step's external torque (and the link's weight at the target angle) with pressures inside the
     task's margin."""
-    from cepam_gym.params import pressure_cap_of
+    from cepam_gym.plant.params import pressure_cap_of
 
     env = gym.make_vec(ID, num_envs=6, task="joint", randomize={"end_mass_g": [15, 25]})
     env.reset(seed=4)

@@ -17,7 +17,7 @@ import pytest
 import cepam_gym
 from cepam_gym import plant as pl
 from cepam_gym.control.joint_baseline import JointInverseStaticController
-from cepam_gym.mujoco.joint import CEPAMJointEnv
+from cepam_gym.envs.joint_mujoco import CEPAMJointEnv
 from cepam_gym.mujoco.rig import RigRenderer, RigSimulator
 from cepam_gym.physics import api
 from cepam_gym.physics import layout as ix

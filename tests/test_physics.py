@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from cepam_gym.params import FORCE_FORMS, FORCE_MODELS, PlantParams, preset
 from cepam_gym.physics import api, load, muscle, valve
+from cepam_gym.plant.params import FORCE_FORMS, FORCE_MODELS, PlantParams, preset
 
 # The paper's equations as the paper writes them: equal braid angles (Eq. 6-7 and the 0.325 of
 # Eq. 24 hold exactly) and no bladder elasticity (the paper has none). The default plant differs in

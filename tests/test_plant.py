@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from cepam_gym import plant
-from cepam_gym.params import PlantParams, preset, preset_names
 from cepam_gym.physics import api, layout
+from cepam_gym.plant.params import PlantParams, preset, preset_names
 
 BASE = preset("balloon_v0")  # the v0 plant these tests were written for; plant v1: test_plant_v1.py
 
@@ -202,8 +202,8 @@ def _random_batch(n, rng):
 @pytest.mark.parametrize("mode", [plant.PROPORTIONAL, plant.ONOFF, plant.PRESSURE])
 @pytest.mark.parametrize("per_plant", [True, False])
 def test_batch_equals_singles_bit_for_bit(mode, per_plant):
-    n = plant._PARALLEL_MIN_BATCH + 8
-    assert n >= plant._PARALLEL_MIN_BATCH  # the prange kernel runs for the batch
+    n = plant.PARALLEL_MIN_BATCH + 8
+    assert n >= plant.PARALLEL_MIN_BATCH  # the prange kernel runs for the batch
     rng = np.random.default_rng(7 + mode)
     P = _random_batch(n, rng) if per_plant else BASE.to_array()[None]
     L0 = rng.uniform(0.155, 0.19, n)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from cepam_gym import plant
-from cepam_gym.params import FORCE_FORMS, FORCE_MODELS, PlantParams
 from cepam_gym.physics import api
 from cepam_gym.physics import layout as ix
+from cepam_gym.plant.params import FORCE_FORMS, FORCE_MODELS, PlantParams
 
 # a v1 parameter set written out here (independent of the shipped presets' fitted values)
 V1 = PlantParams().replace(
@@ -402,7 +402,7 @@ def test_v0_ids_keep_the_v0_plant_and_an_explicit_plant_wins():
     import gymnasium as gym
 
     import cepam_gym  # noqa: F401
-    from cepam_gym.params import preset
+    from cepam_gym.plant.params import preset
 
     v0 = preset("balloon_v0")
     assert (v0.braid_tension, v0.bladder_model, v0.friction_coefficient) == ("bidirectional", "spring", 0.0)
@@ -425,8 +425,9 @@ def test_a_layout_change_drops_the_numba_caches(tmp_path, monkeypatch):
 
     pkg = tmp_path / "pkg"
     (pkg / "physics").mkdir(parents=True)
+    (pkg / "plant").mkdir()
     (pkg / "__pycache__").mkdir()
-    shutil.copy(_jit._PKG / "plant.py", pkg / "plant.py")
+    shutil.copy(_jit._PKG / "plant" / "layout.py", pkg / "plant" / "layout.py")
     shutil.copy(_jit._PKG / "physics" / "layout.py", pkg / "physics" / "layout.py")
     monkeypatch.setattr(_jit, "_PKG", pkg)
     _jit._drop_stale_caches()  # first stamp
@@ -437,4 +438,11 @@ def test_a_layout_change_drops_the_numba_caches(tmp_path, monkeypatch):
     with (pkg / "physics" / "layout.py").open("a") as fh:
         fh.write("\nNEW_COLUMN = 999\n")
     _jit._drop_stale_caches()
-    assert not cached.exists()  # a new layout: cached kernels dropped
+    assert not cached.exists()  # a new parameter layout: cached kernels dropped
+    cached.write_text("x")
+    _jit._drop_stale_caches()
+    assert cached.exists()
+    with (pkg / "plant" / "layout.py").open("a") as fh:
+        fh.write("\nS_NEW = 99\n")
+    _jit._drop_stale_caches()
+    assert not cached.exists()  # a new state layout: dropped too

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cepam_gym.params import PlantParams
+from cepam_gym.plant.params import PlantParams
 from cepam_gym.tasks import TASKS
 from cepam_gym.tasks.references import (
     min_jerk,

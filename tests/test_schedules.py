@@ -8,8 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cepam_gym.params import preset
 from cepam_gym.physics import layout as ix
+from cepam_gym.plant.params import preset
 from cepam_gym.tasks import TASKS
 from cepam_gym.tasks import schedules as S
 

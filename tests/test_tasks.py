@@ -10,7 +10,7 @@ import pytest
 
 import cepam_gym  # noqa: F401
 from cepam_gym.control import InverseStaticController
-from cepam_gym.params import PlantParams, pressure_cap_of
+from cepam_gym.plant.params import PlantParams, pressure_cap_of
 from cepam_gym.tasks import OBS_FIELDS, TASKS, TERMINATION_REASONS, ObsColumn, ObsLayout, rig_layout
 from cepam_gym.tasks import kernel as tk
 

@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from cepam_gym import validation as v
-from cepam_gym.params import PlantParams, preset
+from cepam_gym.plant.params import PlantParams, preset
 from cepam_gym.validation.cli import validate_main
 
 # The paper's plain text is not part of the project (its copyright is the authors'); a reader who

@@ -116,7 +116,7 @@ def test_gymnasium_vector_wrappers_run_on_it():
 
 def test_sb3_adapter_keeps_terminal_observation_semantics():
     pytest.importorskip("stable_baselines3")
-    from cepam_gym.envs.sb3 import SB3VecEnv, make_sb3_vec_env
+    from cepam_gym.integrations.sb3 import SB3VecEnv, make_sb3_vec_env
 
     env = make_sb3_vec_env(ID, num_envs=2, seed=0, monitor=False, max_episode_steps=3)
     env.reset()

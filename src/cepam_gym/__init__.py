@@ -5,7 +5,7 @@
 imports torch or stable-baselines3.
 """
 
-from .params import PlantParams, preset
+from .plant.params import PlantParams, preset
 from .registration import ENV_IDS, register_envs
 
 __version__ = "0.1.0"

@@ -6,7 +6,6 @@ machine code on disk beside the sources, so a second process starts in well unde
 """
 
 import hashlib
-import re
 from pathlib import Path
 
 from llvmlite import ir
@@ -18,18 +17,13 @@ _PKG = Path(__file__).parent
 
 def _drop_stale_caches() -> None:
     """Numba's on-disk cache is keyed by each function's own source file, not by the module
-    constants it inlined. The column layouts (``physics/layout.py``, the state columns of
-    ``plant.py``) are such constants, used by kernels in other files (``tasks/kernel.py``...): after
-    a layout change those would load machine code with the old indices. So the layouts' text is
-    stamped, and every cached kernel of the package is dropped when it changes (best effort: a
-    read-only install keeps its caches, which were built with its own layouts)."""
+    constants it inlined. The column layouts (``physics/layout.py``, ``plant/layout.py``) are such
+    constants, used by kernels in other files (``tasks/kernel.py``...): after a layout change those
+    would load machine code with the old indices. So the layouts' text is stamped, and every cached
+    kernel of the package is dropped when it changes (best effort: a read-only install keeps its
+    caches, which were built with its own layouts)."""
     try:
-        plant_src = (_PKG / "plant.py").read_text()
-        text = (_PKG / "physics" / "layout.py").read_text() + "\n".join(
-            re.findall(
-                r"^(?:STATE_FIELDS|S_L|N_STATE|AUX_FIELDS|N_AUX|INPUT_FIELDS|N_INPUT).*$", plant_src, re.M
-            )
-        )
+        text = (_PKG / "physics" / "layout.py").read_text() + (_PKG / "plant" / "layout.py").read_text()
         stamp = hashlib.sha1(text.encode()).hexdigest()
         path = _PKG / "__pycache__" / "numba_layout.stamp"
         if path.exists() and path.read_text() == stamp:

@@ -212,7 +212,7 @@ def _dispatch(argv: list[str]) -> int:
         "demo": "cepam_gym.demo",
         "validate": "cepam_gym.validation.cli:validate_main",
         "bench": "cepam_gym.bench.cli",
-        "video": "cepam_gym.mujoco.video",
+        "video": "cepam_gym.video",
         "calibrate": "cepam_gym.validation.cli:calibrate_main",
     }
     plugins = ("train", "eval")

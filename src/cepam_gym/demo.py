@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import plant
-from .params import PlantParams, preset, preset_names
+from .plant.params import PlantParams, preset, preset_names
 
 DT = 5e-4  # s, plant sub-step
 N_SUB = 40  # sub-steps per control step: 50 Hz control

@@ -22,7 +22,7 @@ ENV_IDS: dict[str, dict] = {
 MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
 # ids that need the [mujoco] extra (imported only by gym.make): not in ENV_IDS, which lists the
 # rig envs with native vector entry points
-MUJOCO_ENV_IDS = {"cepam_gym/CEPAMJoint-v0": "cepam_gym.mujoco.joint:CEPAMJointEnv"}
+MUJOCO_ENV_IDS = {"cepam_gym/CEPAMJoint-v0": "cepam_gym.envs.joint_mujoco:CEPAMJointEnv"}
 # the joint on the batched kernel (MuJoCo only to render): id -> (entry point, vector entry point,
 # default kwargs)
 JOINT_ENV_IDS: dict[str, tuple[str, str, dict]] = {

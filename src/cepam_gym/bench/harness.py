@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-import cepam_gym  # noqa: F401  (registers the ids)
-
 from ..control import make_controller
 from ..control.trivial import RandomController, ZeroController  # noqa: F401  (their old home)
 from .metrics import RIG, TraceSpec, score_traces

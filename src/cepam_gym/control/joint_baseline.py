@@ -1,14 +1,14 @@
 """The inverse-static baseline of ``cepam_gym/CEPAMJoint-v0``: the rig's baseline through the
-joint's mechanism map (:class:`~cepam_gym.mujoco.joint_task.JointGeometry`). Needs no MuJoCo:
+joint's mechanism map (:class:`~cepam_gym.tasks.joint.JointGeometry`). Needs no MuJoCo:
 it reads the env's nominal plant, geometry and observation layout."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..mujoco.joint_task import JointGeometry
 from ..physics import api
 from ..physics import layout as ix
+from ..tasks.joint import JointGeometry
 from .baseline import InverseStaticController
 
 

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
-from ..params import PlantParams, preset
 from ..physics import api
 from ..physics import layout as ix
+from ..plant.params import PlantParams, preset
 from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
 from ..tasks.layout import rig_layout

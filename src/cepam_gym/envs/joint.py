@@ -1,6 +1,6 @@
 """``cepam_gym/CEPAMJoint-v1``: the CE-PAM hinge on the batched kernel (single and vector env).
 
-The same hinge as ``cepam_gym/CEPAMJoint-v0`` (:mod:`cepam_gym.mujoco.joint`, which MuJoCo
+The same hinge as ``cepam_gym/CEPAMJoint-v0`` (:mod:`cepam_gym.envs.joint_mujoco`, which MuJoCo
 integrates), here integrated by the plant's own block kernel: :func:`cepam_gym.plant.advance_block_hinge`
 runs the hinge as the rig's load step in muscle coordinates (:mod:`cepam_gym.physics.hinge`), and
 the task kernel (:func:`cepam_gym.tasks.kernel.env_step`) scores it through the mechanism map
@@ -18,7 +18,11 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
-from ..mujoco.joint_task import (
+from ..physics import api
+from ..physics import layout as ix
+from ..plant.params import pressure_cap_of
+from ..tasks import kernel as tk
+from ..tasks.joint import (
     JointGeometry,
     JointRewardWeights,
     JointTask,
@@ -26,10 +30,6 @@ from ..mujoco.joint_task import (
     joint_layout,
     joint_planned_schedules,
 )
-from ..params import pressure_cap_of
-from ..physics import api
-from ..physics import layout as ix
-from ..tasks import kernel as tk
 from ..tasks.spec import check_kwargs
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
 from .core import CEPAMBatch
@@ -132,7 +132,7 @@ class JointBatch(CEPAMBatch):
 
     # ------------------------------------------------------------------ reset
     def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
-        """:func:`~cepam_gym.mujoco.joint_task.joint_planned_schedules` (the rig's sampler
+        """:func:`~cepam_gym.tasks.joint.joint_planned_schedules` (the rig's sampler
         through the joint's mechanism map, then the references)."""
         return joint_planned_schedules(
             rngs, self.task, self.geometry, rows, self._nominal_row, self.n_steps, self.control_dt
@@ -158,7 +158,7 @@ class JointBatch(CEPAMBatch):
         """``reset(options=...)`` of every env: ``target_angle`` [rad], ``target_stiffness``
         [N m/rad], ``external_torque`` [N m] pinned for the episode; ``initial_angle`` [rad],
         ``initial_stiffness`` [N m/rad] the starting point (scalars;
-        :func:`~cepam_gym.mujoco.joint_task.apply_reset_options`)."""
+        :func:`~cepam_gym.tasks.joint.apply_reset_options`)."""
         if not options:
             return
         for i in range(self.num_envs):
@@ -263,7 +263,7 @@ class _Frames:
 
     def __init__(self, core: JointBatch, width: int = 480, height: int = 480):
         from ..mujoco._mj import require_mujoco
-        from ..mujoco.joint_task import joint_xml
+        from ..mujoco.joint_sim import joint_xml
         from ..mujoco.joint_view import JointView
         from ..mujoco.rig import geom_ids
 
@@ -333,7 +333,7 @@ _DOC = """
 
     ``Box(-10, 10, (9 + 2 preview_steps,), float32)`` (29 with the registered ``preview_steps=10``):
     the columns are named in ``env.unwrapped.core.obs_layout``
-    (:func:`~cepam_gym.mujoco.joint_task.joint_layout`; ``decode(obs)`` gives them in SI units).
+    (:func:`~cepam_gym.tasks.joint.joint_layout`; ``decode(obs)`` gives them in SI units).
 
     | # | observation | scaling |
     |---|---|---|
@@ -383,8 +383,8 @@ _DOC = """
     | ``control_dt``, ``sub_dt`` | 0.02, 5e-4 | seconds |
     | ``episode_seconds`` | 10.0 | length of the reference and torque schedule [s] |
     | ``preview_steps`` | 10 (registered) | reference points announced, control steps |
-    | ``joint`` | ``{}`` | override :class:`~cepam_gym.mujoco.joint_task.JointGeometry`: ``lever_arm``, ``link_length``, ``link_mass``, ``link_com`` [m, kg], ``joint_damping`` [N m s/rad] |
-    | ``task_options`` | ``{}`` | override :class:`~cepam_gym.mujoco.joint_task.JointTask`: ``angle_range`` [rad], ``stiffness_range`` [N m/rad], ``torque_range`` [N m], ``load_kinds``, ``segment_duration`` [s], ``pressure_margin``, ``references``, ``move_s`` [s] |
+    | ``joint`` | ``{}`` | override :class:`~cepam_gym.tasks.joint.JointGeometry`: ``lever_arm``, ``link_length``, ``link_mass``, ``link_com`` [m, kg], ``joint_damping`` [N m s/rad] |
+    | ``task_options`` | ``{}`` | override :class:`~cepam_gym.tasks.joint.JointTask`: ``angle_range`` [rad], ``stiffness_range`` [N m/rad], ``torque_range`` [N m], ``load_kinds``, ``segment_duration`` [s], ``pressure_margin``, ``references``, ``move_s`` [s] |
     | ``reward_weights`` | ``{}`` | override any weight above |
     | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, per episode (checked at build; a draw that fails is redrawn, ``info["redraws"]``) |
     | ``sensor_noise`` | ``None`` | as the rig's; ``length_mm`` and ``velocity_mm_s`` act on the angle [1e-3 rad] and its rate [1e-3 rad/s] |

@@ -21,8 +21,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import plant as pl
-from ..params import PlantParams
 from ..physics import layout as ix
+from ..plant.params import PlantParams
 from ..tasks import TaskSpec
 from ..tasks.schedules import stiffness_interval
 

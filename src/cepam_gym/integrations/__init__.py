@@ -5,5 +5,5 @@
 * :mod:`cepam_gym.integrations.rllib`: Ray RLlib env creator with per-runner seeding
   (``register_env``, ``make_env``; the ``[distributed]`` extra).
 
-Their old paths ``cepam_gym.envs.sb3`` and ``cepam_gym.rllib`` still import (the same modules).
+The old path ``cepam_gym.rllib`` still imports (the same module).
 """

@@ -109,8 +109,6 @@ def make_sb3_vec_env(
     """SB3 VecEnv of ``num_envs`` plants of a registered id (``VecMonitor`` records episodes)."""
     import gymnasium as gym
 
-    import cepam_gym  # noqa: F401  (registers the ids)
-
     kwargs.setdefault("autoreset_mode", "same_step")  # SB3's convention (terminal_observation)
     venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
     env = SB3VecEnv(venv.unwrapped if hasattr(venv, "unwrapped") else venv)

@@ -1,4 +1,8 @@
-"""MuJoCo around the CE-PAM: a 3-D view of the paper's rig, episode videos, and a joint it drives.
+"""MuJoCo around the CE-PAM: rendering, and the MuJoCo reference simulations the kernels are
+checked against. Nothing else lives here: the joint's task is :mod:`cepam_gym.tasks.joint`, its
+envs are :mod:`cepam_gym.envs.joint` (batched kernel) and :mod:`cepam_gym.envs.joint_mujoco`
+(``cepam_gym/CEPAMJoint-v0``, in MuJoCo), the plant sub-step with the mechanics handed to MuJoCo is
+:mod:`cepam_gym.plant.coupling`, and ``cepam-gym video`` is :mod:`cepam_gym.video`.
 
 Nothing here imports :mod:`mujoco` at import time (``import cepam_gym`` stays light); the classes
 import it when built and raise an ``ImportError`` naming the extra (``pip install
@@ -6,16 +10,11 @@ import it when built and raise an ``ImportError`` naming the extra (``pip instal
 ``MUJOCO_GL`` is unset and there is no display, ``egl`` is selected before MuJoCo is imported.
 
 * :mod:`cepam_gym.mujoco.rig`: MJCF of the vertical test rig; :class:`~cepam_gym.mujoco.rig.RigRenderer`
-  (``rgb_array`` frames of a :class:`~cepam_gym.envs.core.CEPAMBatch`, used by
+  (``rgb_array`` frames of any object with the env core's arrays, used by
   ``gym.make("cepam_gym/CEPAM-v0", render_mode="rgb_array", renderer="mujoco")``) and
-  :class:`~cepam_gym.mujoco.rig.RigSimulator` (the free end's mechanics run in MuJoCo).
-* :mod:`cepam_gym.mujoco.joint`: ``cepam_gym/CEPAMJoint-v0``, a hinge driven by a CE-PAM through a
-  pinion; :mod:`cepam_gym.mujoco.joint_sim`: the hinge in MuJoCo with the coupled plant;
-  :mod:`cepam_gym.mujoco.joint_view`: its frames; :mod:`cepam_gym.mujoco.joint_task`: its
-  geometry, task, reward weights and scales, observation layout and MJCF (no MuJoCo import). The
-  baseline is :class:`cepam_gym.control.joint_baseline.JointInverseStaticController`.
-* :mod:`cepam_gym.mujoco.video`: ``cepam-gym video``.
-* :mod:`cepam_gym.mujoco.coupling`: the plant sub-step with the length imposed by MuJoCo.
+  :class:`~cepam_gym.mujoco.rig.RigSimulator` (the free end's mechanics run in MuJoCo);
+* :mod:`cepam_gym.mujoco.joint_sim`: the hinge in MuJoCo with the coupled plant, and its MJCF;
+* :mod:`cepam_gym.mujoco.joint_view`: the joint's frames.
 """
 
-__all__ = ["rig", "joint", "joint_sim", "joint_task", "joint_view", "video", "coupling"]
+__all__ = ["joint_sim", "joint_view", "rig"]

@@ -2,9 +2,9 @@
 
 Every plant sub-step: the hinge angle and rate impose the muscle length ``L = L_max - r theta``
 and rate ``-r omega`` (clamped to the end stops), the plant returns its push force
-(:class:`~cepam_gym.mujoco.coupling.PlantLink`), and MuJoCo steps the hinge under the generalized
+(:class:`~cepam_gym.plant.coupling.PlantLink`), and MuJoCo steps the hinge under the generalized
 force ``tau = -r (F + m_end g) - tau_ext`` (gravity of the link, damping, armature and friction
-are in the MJCF, :func:`~cepam_gym.mujoco.joint_task.joint_xml`). docs/mujoco.md derives it.
+are in the MJCF, :func:`~cepam_gym.mujoco.joint_sim.joint_xml`). docs/mujoco.md derives it.
 """
 
 from __future__ import annotations
@@ -14,11 +14,12 @@ import math
 import numpy as np
 
 from .. import plant as pl
-from ..params import pressure_cap_of
 from ..physics import api
 from ..physics import layout as ix
-from .coupling import PlantLink
-from .joint_task import JointGeometry, joint_xml
+from ..plant.coupling import PlantLink
+from ..plant.params import pressure_cap_of
+from ..tasks.joint import JointGeometry
+from ._mj import scene_header
 from .rig import geom_ids
 
 
@@ -105,3 +106,63 @@ class JointSimulator:
             "pressure_c": float(aux[pl.A_PC]),
             "pressure_e": float(aux[pl.A_PE]),
         }
+
+
+JOINT_XML = """
+<mujoco model="cepam_joint">
+  <compiler angle="radian"/>
+  <option timestep="{dt}" integrator="Euler" gravity="0 0 -{g}">
+    <flag energy="enable"/>
+  </option>
+{scene}    <material name="shell" rgba="0.93 0.78 0.62 1" specular="0.2"/>
+  </asset>
+  <default>
+    <geom contype="0" conaffinity="0"/>
+  </default>
+  <worldbody>
+    <light pos="0.3 -0.6 0.9" dir="-0.3 0.6 -0.9" diffuse="0.6 0.6 0.6" castshadow="true"/>
+    <geom name="floor" type="plane" pos="0 0 {floor}" size="0.6 0.6 0.01" material="grid"/>
+    <geom name="upper_arm" type="capsule" fromto="-0.03 0.03 0 -0.03 0.03 {top}" size="0.022" material="shell"/>
+    <geom name="bracket" type="box" pos="-0.002 0.02 {top}" size="0.03 0.02 0.005" material="dark"/>
+    <geom name="plate" type="box" pos="{r} 0 {plate_z}" size="0.022 0.022 0.005" material="dark"/>
+    <geom name="cpam" type="cylinder" pos="{r} 0 0.1" size="0.003 0.08" rgba="1 0.8 0.8 1"/>
+    <geom name="epam" type="cylinder" pos="{r} 0 0.1" size="0.013 0.08" rgba="0.75 0.85 1 0.3"/>
+    <geom name="cap" type="cylinder" pos="{r} 0 0.05" size="0.015 {cap}" material="dark"/>
+    <geom name="rack" type="box" pos="{r} 0 0.03" size="0.002 0.004 0.01" material="metal"/>
+    <geom name="axle" type="cylinder" fromto="0 -0.02 0 0 0.035 0" size="0.004" material="metal"/>
+    <body name="forearm" pos="0 0 0">
+      <joint name="elbow" type="hinge" axis="0 -1 0" range="0 {qmax}" limited="true"
+             damping="{damping}" armature="{armature}" frictionloss="{friction}" solreflimit="{solref} 1"/>
+      <inertial pos="0 0 -{lc}" mass="{m}" diaginertia="{inertia} {inertia} 1e-6"/>
+      <geom name="pinion" type="cylinder" fromto="0 -0.006 0 0 0.006 0" size="{r}" material="metal"/>
+      <geom name="link" type="capsule" fromto="0 -0.014 0 0 -0.014 -{l}" size="0.014" material="shell"/>
+      <geom name="hand" type="sphere" pos="0 -0.014 -{l}" size="0.024" material="shell"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def joint_xml(geom: JointGeometry, p, sub_dt: float = 5e-4, width: int = 480, height: int = 480) -> str:
+    """MJCF of the joint for plant parameter row ``p`` (end stops, end mass, damping, gravity)."""
+    r = geom.lever_arm
+    top = float(p[ix.L_MAX]) + 0.045  # the plate: room for the end cap and the rack at theta = 0
+    return JOINT_XML.format(
+        scene=scene_header(width, height),
+        dt=sub_dt,
+        g=p[ix.GRAV],
+        floor=-(geom.link_length + 0.08),
+        top=top,
+        plate_z=top + 0.005,
+        r=r,
+        cap=0.004,
+        qmax=geom.max_angle(p),
+        damping=geom.joint_damping + p[ix.DAMP] * r * r,
+        armature=p[ix.M_END] * r * r,
+        friction=p[ix.F_COUL] * r,
+        solref=max(0.002, 2.0 * sub_dt),
+        lc=geom.link_com,
+        m=geom.link_mass,
+        inertia=geom.com_inertia,
+        l=geom.link_length,
+    )

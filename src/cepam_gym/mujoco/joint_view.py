@@ -13,7 +13,7 @@ from .rig import default_camera, set_muscle_geoms
 
 
 class JointView:
-    """Renders a :class:`~cepam_gym.mujoco.joint.CEPAMJointEnv` (``frame()``: an RGB array;
+    """Renders a :class:`~cepam_gym.envs.joint_mujoco.CEPAMJointEnv` (``frame()``: an RGB array;
     ``show()``: the same in a window). Rebuild it when the env rebuilds its model."""
 
     def __init__(self, env):

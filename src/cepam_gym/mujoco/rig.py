@@ -17,7 +17,7 @@ guide tube, an end cap on its free end and a load hanging from the cap. In the m
 geometry is updated in ``model.geom_size``/``geom_pos``/``geom_rgba`` and the slider ``qpos``,
 then ``mj_kinematics``; nothing is simulated. :class:`RigSimulator` instead runs the free end's
 mechanics in MuJoCo (slider, gravity, viscous damping, end stops as joint limits) with the plant
-force each sub-step (:mod:`cepam_gym.mujoco.coupling`).
+force each sub-step (:mod:`cepam_gym.plant.coupling`).
 """
 
 from __future__ import annotations
@@ -95,7 +95,7 @@ def rig_xml(params_row=None, sub_dt: float = 5e-4, width: int = 480, height: int
 
 def _row(params) -> np.ndarray:
     if params is None:
-        from ..params import PlantParams
+        from ..plant.params import PlantParams
 
         params = PlantParams()
     if hasattr(params, "to_array"):
@@ -244,7 +244,7 @@ class RigSimulator:
 
     def __init__(self, params=None, action_mode: str = "valve", sub_dt: float = 5e-4, n_sub: int = 40):
         self.mujoco = mj = require_mujoco()
-        from .coupling import PlantLink
+        from ..plant.coupling import PlantLink
 
         if action_mode not in pl.MODES:
             raise ValueError(f"action_mode must be one of {tuple(pl.MODES)}, got {action_mode!r}")

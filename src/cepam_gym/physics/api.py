@@ -1,5 +1,5 @@
 """Array front-end of the physics kernels: every function accepts scalars or arrays of any shape
-(broadcast together) and a parameter source (a :class:`~cepam_gym.params.PlantParams`, one
+(broadcast together) and a parameter source (a :class:`~cepam_gym.plant.params.PlantParams`, one
 parameter row, or an ``(N, N_PARAMS)`` array matching the batch), and returns arrays of the
 broadcast shape (0-d arrays become Python-float-like numpy scalars).
 

@@ -1,6 +1,6 @@
 """Column layout of the flat parameter vector the compiled kernels read.
 
-:meth:`cepam_gym.params.PlantParams.to_array` fills one row per plant (derived quantities such as
+:meth:`cepam_gym.plant.params.PlantParams.to_array` fills one row per plant (derived quantities such as
 braid thread lengths already computed), so the hot loop only indexes. The indices are module
 constants because numba freezes module globals at compile time.
 """

@@ -412,7 +412,7 @@ def _env_step_parallel(
 def env_step(*args):
     """Step every env of a batch in place (argument order as :func:`_env_step_serial`)."""
     n = args[0].shape[0]
-    (_env_step_parallel if n >= pl._PARALLEL_MIN_BATCH else _env_step_serial)(*args)
+    (_env_step_parallel if n >= pl.PARALLEL_MIN_BATCH else _env_step_serial)(*args)
 
 
 @jit

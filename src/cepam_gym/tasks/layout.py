@@ -130,7 +130,7 @@ def preview_fields(steps: int, track_stiffness: bool, position: str = "length") 
 
 def rig_layout(spec, nominal, preview_steps: int = 0) -> ObsLayout:
     """The rig envs' layout for task ``spec`` (:class:`~cepam_gym.tasks.spec.TaskSpec`) and the
-    nominal plant (:class:`~cepam_gym.params.PlantParams`): lengths about the middle of the end
+    nominal plant (:class:`~cepam_gym.plant.params.PlantParams`): lengths about the middle of the end
     stops, pressures per nominal supply; the stiffness target only when the task tracks it; then
     ``preview_steps`` preview columns per tracked target (:func:`preview_fields`)."""
     s = spec.scales

@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..params import pressure_cap_of
 from ..physics import api
 from ..physics import layout as ix
+from ..plant.params import pressure_cap_of
 from .spec import TaskSpec
 
 _TRIES = 32

@@ -9,7 +9,7 @@
 * :mod:`.plots`: the figures of both; :mod:`.cli`: ``cepam-gym validate`` and ``calibrate``.
 
 Nothing model-related is stored: every model value is computed from a
-:class:`~cepam_gym.params.PlantParams` each time (docs/calibration.md).
+:class:`~cepam_gym.plant.params.PlantParams` each time (docs/calibration.md).
 """
 
 from .equilibrium import Outcome, experiment_params, settle, simulate

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..params import PlantParams, preset
+from ..plant.params import PlantParams, preset
 from .experiments import load_experiments
 from .fit import (
     DEFAULT_FIT,

@@ -40,9 +40,9 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .._jit import jit
-from ..params import PlantParams
 from ..physics import api, muscle
 from ..physics import layout as ix
+from ..plant.params import PlantParams
 from ..units import from_si, to_si
 from .experiments import Experiment
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..params import PlantParams
+from ..plant.params import PlantParams
 from ..units import from_si, to_si
 from .equilibrium import simulate
 from .experiments import Experiment

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..params import FORCE_MODELS, PlantParams
+from ..plant.params import FORCE_MODELS, PlantParams
 from .equilibrium import simulate
 from .experiments import Experiment
 from .fit import FitResult

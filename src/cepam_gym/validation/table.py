@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..params import FORCE_FORMS, FORCE_MODELS, PlantParams, preset
+from ..plant.params import FORCE_FORMS, FORCE_MODELS, PlantParams, preset
 from .equilibrium import simulate
 from .experiments import Experiment, load_experiments
 

@@ -3,8 +3,8 @@ CE-PAM, simulated in MuJoCo.
 
 The mechanism (rack and pinion, ``L = L_max - r theta``), the generalized force on the hinge and
 the coupling choice (MuJoCo integrates the hinge; every plant sub-step imposes the muscle length
-and rate from it, :mod:`cepam_gym.mujoco.coupling`) are in docs/mujoco.md. The task is the rig's
-over that mechanism map (:mod:`cepam_gym.mujoco.joint_task`): same schedules, reward terms,
+and rate from it, :mod:`cepam_gym.plant.coupling`) are in docs/mujoco.md. The task is the rig's
+over that mechanism map (:mod:`cepam_gym.tasks.joint`): same schedules, reward terms,
 termination, action mapping and observation machinery as the rig envs. Frames:
 :mod:`cepam_gym.mujoco.joint_view`; baseline: :mod:`cepam_gym.control.joint_baseline`
 (``make_controller("baseline", env)``).
@@ -23,20 +23,12 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from .. import plant as pl
-from ..envs.core import (
-    as_actions,
-    check_action_mode,
-    check_randomize,
-    check_timing,
-    resolve_params,
-)
-from ..envs.randomization import MAX_REDRAWS, sample_params
+from ..mujoco._mj import require_mujoco
+from ..mujoco.joint_sim import JointSimulator
+from ..mujoco.joint_view import JointView
 from ..physics import layout as ix
 from ..tasks import kernel as tk
-from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
-from ._mj import require_mujoco
-from .joint_sim import JointSimulator
-from .joint_task import (
+from ..tasks.joint import (
     JointGeometry,
     JointRewardWeights,
     JointTask,
@@ -44,7 +36,15 @@ from .joint_task import (
     joint_layout,
     joint_schedules,
 )
-from .joint_view import JointView
+from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
+from .core import (
+    as_actions,
+    check_action_mode,
+    check_randomize,
+    check_timing,
+    resolve_params,
+)
+from .randomization import MAX_REDRAWS, sample_params
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 
@@ -81,7 +81,7 @@ _DOC = """
     ## Observation space
 
     ``Box(-10, 10, (9,), float32)``: what a device measures, scaled to about unit range; the
-    columns are named in ``env.obs_layout`` (:func:`~cepam_gym.mujoco.joint_task.joint_layout`,
+    columns are named in ``env.obs_layout`` (:func:`~cepam_gym.tasks.joint.joint_layout`,
     ``obs_layout.decode(obs)`` gives them in SI units).
 
     | # | observation | scaling |

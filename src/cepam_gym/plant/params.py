@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from . import units
-from .physics import layout as ix
-from .physics.muscle import braid_from_rest
+from .. import units
+from ..physics import layout as ix
+from ..physics.muscle import braid_from_rest
 
 FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
@@ -455,7 +455,7 @@ def pressure_cap_of(p) -> np.ndarray:
 
 def fill_derived(p: np.ndarray) -> np.ndarray:
     """Fill the derived columns of parameter row(s) ``p`` (layout.INV_BC ... K_AMB) in place."""
-    from .physics.layout import T0
+    from ..physics.layout import T0
 
     q = p.T
     ta = q[ix.TA]
@@ -509,7 +509,7 @@ def _number(value: Any, key: str, where: str) -> float:
     return out
 
 
-_PRESET_DIR = Path(__file__).parent / "presets"
+_PRESET_DIR = Path(__file__).parents[1] / "presets"
 
 
 def preset_names() -> list[str]:

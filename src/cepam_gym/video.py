@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..control import controller_names, make_controller
+from .control import controller_names, make_controller
 
 JOINT_ID = "cepam_gym/CEPAMJoint-v0"
 
@@ -149,9 +149,7 @@ def record(
     ``snapshot``: also save the last frame as a PNG."""
     import gymnasium as gym
 
-    import cepam_gym  # noqa: F401  (registers the ids)
-
-    from ._mj import require_mujoco
+    from .mujoco._mj import require_mujoco
 
     require_mujoco()
     is_joint = env_id == JOINT_ID

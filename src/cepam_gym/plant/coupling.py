@@ -2,7 +2,7 @@
 
 The plant kernel :func:`cepam_gym.plant.advance_block` integrates the air, the valves *and* the free end
 of the rig. When MuJoCo owns the mechanics (a slider in :class:`~cepam_gym.mujoco.rig.RigSimulator`,
-a hinge in :class:`~cepam_gym.mujoco.joint.CEPAMJointEnv`), every plant sub-step is run like this:
+a hinge in :class:`~cepam_gym.envs.joint_mujoco.CEPAMJointEnv`), every plant sub-step is run like this:
 
 1. the muscle length ``L`` and its rate ``v`` are *imposed* from the MuJoCo state (through the
    geometry of the mechanism);
@@ -29,9 +29,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import plant as pl
 from .._jit import jit
 from ..physics import layout as ix
+from ..physics.friction import friction_slip
+from . import layout as lay
+from . import substep as sub
 
 # accumulator columns over one control step, then the sub-step whose air update is pending
 ACC_AIR, ACC_PMAX, PEND, PEND_DMC, PEND_DUC, PEND_DME, PEND_DUE, PEND_VC, PEND_VE = range(9)
@@ -45,11 +47,11 @@ def _settle(x, dt, vol_c, vol_e, acc):
     plant's post-mechanics half)."""
     if acc[PEND] == 0.0:
         return
-    x[pl.S_MC], x[pl.S_UC], x[pl.S_ME], x[pl.S_UE] = pl.substep_air(
-        x[pl.S_MC],
-        x[pl.S_UC],
-        x[pl.S_ME],
-        x[pl.S_UE],
+    x[lay.S_MC], x[lay.S_UC], x[lay.S_ME], x[lay.S_UE] = sub.substep_air(
+        x[lay.S_MC],
+        x[lay.S_UC],
+        x[lay.S_ME],
+        x[lay.S_UE],
         acc[PEND_DMC],
         acc[PEND_DUC],
         acc[PEND_DME],
@@ -66,8 +68,8 @@ def _slip(x, p, length):
     """The braid-bladder friction elements follow the imposed motion from ``x[S_L]`` to
     ``length`` (plant v1; nothing to do in v0 rows), as in the plant's own sub-step."""
     if p[ix.FR_C] > 0.0:
-        x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3] = pl.friction_slip(
-            p, length - x[pl.S_L], x[pl.S_Z1], x[pl.S_Z2], x[pl.S_Z3]
+        x[lay.S_Z1], x[lay.S_Z2], x[lay.S_Z3] = friction_slip(
+            p, length - x[lay.S_L], x[lay.S_Z1], x[lay.S_Z2], x[lay.S_Z3]
         )
 
 
@@ -82,41 +84,41 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     ``acc`` accumulates supply air used [kg] and the peak gauge pressure [Pa] of the control step
     (:func:`cepam_gym.plant.substep_account`).
     """
-    vol_c, vol_e, dvc, dvac, dvae = pl.volumes_at(length, p)
+    vol_c, vol_e, dvc, dvac, dvae = sub.volumes_at(length, p)
     _settle(x, dt, vol_c, vol_e, acc)
     _slip(x, p, length)
-    x[pl.S_L] = length
-    x[pl.S_V] = velocity
-    force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = pl.substep_forces(
+    x[lay.S_L] = length
+    x[lay.S_V] = velocity
+    force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = sub.substep_forces(
         mode,
         inp,
         p,
-        x[pl.S_T],
+        x[lay.S_T],
         dt,
         length,
-        x[pl.S_MC],
-        x[pl.S_UC],
-        x[pl.S_ME],
-        x[pl.S_UE],
+        x[lay.S_MC],
+        x[lay.S_UC],
+        x[lay.S_ME],
+        x[lay.S_UE],
         1.0 / vol_c,
         1.0 / vol_e,
         dvc,
         dvac,
         dvae,
-        x[pl.S_SC],
-        x[pl.S_SE],
-        x[pl.S_SRC],
-        x[pl.S_SRE],
-        pl.valve_setup(mode, p, dt),
-        x[pl.S_Z1],
-        x[pl.S_Z2],
-        x[pl.S_Z3],
+        x[lay.S_SC],
+        x[lay.S_SE],
+        x[lay.S_SRC],
+        x[lay.S_SRE],
+        sub.valve_setup(mode, p, dt),
+        x[lay.S_Z1],
+        x[lay.S_Z2],
+        x[lay.S_Z3],
     )
-    x[pl.S_SC], x[pl.S_SE], x[pl.S_SRC], x[pl.S_SRE] = sc, se, src, sre
-    x[pl.S_T] += dt
+    x[lay.S_SC], x[lay.S_SE], x[lay.S_SRC], x[lay.S_SRE] = sc, se, src, sre
+    x[lay.S_T] += dt
     acc[PEND], acc[PEND_DMC], acc[PEND_DUC], acc[PEND_DME], acc[PEND_DUE] = 1.0, dmc, duc, dme, due
     acc[PEND_VC], acc[PEND_VE] = vol_c, vol_e
-    acc[ACC_PMAX], acc[ACC_AIR] = pl.substep_account(acc[ACC_PMAX], acc[ACC_AIR], pc, pe, sup, dt)
+    acc[ACC_PMAX], acc[ACC_AIR] = sub.substep_account(acc[ACC_PMAX], acc[ACC_AIR], pc, pe, sup, dt)
     return force
 
 
@@ -134,12 +136,12 @@ def end_stop(length, p):
 def finish_step(x, p, dt, length, velocity, acc, aux):
     """``aux`` of the state at the end of a control step, with the step's bookkeeping, through
     the plant's own :func:`cepam_gym.plant.end_of_step`."""
-    vol_c, vol_e, _dvc, _dvac, _dvae = pl.volumes_at(length, p)
+    vol_c, vol_e, _dvc, _dvac, _dvae = sub.volumes_at(length, p)
     _settle(x, dt, vol_c, vol_e, acc)
     _slip(x, p, length)
-    x[pl.S_L] = length
-    x[pl.S_V] = velocity
-    pl.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME], end_stop(length, p), aux)
+    x[lay.S_L] = length
+    x[lay.S_V] = velocity
+    sub.end_of_step(x, p, acc[ACC_PMAX], acc[ACC_AIR], acc[PEND_DMC], acc[PEND_DME], end_stop(length, p), aux)
 
 
 class PlantLink:
@@ -153,9 +155,9 @@ class PlantLink:
         self.p = np.ascontiguousarray(params_row, dtype=float)
         self.mode = int(mode)
         self.dt = float(sub_dt)
-        self.x = np.zeros(pl.N_STATE)
-        self.inp = np.zeros(pl.N_INPUT)
-        self.aux = np.zeros(pl.N_AUX)
+        self.x = np.zeros(lay.N_STATE)
+        self.inp = np.zeros(lay.N_INPUT)
+        self.aux = np.zeros(lay.N_AUX)
         self._acc = np.zeros(N_ACC)
 
     def begin(self) -> None:
