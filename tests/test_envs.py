@@ -273,7 +273,7 @@ def test_ezpickle_rebuilds_same_env():
 
     env = CEPAMEnv(task="length", action_mode="pwm", reward_weights={"effort": 0.2})
     clone = pickle.loads(pickle.dumps(env))
-    assert clone.core.action_mode == "pwm" and clone.core.task.weights.effort == 0.2
+    assert clone.core.action_mode == "pwm" and clone.core.task.spec.weights.effort == 0.2
     o1, _ = env.reset(seed=4)
     o2, _ = clone.reset(seed=4)
     assert np.array_equal(o1, o2)

@@ -144,7 +144,7 @@ def test_vector_element_i_is_the_single_env_with_stream_i():
         np.testing.assert_array_equal(vo, np.stack([s[0] for s in steps]))
         np.testing.assert_array_equal(vr, [s[1] for s in steps])
         # the single env's info (Python floats) is the vector env's info arrays, key by key
-        vinfo = venv.core.info_arrays(True)
+        vinfo = venv.core.task.info_arrays(venv.core, True)
         for key, value in steps[1][4].items():
             if key != "termination_reason":
                 assert value == vinfo[key][1], key
@@ -165,8 +165,10 @@ def test_bad_input_errors():
         gym.make(ID, joint={"arm": 0.03})
     with pytest.raises(ValueError, match="task_options"):
         gym.make(ID, task_options={"length_range": (0.15, 0.19)})
-    with pytest.raises(ValueError, match="unknown joint task"):
-        gym.make(ID, task="cepam_v1")
+    with pytest.raises(ValueError, match="unknown task 'nonsense'"):
+        gym.make(ID, task="nonsense")
+    with pytest.raises(ValueError, match="joint kwarg applies to the joint tasks"):
+        gym.make("cepam_gym/CEPAM-v1", joint={"lever_arm": 0.03})
     with pytest.raises(ValueError, match="angle_range"):
         gym.make(ID, task_options={"angle_range": (0.2, 2.5)})
     with pytest.raises(ValueError, match="renderer"):
@@ -249,7 +251,7 @@ def test_step_set_points_are_reachable_through_the_mechanism_map():
         pc, pe, _ = api.static_pressures(
             g.length(ta, p), kj / g.lever_arm**2, g.equivalent_weight(ta, tau, p), p
         )
-        top = core.task.pressure_margin * pressure_cap_of(p)
+        top = core.task.spec.pressure_margin * pressure_cap_of(p)
         assert (pc >= 0).all() and (pe >= 0).all() and (pc <= top).all() and (pe <= top).all()
 
 

@@ -10,6 +10,7 @@ from cepam_gym import plant as pl
 from cepam_gym.envs import core as core_mod
 from cepam_gym.physics import layout as ix
 from cepam_gym.plant.params import PlantParams
+from cepam_gym.tasks import rig_task
 
 
 @pytest.mark.parametrize(
@@ -70,7 +71,7 @@ def test_heat_transfer_enters_the_stability_number():
 def _fail_heavy_ends(threshold_kg):
     """The real schedules, except that plants with a heavier end cap than ``threshold_kg`` find
     no reachable target (as a draw in an infeasible corner of a box would)."""
-    real = core_mod.planned_schedules
+    real = rig_task.planned_schedules
 
     def schedules(rngs, spec, params, n_steps, dt):
         out = real(rngs, spec, params, n_steps, dt)
@@ -82,7 +83,7 @@ def _fail_heavy_ends(threshold_kg):
 
 
 def test_failing_draw_redrawn_and_counted_same_in_single_and_vector(monkeypatch):
-    monkeypatch.setattr(core_mod, "planned_schedules", _fail_heavy_ends(0.025))
+    monkeypatch.setattr(rig_task, "planned_schedules", _fail_heavy_ends(0.025))
     kw = {"randomize": {"end_mass_g": [15.0, 35.0]}, "max_episode_steps": 5}
     n = 6
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=n, **kw)
@@ -103,7 +104,7 @@ def test_failing_draw_redrawn_and_counted_same_in_single_and_vector(monkeypatch)
 
 
 def test_redraws_exhausted_fall_back_to_the_nominal_plant(monkeypatch):
-    monkeypatch.setattr(core_mod, "planned_schedules", _fail_heavy_ends(0.021))
+    monkeypatch.setattr(rig_task, "planned_schedules", _fail_heavy_ends(0.021))
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2, randomize={"end_mass_g": [30.0, 35.0]})
     _, info = venv.reset(seed=0)
     assert (info["redraws"] > core_mod.MAX_REDRAWS).all()

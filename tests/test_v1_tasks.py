@@ -75,7 +75,7 @@ def test_v1_references_are_reachable_and_start_at_rest_on_the_reference(env_id):
     for i in range(core.num_envs):
         p = core.params[i]
         w = (p[ix.M_END] + core.load[i]) * p[ix.GRAV]
-        k_lo, k_hi = stiffness_interval(core.target_l[i], w, w, p, core.task)
+        k_lo, k_hi = stiffness_interval(core.target_l[i], w, w, p, core.task.spec)
         assert np.all(core.target_k[i] >= k_lo - 1e-9) and np.all(core.target_k[i] <= k_hi + 1e-9)
         assert (
             pressure_rate_ratio(core.target_l[i], core.target_k[i], core.load[i], p, core.control_dt).max()

@@ -44,7 +44,7 @@ class InverseStaticController:
         self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5, load_filter_s: float = 0.15
     ):
         core = core_of(env)
-        self.task = core.task
+        self.task = core.task.spec
         self.layout = core.obs_layout
         self._configure(
             core.nominal,
@@ -183,7 +183,7 @@ def core_of(env):
     there is none, or when it drives the joint (``cepam_gym/CEPAMJoint-v1``: the rig's model
     and task do not apply; its controller is ``joint_baseline``)."""
     core = find_core(env)
-    if getattr(core, "MECH", pl.RIG) != pl.RIG:
+    if core.mech != pl.RIG:
         raise UnsupportedEnvError(
             "this controller drives the rig envs only; on the joint env use 'baseline' "
             "(make_controller resolves it to joint_baseline), 'zero' or 'random'"
@@ -192,7 +192,7 @@ def core_of(env):
 
 
 def find_core(env):
-    """The batched core (:class:`~cepam_gym.envs.core.CEPAMBatch` or the joint's subclass) inside
+    """The batched core (:class:`~cepam_gym.envs.core.CEPAMBatch`, whatever its task) inside
     any env that runs on the batched kernel; ``TypeError`` when there is none (the MuJoCo joint)."""
     for attr in ("core", "unwrapped", "venv", "env"):
         obj = getattr(env, attr, None)

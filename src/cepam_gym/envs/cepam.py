@@ -16,79 +16,51 @@ from ..tasks import kernel as tk
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 
-# info keys read from aux, in the order tasks.kernel.env_step_single writes them
-_AUX_NAMES = (
-    "stiffness",
-    "stiffness_closed",
-    "force",
-    "pressure_c",
-    "pressure_e",
-    "temperature_c",
-    "temperature_e",
-    "air_used",
-)
-INFO_KEYS = ("length", "velocity", *_AUX_NAMES, "load_mass", "target_length", "target_stiffness")
-_AUX_INFO = dict(zip(_AUX_NAMES, tk.AUX_INFO))
-_AUX_ITEMS = tuple(_AUX_INFO.items())
-_TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
-# keys of a step's info in the order of CEPAMBatch.info_row (single env)
-_STEP_KEYS = ("length", "velocity", *_AUX_INFO, "load_mass", "target_length", "target_stiffness", *_TERM_KEYS)
-assert len(_STEP_KEYS) == tk.N_INFO and set(INFO_KEYS) <= set(_STEP_KEYS)
-
-
-def _info_single(core: CEPAMBatch, scored: bool) -> dict[str, Any]:
-    """:func:`_info_arrays` of env 0 as Python floats, built without temporary arrays (the
-    single env's step is dominated by Python overhead, so this path is kept lean)."""
-    aux = core.aux[0].tolist()
-    k = min(max(int(core.t_idx[0]) - (1 if scored else 0), 0), core.n_steps - 1)
-    state = core.state[0].tolist()
-    info = {"length": state[pl.S_L], "velocity": state[pl.S_V]}
-    for name, col in _AUX_ITEMS:
-        info[name] = aux[col]
-    info["load_mass"] = float(core.load[0, k])
-    info["target_length"] = float(core.target_l[0, k])
-    info["target_stiffness"] = float(core.target_k[0, k])
-    if scored:
-        info.update(zip(_TERM_KEYS, core.terms[0].tolist()))
-    info["redraws"] = int(core.redraws[0])
-    return info
-
-
-_AUX_COLS = np.array(list(_AUX_INFO.values()))
-_STATE_COLS = np.array([pl.S_L, pl.S_V])
 # names of the integer ``info["termination_reason"]`` codes (index = code; tasks.kernel's order)
 TERMINATION_NAMES = ("none", "burst", "non_finite_state")
 assert len(TERMINATION_NAMES) == len(tk.TERMINATION_REASONS)
 
 
-def _info_arrays(core: CEPAMBatch, scored: bool) -> dict[str, np.ndarray]:
-    """Per-env info arrays: true plant quantities (SI), the targets scored, reward terms. Each
-    group is gathered in one copy and handed out as its rows (fresh arrays every step)."""
-    k = np.minimum(np.maximum(core.t_idx - (1 if scored else 0), 0), core.n_steps - 1)
-    r = np.arange(core.num_envs)
-    out = dict(zip(("length", "velocity"), np.ascontiguousarray(core.state[:, _STATE_COLS].T)))
-    out.update(zip(_AUX_INFO, np.ascontiguousarray(core.aux[:, _AUX_COLS].T)))
-    out["load_mass"] = core.load[r, k]
-    out["target_length"] = core.target_l[r, k]
-    out["target_stiffness"] = core.target_k[r, k]
-    if scored:
-        out.update(zip(_TERM_KEYS, np.ascontiguousarray(core.terms.T)))
-    out["redraws"] = core.redraws.copy()
-    return out
+def _check_renderer(core: CEPAMBatch, renderer: str | None) -> str:
+    """The renderer of the core's task (``None``: the task's default, its first). The rig's:
+    ``"numpy"``, the 2-D drawing of :mod:`cepam_gym.envs.render` (no extra needed), or
+    ``"mujoco"``, the 3-D rig of :class:`cepam_gym.mujoco.rig.RigRenderer`; the joint's: MuJoCo
+    only (the ``[mujoco]`` extra)."""
+    allowed = core.task.renderers
+    if renderer is None:
+        renderer = allowed[0]
+    if renderer not in allowed:
+        raise ValueError(f"renderer must be one of {allowed} for the {core.task.name} task, got {renderer!r}")
+    return renderer
 
 
-RENDERERS = ("numpy", "mujoco")
+def _mujoco_frames(core: CEPAMBatch):
+    """The MuJoCo frame source of the core's task (``render_core(core, i)`` draws env ``i``)."""
+    from ..mujoco._mj import require_mujoco
+
+    require_mujoco()  # the install hint, not an import error from deep inside
+    if core.mech == pl.HINGE:
+        from ..mujoco.joint_view import BatchJointFrames
+
+        return BatchJointFrames(core)
+    from ..mujoco.rig import RigRenderer
+
+    return RigRenderer()
 
 
-def _check_renderer(renderer: str) -> None:
-    """``renderer="numpy"``: the 2-D drawing of :mod:`cepam_gym.envs.render` (no extra needed);
-    ``"mujoco"``: the 3-D rig of :class:`cepam_gym.mujoco.rig.RigRenderer` (the ``[mujoco]`` extra)."""
-    if renderer not in RENDERERS:
-        raise ValueError(f"renderer must be one of {RENDERERS}, got {renderer!r}")
-    if renderer == "mujoco":
-        from ..mujoco._mj import require_mujoco
-
-        require_mujoco()  # fail now, with the install hint, rather than at the first render()
+def _expose(env, core: CEPAMBatch) -> None:
+    """What controllers read of an env (the joint's, as of ``CEPAMJoint-v0``,
+    :class:`~cepam_gym.control.joint_baseline.JointInverseStaticController`): the nominal plant,
+    the task's spec (and the hinge's geometry), observation layout, action mode and timing."""
+    env.obs_layout, env.task = core.obs_layout, core.task.spec
+    env.nominal, env.nominal_row = core.nominal, core.nominal.to_array()
+    env.setpoint_max, env.action_mode, env.control_dt = (
+        core.nominal.pressure_cap,
+        core.action_mode,
+        core.control_dt,
+    )
+    if core.mech == pl.HINGE:
+        env.geometry, env.angle_max = core.task.geometry, core.task.angle_max
 
 
 _DOC = """
@@ -215,13 +187,23 @@ class CEPAMEnv(gym.Env, EzPickle):
         "termination_reasons": TERMINATION_NAMES,
     }
 
+    default_task = "cepam"
+
     def __init__(
-        self, task: str = "cepam", render_mode: str | None = None, renderer: str = "numpy", **kwargs: Any
+        self,
+        task: str | None = None,
+        render_mode: str | None = None,
+        renderer: str | None = None,
+        **kwargs: Any,
     ):
         EzPickle.__init__(self, task=task, render_mode=render_mode, renderer=renderer, **kwargs)
-        self._check_renderer(renderer)
-        self.renderer = renderer
-        self.core = self._core_class(1, task=task, **kwargs)
+        self.core = CEPAMBatch(1, task=self.default_task if task is None else task, **kwargs)
+        self.renderer = _check_renderer(self.core, renderer)
+        if self.renderer == "mujoco":
+            from ..mujoco._mj import require_mujoco
+
+            require_mujoco()  # fail now, with the install hint, rather than at the first render()
+        _expose(self, self.core)
         self._obs_row = self.core.obs[0]
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -234,21 +216,12 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._renderer = None
         self._mujoco = None
 
-    # hooks of the joint env (cepam_gym.envs.joint), which runs the same classes on its own core
-    _core_class = CEPAMBatch
-
-    @staticmethod
-    def _check_renderer(renderer: str) -> None:
-        _check_renderer(renderer)
-
     def _info(self, scored: bool) -> dict[str, Any]:
-        return _info_single(self.core, scored)
+        return self.core.task.info_single(self.core, scored)
 
     def _fast_info(self) -> dict[str, Any]:
         """The info of a step taken by the one-call single step (``core.info_row``)."""
-        info = dict(zip(_STEP_KEYS, self.core.info_row.tolist()))
-        info["redraws"] = int(self.core.redraws[0])
-        return info
+        return self.core.task.info_fast(self.core)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -282,12 +255,10 @@ class CEPAMEnv(gym.Env, EzPickle):
         return self._obs_row.copy(), reward, reason != 0, False, info
 
     def _frame(self):
-        """The current frame of env 0 (RGB array); the joint env draws its own."""
+        """The current frame of env 0 (RGB array)."""
         if self.renderer == "mujoco":
             if self._mujoco is None:
-                from ..mujoco.rig import RigRenderer
-
-                self._mujoco = RigRenderer()
+                self._mujoco = _mujoco_frames(self.core)
             return self._mujoco.render_core(self.core, 0)
         from .render import draw
 
@@ -380,10 +351,10 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
     def __init__(
         self,
         num_envs: int = 1,
-        task: str = "cepam",
+        task: str | None = None,
         max_episode_steps: int | None = 500,
         render_mode: str | None = None,
-        renderer: str = "numpy",
+        renderer: str | None = None,
         autoreset_mode: str | AutoresetMode = "next_step",
         **kwargs: Any,
     ):
@@ -397,12 +368,17 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             autoreset_mode=autoreset_mode,
             **kwargs,
         )
-        self._check_renderer(renderer)
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
-        self.renderer = renderer
         self._mujoco = None
-        self.core = self._core_class(num_envs, task=task, **kwargs)
+        self.core = CEPAMBatch(num_envs, task=self.default_task if task is None else task, **kwargs)
+        self.renderer = _check_renderer(self.core, renderer)
+        if self.renderer == "mujoco":
+            from ..mujoco._mj import require_mujoco
+
+            require_mujoco()
+        _expose(self, self.core)
+        self._term_keys = tuple(f"reward_{t}" for t in self.core.task.reward_terms)
         self.num_envs = self.core.num_envs
         if max_episode_steps is not None and (
             int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
@@ -421,16 +397,10 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)  # envs to reset at the next step
 
-    # hooks of the joint env (cepam_gym.envs.joint): its core, info and reward-term names
-    _core_class = CEPAMBatch
-    _term_keys = _TERM_KEYS
-
-    @staticmethod
-    def _check_renderer(renderer: str) -> None:
-        _check_renderer(renderer)
+    default_task = "cepam"
 
     def _infos(self, scored: bool) -> dict[str, np.ndarray]:
-        return _info_arrays(self.core, scored)
+        return self.core.task.info_arrays(self.core, scored)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -526,9 +496,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             return None
         if self.renderer == "mujoco":
             if self._mujoco is None:
-                from ..mujoco.rig import RigRenderer
-
-                self._mujoco = RigRenderer()
+                self._mujoco = _mujoco_frames(self.core)
             return tuple(self._mujoco.render_core(self.core, i) for i in range(self.num_envs))
         from .render import draw
 

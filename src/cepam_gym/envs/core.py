@@ -7,7 +7,6 @@ implements ``reset(indices)`` and ``step(actions)`` on them; the Gymnasium class
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from collections.abc import Mapping
@@ -16,22 +15,18 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
-from ..physics import api
 from ..physics import layout as ix
 from ..plant.params import PlantParams, preset
-from ..tasks import TASKS, RewardWeights, TaskSpec
 from ..tasks import kernel as tk
-from ..tasks.layout import rig_layout
-from ..tasks.references import planned_schedules
-from ..tasks.spec import check_kwargs
-from .randomization import MAX_REDRAWS, Randomizer
+from ..tasks.randomization import MAX_REDRAWS
+from ..tasks.registry import make_task
+from ..tasks.task import Task
 
 ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6
 _NORMAL_CHUNK = 32
-_MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
 _MAX_CONTROL_DT = 1.0  # s: larger values are milliseconds passed as seconds
 _NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
 
@@ -144,17 +139,15 @@ def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
 class CEPAMBatch:
     """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`.
 
-    The mechanism the muscle drives is the class's ``MECH`` (:data:`cepam_gym.plant.RIG` here);
-    :class:`cepam_gym.envs.joint.JointBatch` drives a hinge on the same arrays and kernel by
-    overriding the task hooks (``_resolve_task``, ``_check_task_units``, ``_make_randomizer``,
-    ``_layout``, ``_task_vector``, ``_hinge_row``, ``reset``)."""
-
-    MECH = pl.RIG
+    What the envs are asked to do is the :class:`~cepam_gym.tasks.task.Task` object ``task`` (a
+    task name, rig or joint, or a Task): its mechanism (the rig's free end or a hinge), layout,
+    task vector, plant checks, references, starting point, reset options and info. The core holds
+    the plant and the arrays, and steps them with the one compiled kernel whatever the task."""
 
     def __init__(
         self,
         num_envs: int = 1,
-        task: str | TaskSpec = "cepam",
+        task: str | Task = "cepam",
         plant=None,
         action_mode: str = "valve",
         control_dt: float = 0.02,
@@ -169,17 +162,20 @@ class CEPAMBatch:
         stream: int = 0,
         num_threads: int | None = None,
         preview_steps: int = 0,
+        joint: Mapping[str, float] | None = None,
     ):
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
-        self.task = self._resolve_task(task, task_options, reward_weights)
+        self.task = make_task(task, task_options, reward_weights, preview_steps, joint)
+        self.preview_steps = self.task.preview_steps
+        self.mech = self.task.mech
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
         self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
         self.nominal = resolve_params(plant)
-        self._check_task_units()
+        self.task.bind(self.nominal, self.sub_dt)
         if self.nominal.supply_pressure > self.nominal.burst_pressure:
             warnings.warn(
                 f"supply_pressure ({self.nominal.supply_pressure / 1e3:g} kPa) is above "
@@ -188,7 +184,7 @@ class CEPAMBatch:
                 stacklevel=3,
             )
         self.randomize = check_randomize(randomize)
-        self.randomizer = self._make_randomizer()
+        self.randomizer = self.task.randomizer(self.randomize, self.sub_dt)
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
@@ -200,18 +196,8 @@ class CEPAMBatch:
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
-        if (
-            isinstance(preview_steps, bool)
-            or int(preview_steps) != preview_steps
-            or not 0 <= preview_steps <= 100
-        ):
-            raise ValueError(
-                f"preview_steps must be an integer in [0, 100] (control steps announced), "
-                f"got {preview_steps!r}"
-            )
-        self.preview_steps = int(preview_steps)
-        self.obs_layout = self._layout()
-        self.task_vec = self._task_vector()
+        self.obs_layout = self.task.layout
+        self.task_vec = self.task.task_vector.copy()
         self.obs_dim = self.obs_layout.size
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
@@ -221,10 +207,10 @@ class CEPAMBatch:
         # (tasks.kernel.env_step_single) on two slabs its arrays are views of
         self.fast_single = n == 1 and not self.latency and not self.supply_drift
         if n == 1:
-            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt, self.MECH)
+            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt, self.mech)
             self.state, self.aux, self.inputs, self.params = v["state"], v["aux"], v["inputs"], v["params"]
             self.hinge = v["hinge"]
-            self.hinge[:] = self._hinge_row()
+            self.hinge[:] = self.task.hinge_row()
             self.target_l, self.target_k, self.load = v["target_l"], v["target_k"], v["load"]
             self.t_idx, self.prev_action, self.rewards = v["t_idx"], v["actions"], v["rewards"]
             self.terms, self.reasons, self.noise, self.info_row = (
@@ -238,7 +224,7 @@ class CEPAMBatch:
             self.task_vec = v["task"]
         else:
             self.params = np.repeat(nominal_row[None], n, axis=0)
-            self.hinge = self._hinge_row()[None].copy()  # one mechanism shared by the batch
+            self.hinge = self.task.hinge_row()[None].copy()  # one mechanism shared by the batch
             self.state = np.zeros((n, pl.N_STATE))
             self.aux = np.zeros((n, pl.N_AUX))
             self.inputs = np.zeros((n, pl.N_INPUT))
@@ -251,6 +237,7 @@ class CEPAMBatch:
             self.terms = np.zeros((n, tk.N_TERMS))
             self.reasons = np.zeros(n, dtype=np.int64)
             self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
+        self.initial = np.zeros((n, 2))  # the (position, stiffness) each episode starts at
         self.queue = np.zeros((self.latency + 1, n, 2))
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         self.seed(None)
@@ -262,7 +249,7 @@ class CEPAMBatch:
             self.prev_action,
             self.params,
             self.hinge,
-            self.MECH,
+            self.mech,
             self.mode,
             self.sub_dt,
             self.n_sub,
@@ -280,63 +267,12 @@ class CEPAMBatch:
             self.reasons,
         )
 
-    # ------------------------------------------------------------- task hooks
-    def _resolve_task(self, task, task_options, reward_weights) -> TaskSpec:
-        """The env's :class:`~cepam_gym.tasks.spec.TaskSpec`: ``task`` (a name of
-        :data:`~cepam_gym.tasks.TASKS` or a spec) with the kwargs' overrides, checked."""
-        if isinstance(task, str):
-            if task not in TASKS:
-                raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS)}")
-            task = TASKS[task]
-        if task_options:
-            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
-            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
-            task = dataclasses.replace(task, **opts)
-        if reward_weights:
-            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
-            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
-        return task
-
-    def _make_randomizer(self) -> Randomizer:
-        return Randomizer(self.randomize, self.nominal, self.task, self.sub_dt)
-
-    def _layout(self):
-        return rig_layout(self.task, self.nominal, self.preview_steps)
-
-    def _hinge_row(self) -> np.ndarray:
-        """The mechanism's constants (:mod:`cepam_gym.physics.hinge`; unused by the rig)."""
-        return tk.no_hinge()[0]
-
-    def _check_task_units(self) -> None:
-        """Task ranges in SI against the plant: lengths [m] within the end stops."""
-        lo, hi = self.nominal.min_length, self.nominal.max_length
-        t = self.task
-        for name, vals in (
-            ("length_range", t.length_range),
-            ("fixed_length", () if t.fixed_length is None else (t.fixed_length,)),
-        ):
-            if any(not lo <= v <= hi for v in vals):
-                raise ValueError(
-                    f"task {name} is in metres and must lie within the end stops "
-                    f"[{lo:g}, {hi:g}] m, got {vals}"
-                )
-
     def step_single(self, x0: float, x1: float) -> tuple[float, int]:
         """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
         ``(reward, termination reason)``; ``info_row`` then holds the step's info values."""
         if self.has_noise:
             self._draw_noise()
         return tk.env_step_single(self._F, self._I, self.obs, x0, x1)
-
-    def _task_vector(self) -> np.ndarray:
-        t = self.task
-        return tk.task_vector(
-            dataclasses.astuple(t.weights),
-            t.scales,
-            self.obs_layout,
-            self.nominal.pressure_cap,
-            t.track_stiffness,
-        )
 
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
@@ -376,38 +312,34 @@ class CEPAMBatch:
         self._normal_pos[rows] += 1
         return out
 
-    PIN_KEYS = ("target_length", "target_stiffness", "load_mass")
-
     def apply_options(self, options: dict | None) -> None:
-        """``reset(options=...)``: pin any of target_length [m], target_stiffness [N/m],
-        load_mass [kg] for the whole episode (scalars, or per-env arrays for the vector env)."""
+        """``reset(options=...)``: the task's pin keys (``task.pin_keys``; the rig's:
+        target_length [m], target_stiffness [N/m], load_mass [kg] held for the episode, scalars
+        or per-env arrays)."""
         if not options:
             return
-        bad = set(options) - set(self.PIN_KEYS)
+        if not isinstance(options, Mapping):
+            raise ValueError(
+                f"reset options must be a dict with keys among {list(self.task.pin_keys)}, "
+                f"got {type(options).__name__}"
+            )
+        bad = set(options) - set(self.task.pin_keys)
         if bad:
-            raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.PIN_KEYS)}")
-        self.pin_targets(**options)
+            raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.task.pin_keys)}")
+        self.task.apply_options(self, dict(options))
+        self._observe()
 
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
         """Hold the given target length [m], stiffness [N/m] or load [kg] for the whole episode of
         ``indices`` (scalars or per-env arrays); call right after :meth:`reset`. Used by the
-        benchmark harness and for evaluation at chosen operating points."""
+        benchmark harness and for evaluation at chosen operating points (rig tasks)."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices)
-        for arr, val, name in (
-            (self.target_l, target_length, "target_length"),
-            (self.target_k, target_stiffness, "target_stiffness"),
-            (self.load, load_mass, "load_mass"),
-        ):
-            if val is None:
-                continue
-            try:
-                v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"{name} must be a number or one per env ({len(idx)}), got {val!r}"
-                ) from None
-            self._check_pin(name, v)
-            arr[idx] = v[:, None]
+        values = {
+            "target_length": target_length,
+            "target_stiffness": target_stiffness,
+            "load_mass": load_mass,
+        }
+        self.task.pin(self, values, idx)
         self._observe()
 
     def _observe(self) -> None:
@@ -417,7 +349,7 @@ class CEPAMBatch:
             self.aux,
             self.params,
             self.hinge,
-            self.MECH,
+            self.mech,
             self.target_l,
             self.target_k,
             self.t_idx,
@@ -427,28 +359,6 @@ class CEPAMBatch:
             self.obs,
         )
 
-    def _check_pin(self, name: str, v: np.ndarray) -> None:
-        """Units and ranges of a pinned target (SI: m, N/m, kg), ``ValueError`` naming it."""
-        if not np.isfinite(v).all():
-            raise ValueError(f"{name} must be finite, got {v.tolist()}")
-        if name == "target_length":
-            lo, hi = self.nominal.min_length, self.nominal.max_length
-            if ((v < lo) | (v > hi)).any():
-                raise ValueError(
-                    f"target_length is in metres and must lie within the end stops "
-                    f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)"
-                )
-        elif name == "target_stiffness":
-            if (v <= 0).any():
-                raise ValueError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
-        elif name == "load_mass":
-            if (v < 0).any():
-                raise ValueError(f"load_mass must be >= 0 kg, got {v.tolist()}")
-            if (v > _MAX_LOAD_KG).any():
-                raise ValueError(
-                    f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} (200 g is 0.2)"
-                )
-
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
@@ -456,27 +366,15 @@ class CEPAMBatch:
         self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
         tl, tkk, load, initial = self._schedules(idx, rngs)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
-        self._start(idx, initial)
+        self.task.start(self, idx, initial)
         self.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
         self._observe()
 
-    def _start(self, idx: np.ndarray, initial: np.ndarray) -> None:
-        """Envs ``idx`` at rest at their ``initial`` (length, stiffness) rows under their first
-        load: chamber pressures of the inverse static model, step 0."""
-        p = self.params[idx]
-        weight = (p[:, ix.M_END] + self.load[idx, 0]) * p[:, ix.GRAV]
-        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
-        self.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
-        self.aux[idx] = pl.measure(self.state[idx], p)
-        self.t_idx[idx] = 0
-
     def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
-        """``(target_l, target_k, load, initial)`` of envs drawing from ``rngs`` on parameter
-        ``rows`` (:func:`~cepam_gym.tasks.references.planned_schedules`); ``RuntimeError`` when
-        the task finds no reachable target for some row."""
-        return planned_schedules(rngs, self.task, rows, self.n_steps, self.control_dt)
+        """``(target_l, target_k, load, initial)`` of the task (:meth:`Task.plan`)."""
+        return self.task.plan(rngs, rows, self.n_steps, self.control_dt)
 
     def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
         """:meth:`_plan` of the envs ``idx``. A plant for which the task finds no

@@ -36,6 +36,7 @@ from ..tasks.joint import (
     joint_layout,
     joint_schedules,
 )
+from ..tasks.randomization import MAX_REDRAWS, sample_params
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
 from .core import (
     as_actions,
@@ -44,7 +45,6 @@ from .core import (
     check_timing,
     resolve_params,
 )
-from .randomization import MAX_REDRAWS, sample_params
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 

@@ -90,10 +90,10 @@ def valid_keys(env_id: str) -> tuple[str, ...]:
         raise ValueError(f"env_config['id']: unknown id {env_id!r}; valid: {known}")
     if env_id in JOINT_ENV_IDS:
         from ..envs.core import CEPAMBatch
-        from ..envs.joint import CEPAMJointV1Env, JointBatch
+        from ..envs.joint import CEPAMJointV1Env
 
-        # as the rig's: the env forwards **kwargs to JointBatch, which forwards the rest to CEPAMBatch
-        sources = (CEPAMJointV1Env.__init__, JointBatch.__init__, CEPAMBatch.__init__)
+        # as the rig's: the env forwards **kwargs to CEPAMBatch (the joint's geometry included)
+        sources = (CEPAMJointV1Env.__init__, CEPAMBatch.__init__)
         fixed = {"task", "num_envs"}
     elif env_id in ENV_IDS:
         from ..envs.cepam import CEPAMEnv

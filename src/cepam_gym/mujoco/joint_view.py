@@ -8,8 +8,10 @@ import math
 import numpy as np
 
 from .. import plant as pl
-from ._mj import make_renderer
-from .rig import default_camera, set_muscle_geoms
+from ..physics import layout as ix
+from ._mj import make_renderer, require_mujoco
+from .joint_sim import joint_xml
+from .rig import default_camera, geom_ids, set_muscle_geoms
 
 
 class JointView:
@@ -92,3 +94,44 @@ class JointView:
         if self._window is not None:
             self._window.close()
             self._window = None
+
+
+class BatchJointFrames:
+    """MuJoCo frames of env ``i`` of a batched joint env core (``cepam_gym/CEPAMJoint-v1``): the v0 renderer
+    (:class:`~cepam_gym.mujoco.joint_view.JointView`) on a MuJoCo model of the hinge whose
+    angle is copied from the batch (nothing is simulated in MuJoCo)."""
+
+    def __init__(self, core, width: int = 480, height: int = 480):
+        self.core, self.width, self.height = core, width, height
+        self.mujoco = require_mujoco()
+        self._xml, self._geom_ids = joint_xml, geom_ids
+        self.model = None
+        self._p = None
+        self.view = JointView(self)
+
+    def render_core(self, core, i: int) -> np.ndarray:
+        mj = self.mujoco
+        p = core.params[i if core.params.shape[0] > 1 else 0]
+        if self._p is None or not np.array_equal(p, self._p):  # a randomized plant: a new model
+            self._p = p.copy()
+            self.model = mj.MjModel.from_xml_string(
+                self._xml(core.task.geometry, p, core.sub_dt, self.width, self.height)
+            )
+            self.data = mj.MjData(self.model)
+            self.geom_ids = self._geom_ids(mj, self.model, ("cpam", "epam", "cap", "rack"))
+            self.view.model_changed()
+        # what JointView reads of an env: this one's state
+        self.geometry, self.params, self.n_steps = core.task.geometry, p, core.n_steps
+        self.aux, self.t_idx = core.aux[i], int(core.t_idx[i])
+        self.target_angle, self.external_torque = core.target_l[i], core.load[i]
+        self.link = self  # JointView reads link.x[S_L]
+        self.x = core.state[i]
+        self.data.qpos[0] = self.joint_state()[0]
+        return self.view.frame()
+
+    def joint_state(self) -> tuple[float, float]:
+        r = self.core.task.geometry.lever_arm
+        return float((self.params[ix.L_MAX] - self.x[pl.S_L]) / r), float(-self.x[pl.S_V] / r)
+
+    def close(self) -> None:
+        self.view.close()

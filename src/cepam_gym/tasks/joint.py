@@ -184,7 +184,7 @@ class JointTask:
         """An external torque [N m] of the task's range (held constant) for which no target angle
         has a reachable joint stiffness on plant row ``p`` (``None`` when both ends are feasible):
         a necessary condition for the schedules to be solvable, as the rig's
-        :func:`~cepam_gym.envs.randomization.unreachable_load`."""
+        :func:`~cepam_gym.tasks.randomization.unreachable_load`."""
         spec = self.muscle_spec(geom, p)
         th = np.linspace(*self.angle_range, 33)
         L = geom.length(th, p)

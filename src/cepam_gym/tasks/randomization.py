@@ -23,8 +23,8 @@ import numpy as np
 from .. import plant as pl
 from ..physics import layout as ix
 from ..plant.params import PlantParams
-from ..tasks import TaskSpec
-from ..tasks.schedules import stiffness_interval
+from .schedules import stiffness_interval
+from .spec import TaskSpec
 
 MAX_REDRAWS = 16
 STABILITY_LIMIT = 1.2  # as plant.check_stability

@@ -1,0 +1,225 @@
+"""The joint's Task object: a hinge (elbow or wrist) driven by the CE-PAM through a rack and
+pinion. Its spec is a :class:`~cepam_gym.tasks.joint.JointTask` on a
+:class:`~cepam_gym.tasks.joint.JointGeometry`; targets are a joint angle [rad] and a joint
+stiffness [N m/rad], the load an external torque [N m]. The plant kernel integrates the hinge as
+the rig's load step in muscle coordinates (``mech = HINGE``, :mod:`cepam_gym.physics.hinge`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from .. import plant as pl
+from ..physics import api
+from ..physics import layout as ix
+from ..plant.params import pressure_cap_of
+from . import kernel as tk
+from .joint import (
+    INIT_KEYS,
+    PIN_KEYS,
+    JointGeometry,
+    JointRewardWeights,
+    JointTask,
+    apply_reset_options,
+    joint_layout,
+    joint_planned_schedules,
+)
+from .randomization import Randomizer, unstable
+from .spec import check_kwargs
+from .task import Task
+
+# v1: planned references (smooth moves, the paper's two profiles), as the rig's v1 tasks
+V1_REFERENCES = ("min_jerk", "sine", "chirp", "stiffness_ramp")
+JOINT_TASKS = {"joint": JointTask(), "joint_v1": JointTask(references=V1_REFERENCES)}
+REWARD_TERMS = ("angle", "stiffness", "effort", "air", "burst")  # tasks.kernel.reward_terms, in order
+TERM_KEYS = tuple(f"reward_{t}" for t in REWARD_TERMS)
+INFO_KEYS = (
+    "angle",
+    "angular_velocity",
+    "muscle_length",
+    "muscle_force",
+    "muscle_torque",
+    "stiffness",
+    "joint_stiffness",
+    "joint_stiffness_total",
+    "pressure_c",
+    "pressure_e",
+    "air_used",
+    "external_torque",
+    "target_angle",
+    "target_stiffness",
+    "redraws",
+)
+
+
+class HingeTask(Task):
+    """A joint task: ``spec`` (targets, torques, references), ``geometry`` (the mechanism),
+    ``weights`` (reward weights), the preview count."""
+
+    mech = pl.HINGE
+    reward_terms = REWARD_TERMS
+    pin_keys = PIN_KEYS + INIT_KEYS
+    renderers = ("mujoco",)
+    track_stiffness = True
+
+    def __init__(
+        self, spec: JointTask, geometry: JointGeometry, weights: JointRewardWeights, preview_steps=0
+    ):
+        self.spec, self.geometry, self.weights = spec, geometry, weights
+        self.name = "joint"
+        self.preview_steps = int(preview_steps)
+
+    @classmethod
+    def from_kwargs(cls, task, task_options=None, reward_weights=None, preview_steps=0, joint=None):
+        if isinstance(task, str):
+            task = JOINT_TASKS[task]
+        elif not isinstance(task, JointTask):
+            raise TypeError(f"task must be a joint task name or a JointTask, got {type(task).__name__}")
+        opts = check_kwargs(JointTask, task_options, "task_options", exclude=("scales",))
+        if opts:
+            task = dataclasses.replace(
+                task, **{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
+            )
+        weights = JointRewardWeights(
+            **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
+        )
+        return cls(task, JointGeometry.from_kwargs(joint), weights, preview_steps)
+
+    # ------------------------------------------------------------------ build
+    def bind(self, nominal, sub_dt: float) -> None:
+        self.nominal, self.sub_dt = nominal, sub_dt
+        self.nominal_row = nominal_row = nominal.to_array()
+        self.spec.check_range(self.geometry, nominal_row)
+        self.angle_max = self.geometry.max_angle(nominal_row)
+        self.layout = joint_layout(self.spec, self.angle_max, nominal.supply_pressure, self.preview_steps)
+        self.task_vector = tk.task_vector(
+            dataclasses.astuple(self.weights),
+            self.spec.scales,
+            self.layout,
+            nominal.pressure_cap,
+            True,
+            "angle",
+        )
+
+    def hinge_row(self) -> np.ndarray:
+        return self.geometry.hinge_row()
+
+    def check_plant(self, row: np.ndarray) -> str | None:
+        """Why parameter row ``row`` cannot run the joint task (``None`` if it can): an unstable
+        sub-step, target angles outside the joint's range, a torque with no reachable target."""
+        why = unstable(row, self.sub_dt)
+        if why:
+            return why
+        try:
+            self.spec.check_range(self.geometry, row)
+        except ValueError as e:
+            return str(e)
+        tau = self.spec.unreachable_torque(self.geometry, row)
+        if tau is not None:
+            return f"the joint task has no reachable target under an external torque of {tau:.3g} N m"
+        return None
+
+    def randomizer(self, randomize, sub_dt: float) -> Randomizer:
+        return Randomizer(randomize, self.nominal, None, sub_dt, check=self.check_plant)
+
+    # ------------------------------------------------------------------ reset
+    def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
+        """:func:`~cepam_gym.tasks.joint.joint_planned_schedules` (the rig's sampler through the
+        joint's mechanism map, then the references)."""
+        return joint_planned_schedules(
+            rngs, self.spec, self.geometry, rows, self.nominal_row, n_steps, control_dt
+        )
+
+    def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
+        """At rest at the (angle, joint stiffness) rows with the chamber pressures of the inverse
+        static model under the first external torque, clipped to ``[0, min(supply, burst)]`` (as
+        :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`)."""
+        core.initial[idx] = initial
+        p = core.params[idx]
+        g, q = self.geometry, p.T  # q[col]: one column of the rows
+        a0, k0 = core.initial[idx, 0], core.initial[idx, 1]
+        L0 = g.length(a0, q)
+        w0 = g.equivalent_weight(a0, core.load[idx, 0], q)
+        pc, pe, _ = api.static_pressures(L0, k0 / g.lever_arm**2, w0, p)
+        cap = pressure_cap_of(p)
+        core.state[idx] = pl.initial_state(p, L0, np.clip(pc, 0.0, cap), np.clip(pe, 0.0, cap))
+        core.aux[idx] = pl.measure(core.state[idx], p)
+        core.t_idx[idx] = 0
+
+    def apply_options(self, core, options: dict) -> None:
+        """``target_angle`` [rad], ``target_stiffness`` [N m/rad], ``external_torque`` [N m] pinned
+        for the episode; ``initial_angle`` [rad], ``initial_stiffness`` [N m/rad] the starting
+        point (scalars, every env; :func:`~cepam_gym.tasks.joint.apply_reset_options`)."""
+        for i in range(core.num_envs):
+            sched = (core.target_l[i], core.target_k[i], core.load[i])
+            core.initial[i] = apply_reset_options(
+                options, sched, tuple(core.initial[i]), self.geometry, core.params[i]
+            )
+        self.start(core, np.arange(core.num_envs), core.initial.copy())
+
+    def pin(self, core, values: dict, idx: np.ndarray) -> None:
+        raise NotImplementedError("the joint env pins targets through reset(options=...)")
+
+    # ------------------------------------------------------------------ info
+    def info_single(self, core, scored: bool) -> dict[str, Any]:
+        """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays."""
+        g, r = self.geometry, self.geometry.lever_arm
+        x, a = core.state[0].tolist(), core.aux[0].tolist()
+        p = core.params[0]
+        k = min(max(int(core.t_idx[0]) - (1 if scored else 0), 0), core.n_steps - 1)
+        theta = float(g.angle(x[pl.S_L], p))
+        ks = a[pl.A_STIFF] * r**2
+        info = {
+            "angle": theta,
+            "angular_velocity": -x[pl.S_V] / r,
+            "muscle_length": x[pl.S_L],
+            "muscle_force": a[pl.A_FORCE],
+            "muscle_torque": -r * a[pl.A_FORCE],
+            "stiffness": a[pl.A_STIFF],
+            "joint_stiffness": ks,
+            "joint_stiffness_total": ks + float(g.link_mass * p[ix.GRAV] * g.link_com * np.cos(theta)),
+            "pressure_c": a[pl.A_PC],
+            "pressure_e": a[pl.A_PE],
+            "air_used": a[pl.A_AIR] if scored else 0.0,
+            "external_torque": float(core.load[0, k]),
+            "target_angle": float(core.target_l[0, k]),
+            "target_stiffness": float(core.target_k[0, k]),
+        }
+        if scored:
+            info.update(zip(TERM_KEYS, core.terms[0].tolist()))
+        info["redraws"] = int(core.redraws[0])
+        return info
+
+    def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
+        """Per-env info arrays (SI): the joint's quantities (as
+        :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.measure`), loads, targets, reward terms."""
+        g = self.geometry
+        n = core.num_envs
+        k = np.minimum(np.maximum(core.t_idx - (1 if scored else 0), 0), core.n_steps - 1)
+        rows = np.arange(n)
+        q = np.broadcast_to(core.params, (n, ix.N_PARAMS)).T
+        L, v = core.state[:, pl.S_L].copy(), core.state[:, pl.S_V]
+        theta = g.angle(L, q)
+        ks = core.aux[:, pl.A_STIFF] * g.lever_arm**2
+        out = {
+            "angle": theta,
+            "angular_velocity": -v / g.lever_arm,
+            "muscle_length": L,
+            "muscle_force": core.aux[:, pl.A_FORCE].copy(),
+            "muscle_torque": -g.lever_arm * core.aux[:, pl.A_FORCE],
+            "stiffness": core.aux[:, pl.A_STIFF].copy(),
+            "joint_stiffness": ks,
+            "joint_stiffness_total": ks + g.link_mass * q[ix.GRAV] * g.link_com * np.cos(theta),
+            "pressure_c": core.aux[:, pl.A_PC].copy(),
+            "pressure_e": core.aux[:, pl.A_PE].copy(),
+            "air_used": core.aux[:, pl.A_AIR].copy() if scored else np.zeros(n),
+            "external_torque": core.load[rows, k],
+            "target_angle": core.target_l[rows, k],
+            "target_stiffness": core.target_k[rows, k],
+        }
+        if scored:
+            out.update(zip(TERM_KEYS, np.ascontiguousarray(core.terms.T)))
+        out["redraws"] = core.redraws.copy()
+        return out

@@ -1,0 +1,199 @@
+"""The rig's Task object: the paper's vertical rig, a load hanging from the muscle's free end
+(paper Fig. 5, 16, 17). Targets are a length [m] and a stiffness [N/m], the load a mass [kg]."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from .. import plant as pl
+from ..physics import api
+from ..physics import layout as ix
+from . import kernel as tk
+from .layout import rig_layout
+from .randomization import Randomizer
+from .references import planned_schedules
+from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
+from .task import Task
+
+_MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
+# info keys read from aux, in the order tasks.kernel.env_step_single writes them
+_AUX_NAMES = (
+    "stiffness",
+    "stiffness_closed",
+    "force",
+    "pressure_c",
+    "pressure_e",
+    "temperature_c",
+    "temperature_e",
+    "air_used",
+)
+INFO_KEYS = ("length", "velocity", *_AUX_NAMES, "load_mass", "target_length", "target_stiffness")
+_AUX_INFO = dict(zip(_AUX_NAMES, tk.AUX_INFO))
+_AUX_ITEMS = tuple(_AUX_INFO.items())
+_AUX_COLS = np.array(list(_AUX_INFO.values()))
+_STATE_COLS = np.array([pl.S_L, pl.S_V])
+TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
+# keys of a step's info in the order of the core's info_row (single env)
+_STEP_KEYS = ("length", "velocity", *_AUX_INFO, "load_mass", "target_length", "target_stiffness", *TERM_KEYS)
+assert len(_STEP_KEYS) == tk.N_INFO and set(INFO_KEYS) <= set(_STEP_KEYS)
+
+
+class RigTask(Task):
+    """A rig task: a :class:`~cepam_gym.tasks.spec.TaskSpec` (references, loads, reward weights
+    and scales) with its preview count."""
+
+    mech = pl.RIG
+    reward_terms = tk.REWARD_TERMS
+    pin_keys = ("target_length", "target_stiffness", "load_mass")
+    renderers = ("numpy", "mujoco")
+
+    def __init__(self, spec: TaskSpec, preview_steps: int = 0):
+        self.spec = spec
+        self.name = spec.name
+        self.preview_steps = int(preview_steps)
+        self.track_stiffness = bool(spec.track_stiffness)
+
+    @classmethod
+    def from_kwargs(cls, task, task_options=None, reward_weights=None, preview_steps: int = 0) -> RigTask:
+        """``task`` (a name of :data:`~cepam_gym.tasks.spec.TASKS` or a spec) with the kwargs'
+        overrides, checked."""
+        if isinstance(task, str):
+            task = TASKS[task]
+        elif not isinstance(task, TaskSpec):
+            raise TypeError(f"task must be a task name or a TaskSpec, got {type(task).__name__}")
+        if task_options:
+            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
+            opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
+            task = dataclasses.replace(task, **opts)
+        if reward_weights:
+            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
+            task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
+        return cls(task, preview_steps)
+
+    # ------------------------------------------------------------------ build
+    def bind(self, nominal, sub_dt: float) -> None:
+        """Task ranges in SI against the plant (lengths [m] within the end stops), then the
+        observation layout and the task vector."""
+        lo, hi = nominal.min_length, nominal.max_length
+        t = self.spec
+        for name, vals in (
+            ("length_range", t.length_range),
+            ("fixed_length", () if t.fixed_length is None else (t.fixed_length,)),
+        ):
+            if any(not lo <= v <= hi for v in vals):
+                raise ValueError(
+                    f"task {name} is in metres and must lie within the end stops "
+                    f"[{lo:g}, {hi:g}] m, got {vals}"
+                )
+        self.nominal, self.sub_dt = nominal, sub_dt
+        self.layout = rig_layout(t, nominal, self.preview_steps)
+        self.task_vector = tk.task_vector(
+            dataclasses.astuple(t.weights), t.scales, self.layout, nominal.pressure_cap, t.track_stiffness
+        )
+
+    def hinge_row(self) -> np.ndarray:
+        return tk.no_hinge()[0]
+
+    def randomizer(self, randomize, sub_dt: float) -> Randomizer:
+        return Randomizer(randomize, self.nominal, self.spec, sub_dt)
+
+    # ------------------------------------------------------------------ reset
+    def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
+        """:func:`~cepam_gym.tasks.references.planned_schedules`."""
+        return planned_schedules(rngs, self.spec, rows, n_steps, control_dt)
+
+    def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
+        """At rest at the (length, stiffness) rows under the first load: chamber pressures of the
+        inverse static model, step 0."""
+        p = core.params[idx]
+        weight = (p[:, ix.M_END] + core.load[idx, 0]) * p[:, ix.GRAV]
+        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
+        core.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
+        core.aux[idx] = pl.measure(core.state[idx], p)
+        core.t_idx[idx] = 0
+
+    def apply_options(self, core, options: dict) -> None:
+        """Pin any of target_length [m], target_stiffness [N/m], load_mass [kg] for the episode."""
+        core.pin_targets(**options)
+
+    def pin(self, core, values: dict, idx: np.ndarray) -> None:
+        """Hold ``values`` (pin key -> scalars or per-env arrays) for the episode of ``idx``."""
+        for name, arr in (
+            ("target_length", core.target_l),
+            ("target_stiffness", core.target_k),
+            ("load_mass", core.load),
+        ):
+            val = values.get(name)
+            if val is None:
+                continue
+            try:
+                v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"{name} must be a number or one per env ({len(idx)}), got {val!r}"
+                ) from None
+            self._check_pin(name, v)
+            arr[idx] = v[:, None]
+
+    def _check_pin(self, name: str, v: np.ndarray) -> None:
+        """Units and ranges of a pinned target (SI: m, N/m, kg), ``ValueError`` naming it."""
+        if not np.isfinite(v).all():
+            raise ValueError(f"{name} must be finite, got {v.tolist()}")
+        if name == "target_length":
+            lo, hi = self.nominal.min_length, self.nominal.max_length
+            if ((v < lo) | (v > hi)).any():
+                raise ValueError(
+                    f"target_length is in metres and must lie within the end stops "
+                    f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)"
+                )
+        elif name == "target_stiffness":
+            if (v <= 0).any():
+                raise ValueError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
+        elif name == "load_mass":
+            if (v < 0).any():
+                raise ValueError(f"load_mass must be >= 0 kg, got {v.tolist()}")
+            if (v > _MAX_LOAD_KG).any():
+                raise ValueError(
+                    f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} (200 g is 0.2)"
+                )
+
+    # ------------------------------------------------------------------ info
+    def info_single(self, core, scored: bool) -> dict[str, Any]:
+        """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays (the
+        single env's step is dominated by Python overhead, so this path is kept lean)."""
+        aux = core.aux[0].tolist()
+        k = min(max(int(core.t_idx[0]) - (1 if scored else 0), 0), core.n_steps - 1)
+        state = core.state[0].tolist()
+        info = {"length": state[pl.S_L], "velocity": state[pl.S_V]}
+        for name, col in _AUX_ITEMS:
+            info[name] = aux[col]
+        info["load_mass"] = float(core.load[0, k])
+        info["target_length"] = float(core.target_l[0, k])
+        info["target_stiffness"] = float(core.target_k[0, k])
+        if scored:
+            info.update(zip(TERM_KEYS, core.terms[0].tolist()))
+        info["redraws"] = int(core.redraws[0])
+        return info
+
+    def info_fast(self, core) -> dict[str, Any]:
+        info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
+        info["redraws"] = int(core.redraws[0])
+        return info
+
+    def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
+        """Per-env info arrays: true plant quantities (SI), the targets scored, reward terms. Each
+        group is gathered in one copy and handed out as its rows (fresh arrays every step)."""
+        k = np.minimum(np.maximum(core.t_idx - (1 if scored else 0), 0), core.n_steps - 1)
+        r = np.arange(core.num_envs)
+        out = dict(zip(("length", "velocity"), np.ascontiguousarray(core.state[:, _STATE_COLS].T)))
+        out.update(zip(_AUX_INFO, np.ascontiguousarray(core.aux[:, _AUX_COLS].T)))
+        out["load_mass"] = core.load[r, k]
+        out["target_length"] = core.target_l[r, k]
+        out["target_stiffness"] = core.target_k[r, k]
+        if scored:
+            out.update(zip(TERM_KEYS, np.ascontiguousarray(core.terms.T)))
+        out["redraws"] = core.redraws.copy()
+        return out

@@ -1,0 +1,102 @@
+"""The Task object (dm_control's split): everything an env is asked to do, handed to the env core.
+
+An env (:class:`cepam_gym.envs.core.CEPAMBatch` and the Gymnasium classes over it) is the plant,
+the arrays of N envs and the Gymnasium API; it knows nothing of lengths, angles, loads or torques.
+A :class:`Task` owns the rest:
+
+* the mechanism the muscle drives (``mech``: the rig's free end or a hinge) and its constants;
+* its observation layout (named columns, preview count included) and compiled task vector;
+* its plant checks (which randomized plants can run it) and its reference planning;
+* where an episode starts, what ``reset(options=...)`` pins, and the ``info`` it reports;
+* its reward-term names (the kernel computes the terms, :mod:`cepam_gym.tasks.kernel`).
+
+Two tasks exist: :class:`~cepam_gym.tasks.rig_task.RigTask` (the paper's vertical rig) and
+:class:`~cepam_gym.tasks.hinge_task.HingeTask` (a joint driven through a rack and pinion).
+:func:`cepam_gym.tasks.registry.make_task` builds one from an env's kwargs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .layout import ObsLayout
+
+MAX_PREVIEW_STEPS = 100
+
+
+def check_preview_steps(preview_steps) -> int:
+    """The preview count as an int (``ValueError`` naming the kwarg)."""
+    if (
+        isinstance(preview_steps, bool)
+        or not isinstance(preview_steps, (int, np.integer, float))
+        or int(preview_steps) != preview_steps
+        or not 0 <= preview_steps <= MAX_PREVIEW_STEPS
+    ):
+        raise ValueError(
+            f"preview_steps must be an integer in [0, {MAX_PREVIEW_STEPS}] (control steps announced), "
+            f"got {preview_steps!r}"
+        )
+    return int(preview_steps)
+
+
+class Task:
+    """What an env is asked to do. Subclasses fill the attributes and implement the methods; the
+    env core calls them and holds the per-env arrays they read and write (``core.target_l``,
+    ``core.target_k``, ``core.load``: the task's position target, stiffness target and load of
+    every control step, in the task's SI units)."""
+
+    mech: int  # cepam_gym.plant.RIG or HINGE: the mechanics the plant kernel integrates
+    name: str
+    preview_steps: int
+    track_stiffness: bool
+    reward_terms: tuple[str, ...]  # in tasks.kernel order
+    pin_keys: tuple[str, ...]  # reset(options=...) keys
+    renderers: tuple[str, ...]  # the first is the default
+    spec: Any  # the task's frozen parameters (a TaskSpec or a JointTask)
+
+    def bind(self, nominal, sub_dt: float) -> None:
+        """Check the task against the env's nominal plant and sub-step (``ValueError`` naming
+        what does not fit) and compute what depends on them (layout, task vector)."""
+        raise NotImplementedError
+
+    layout: ObsLayout
+    task_vector: np.ndarray
+
+    def hinge_row(self) -> np.ndarray:
+        """The mechanism's constants (:mod:`cepam_gym.physics.hinge`; zeros for the rig)."""
+        raise NotImplementedError
+
+    def randomizer(self, randomize, sub_dt: float):
+        """The :class:`~cepam_gym.tasks.randomization.Randomizer` of this task's plant checks."""
+        raise NotImplementedError
+
+    def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
+        """``(target_l, target_k, load, initial)`` of envs drawing from ``rngs`` on parameter
+        ``rows``; ``RuntimeError`` when no reachable target exists for some row."""
+        raise NotImplementedError
+
+    def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
+        """Envs ``idx`` of ``core`` at rest at their ``initial`` (position, stiffness) rows."""
+        raise NotImplementedError
+
+    def apply_options(self, core, options: dict) -> None:
+        """``reset(options=...)`` on every env of ``core`` (keys :attr:`pin_keys`)."""
+        raise NotImplementedError
+
+    def info_single(self, core, scored: bool) -> dict[str, Any]:
+        """The info of env 0 as Python floats (the single env's hot path)."""
+        raise NotImplementedError
+
+    def info_fast(self, core) -> dict[str, Any]:
+        """The info of a step taken by the one-call single step (``core.info_row``)."""
+        return self.info_single(core, True)
+
+    def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
+        """Per-env info arrays (SI)."""
+        raise NotImplementedError
+
+    def pin(self, core, values: dict, idx: np.ndarray) -> None:
+        """Hold pinned targets for the episode of envs ``idx`` (``core.pin_targets``)."""
+        raise NotImplementedError(f"the {self.name} task pins targets through reset(options=...)")
