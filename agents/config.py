@@ -49,6 +49,8 @@ from typing import Any
 
 import yaml
 
+from cepam_gym.errors import InputError
+
 ALGORITHMS = ("SAC", "PPO", "TD3", "RecurrentPPO")
 ON_POLICY = ("PPO", "RecurrentPPO")
 # constructor arguments the trainer sets itself (or that cannot come from YAML)
@@ -78,7 +80,7 @@ NOISE_TYPES = ("normal", "ornstein_uhlenbeck")
 _NUMBER = re.compile(r"^[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?$")
 
 
-class ConfigError(ValueError):
+class ConfigError(InputError):
     """A training config is invalid; the message names the offending key."""
 
 

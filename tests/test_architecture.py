@@ -190,7 +190,7 @@ FOLDER_LAYERS = (
     "validation",  # the paper's experiments, calibration
     "integrations",  # adapters to SB3 and RLlib
 )
-ROOT_FOUNDATION = {"_jit", "units", "registration", "viewer", "_cli_errors", "run_summary"}
+ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "viewer", "_cli_errors", "run_summary"}
 ROOT_TOP = {"cli", "demo", "video", "rllib"}
 LAYERS = ["foundation", *FOLDER_LAYERS, "top"]
 # the package's face (``cepam_gym/__init__``: the PlantParams re-export and the registration)

@@ -1,10 +1,11 @@
 """User errors of the command line: one line on stderr naming the problem, exit code 2, no
 traceback (``--debug``, or ``CEPAM_GYM_DEBUG=1``, shows it).
 
-A user error is bad input: a config, env kwarg or hyperparameter that is refused (``ValueError``,
-the project's ``ConfigError`` among them), a missing or unreadable file (``OSError``), a corrupted
-one (a truncated or random zip, a garbage pickle, broken YAML or JSON). Anything else is a bug and
-keeps its traceback.
+A user error is bad input: a config, env kwarg, option or hyperparameter that is refused (the
+project's :class:`~cepam_gym.errors.InputError`, the training code's ``ConfigError`` among them),
+a missing or unreadable file (``OSError``), a corrupted one (a truncated or random zip, a garbage
+pickle, broken YAML). Anything else, a plain ``ValueError`` included, is a bug and keeps its
+traceback.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ import os
 import pickle
 import sys
 import zipfile
+
+from .errors import InputError
 
 EXIT_USER_ERROR = 2
 _debug = False  # set by run_guarded: commands that report their own errors re-raise instead
@@ -30,7 +33,7 @@ def report(prog: str, e: BaseException) -> int:
 
 def user_error_types() -> tuple[type[BaseException], ...]:
     types: list[type[BaseException]] = [
-        ValueError,
+        InputError,
         OSError,
         EOFError,
         zipfile.BadZipFile,
@@ -51,7 +54,7 @@ def describe(e: BaseException) -> str:
         msg = f"{e.strerror}: {e.filename}"
     else:
         msg = str(e) or type(e).__name__
-        if not isinstance(e, (ValueError, OSError)):
+        if not isinstance(e, (InputError, OSError)):
             msg = f"{type(e).__name__}: {msg}"
     return " ".join(msg.split())
 
@@ -74,11 +77,11 @@ def run_guarded(prog: str, fn, argv: list[str], debug: bool) -> int:
         return report(prog, e)
 
 
-def load_error(path, e: BaseException, what: str = "file") -> ValueError:
-    """A ``ValueError`` naming a ``what`` at ``path`` that could not be loaded (corrupted, truncated,
-    or not what it should be), chained to the loader's exception."""
+def load_error(path, e: BaseException, what: str = "file") -> InputError:
+    """An :class:`~cepam_gym.errors.InputError` naming a ``what`` at ``path`` that could not be
+    loaded (corrupted, truncated, or not what it should be), chained to the loader's exception."""
     reason = " ".join((str(e) or type(e).__name__).split())
-    return ValueError(
+    return InputError(
         f"cannot load the {what} {path}: {type(e).__name__}: {reason} "
         "(corrupted or truncated? re-create it or point at another)"
     )
@@ -87,7 +90,7 @@ def load_error(path, e: BaseException, what: str = "file") -> ValueError:
 def guarded_load(path, what: str, loader, *args, **kwargs):
     """``loader(*args, **kwargs)``; any failure but a missing file (a corrupted file can raise
     nearly anything: BadZipFile, UnpicklingError, EOFError, KeyError, a torch RuntimeError...)
-    becomes a ``ValueError`` naming the ``what`` at ``path``."""
+    becomes an ``InputError`` naming the ``what`` at ``path``."""
     try:
         return loader(*args, **kwargs)
     except FileNotFoundError:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 
+from .errors import InputError
+
 #: edge-unit suffix -> factor that converts a value in that unit into SI
 EDGE_UNITS: dict[str, float] = {
     "m": 1.0,
@@ -48,7 +50,7 @@ def to_si(value: float, unit: str) -> float:
     try:
         return float(value) * EDGE_UNITS[unit]
     except KeyError:
-        raise ValueError(f"unknown unit {unit!r}; known: {sorted(EDGE_UNITS)}") from None
+        raise InputError(f"unknown unit {unit!r}; known: {sorted(EDGE_UNITS)}") from None
 
 
 def from_si(value, unit: str):
@@ -56,4 +58,4 @@ def from_si(value, unit: str):
     try:
         return value / EDGE_UNITS[unit]
     except KeyError:
-        raise ValueError(f"unknown unit {unit!r}; known: {sorted(EDGE_UNITS)}") from None
+        raise InputError(f"unknown unit {unit!r}; known: {sorted(EDGE_UNITS)}") from None

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .control import controller_names, make_controller
+from .errors import InputError
 
 JOINT_ID = "cepam_gym/CEPAMJoint-v0"
 
@@ -208,7 +209,9 @@ def main(argv: list[str] | None = None) -> int:
         help=f"one of {', '.join(controller_names())}, or a trained agent's run directory (rig ids)",
     )
     ap.add_argument("--run", default=None, help="a trained agent's run directory (same as --controller DIR)")
-    ap.add_argument("--env-id", default="cepam_gym/CEPAM-v0")
+    ap.add_argument(
+        "--env-id", default=None, help="default: a run's own env id (--run DIR), else cepam_gym/CEPAM-v0"
+    )
     ap.add_argument(
         "--out", default=None, help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)"
     )
@@ -223,6 +226,8 @@ def main(argv: list[str] | None = None) -> int:
     controller = args.run or args.controller
     if not args.seconds > 0 or not args.fps > 0:
         ap.error("--seconds and --fps must be > 0")
+    if args.env_id is None:
+        args.env_id = _run_env_id(Path(controller)) or "cepam_gym/CEPAM-v0"
     if args.out is None:
         stem = args.env_id.split("/")[-1] + "_" + Path(controller).name
         out = Path("runs/video") / f"{stem}.mp4"
@@ -240,7 +245,7 @@ def main(argv: list[str] | None = None) -> int:
             args.size,
             None if args.snapshot is None else Path(args.snapshot),
         )
-    except (ImportError, ValueError) as e:
+    except (ImportError, InputError) as e:
         print(f"cepam-gym video: {e}", file=sys.stderr)
         return 2
     print(f"wrote {path}")
@@ -249,6 +254,22 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def _run_env_id(run: Path) -> str | None:
+    """The env id a trained agent's run directory was trained on (its ``config.yaml``), so that
+    ``--run DIR`` plays it on its own env; None for a controller name."""
+    path = run / "config.yaml"
+    if not path.is_file():
+        return None
+    import yaml
+
+    try:
+        env = (yaml.safe_load(path.read_text()) or {}).get("env") or {}
+    except (yaml.YAMLError, AttributeError) as e:
+        raise InputError(f"--run {run}: cannot read its config.yaml ({e})") from None
+    env_id = env.get("id") if isinstance(env, dict) else None
+    return str(env_id) if env_id else None
 
 
 def _reason_name(env, info) -> str:

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
+from ..errors import InputError
 from ..registration import JOINT_ENV_IDS, MUJOCO_ENV_IDS
 
 AGENT_LOADERS_GROUP = "cepam_gym.controllers"
@@ -65,9 +66,9 @@ def register_controller(
     """Add a controller: ``factory`` is ``"module:attr"`` or a callable ``factory(env, **kwargs)``.
     ``joint_variant``: the registered name to use instead on the joint env."""
     if not isinstance(name, str) or not name or ":" in name:
-        raise ValueError(f"controller name must be a non-empty string without ':', got {name!r}")
+        raise InputError(f"controller name must be a non-empty string without ':', got {name!r}")
     if name in CONTROLLERS and not replace:
-        raise ValueError(f"controller {name!r} is already registered (pass replace=True)")
+        raise InputError(f"controller {name!r} is already registered (pass replace=True)")
     if not (callable(factory) or (isinstance(factory, str) and ":" in factory)):
         raise TypeError(f"factory of {name!r} must be a callable or a 'module:attr' string, got {factory!r}")
     CONTROLLERS[name] = factory
@@ -142,10 +143,10 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
         joint = is_joint_env(env)
         resolved = JOINT_VARIANTS.get(name, name) if joint else name
         if resolved not in CONTROLLERS:
-            raise ValueError(f"controller {name!r} has joint variant {resolved!r}, which is not registered")
+            raise InputError(f"controller {name!r} has joint variant {resolved!r}, which is not registered")
         if not joint and resolved in JOINT_VARIANTS.values():
             rig = sorted(k for k, v in JOINT_VARIANTS.items() if v == resolved)
-            raise ValueError(
+            raise InputError(
                 f"controller {name!r} drives the joint env (cepam_gym/CEPAMJoint-v0) only; "
                 f"on this env use {' or '.join(map(repr, rig))}"
             )
@@ -153,9 +154,9 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
     loaders = agent_loaders()
     loader_name, agent_spec = _split_loader(name, loaders)
     if loader_name is None:
-        raise ValueError(_unknown(name, loaders))
+        raise InputError(_unknown(name, loaders))
     if is_joint_env(env) and not _batched(env):
-        raise ValueError(
+        raise InputError(
             f"controller {name!r}: a trained agent cannot drive the MuJoCo joint env "
             f"(cepam_gym/CEPAMJoint-v0; agents train on the batched kernel, CEPAMJoint-v1 included); "
             f"use one of {controller_names()}"
@@ -183,7 +184,7 @@ def check_controller_spec(spec: str | Path) -> None:
         return
     loaders = agent_loaders()
     if _split_loader(name, loaders)[0] is None:
-        raise ValueError(_unknown(name, loaders))
+        raise InputError(_unknown(name, loaders))
 
 
 def _split_loader(name: str, loaders: dict) -> tuple[str | None, str]:

@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import inspect
 import math
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 from gymnasium.utils import EzPickle
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from .. import plant as pl
+from ..errors import InputError
 from ..tasks import kernel as tk
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
@@ -30,7 +33,7 @@ def _check_renderer(core: CEPAMBatch, renderer: str | None) -> str:
     if renderer is None:
         renderer = allowed[0]
     if renderer not in allowed:
-        raise ValueError(f"renderer must be one of {allowed} for the {core.task.name} task, got {renderer!r}")
+        raise InputError(f"renderer must be one of {allowed} for the {core.task.name} task, got {renderer!r}")
     return renderer
 
 
@@ -46,6 +49,35 @@ def _mujoco_frames(core: CEPAMBatch):
     from ..mujoco.rig import RigRenderer
 
     return RigRenderer()
+
+
+_ENV_KWARGS = ("task", "render_mode", "renderer")
+_VECTOR_KWARGS = ("num_envs", "max_episode_steps", "autoreset_mode")
+
+
+def _check_kwargs(kwargs: dict, env_kwargs: tuple[str, ...]) -> None:
+    """Unknown kwargs named in one line with the valid ones (not a TypeError of an inner class)."""
+    core = set(inspect.signature(CEPAMBatch.__init__).parameters) - {"self", "num_envs", "task"}
+    bad = sorted(set(kwargs) - core)
+    if bad:
+        valid = sorted(core | set(env_kwargs))
+        raise InputError(f"unknown env kwarg(s) {bad}; valid: {valid}")
+
+
+def _episode_of(env) -> dict[str, Any]:
+    return {
+        "episode": env.core.episode_state(),
+        "np_random": getattr(env, "_np_random", None),
+        "seeded": getattr(env, "_seeded", False),
+    }
+
+
+def _restore(env, st: dict[str, Any]) -> None:
+    env.core.restore(st["episode"])
+    if st["np_random"] is not None:
+        env._np_random = st["np_random"]
+    if st["seeded"]:
+        env._seeded = True
 
 
 def _expose(env, core: CEPAMBatch) -> None:
@@ -197,6 +229,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         **kwargs: Any,
     ):
         EzPickle.__init__(self, task=task, render_mode=render_mode, renderer=renderer, **kwargs)
+        _check_kwargs(kwargs, _ENV_KWARGS)
         self.core = CEPAMBatch(1, task=self.default_task if task is None else task, **kwargs)
         self.renderer = _check_renderer(self.core, renderer)
         if self.renderer == "mujoco":
@@ -209,7 +242,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
+            raise InputError(
                 f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
         self.render_mode = render_mode
@@ -222,6 +255,15 @@ class CEPAMEnv(gym.Env, EzPickle):
     def _fast_info(self) -> dict[str, Any]:
         """The info of a step taken by the one-call single step (``core.info_row``)."""
         return self.core.task.info_fast(self.core)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickles and deep copies carry the episode: the constructor's arguments (EzPickle), then
+        the core's episode and the env's own random stream."""
+        return {**EzPickle.__getstate__(self), **_episode_of(self)}
+
+    def __setstate__(self, st: dict[str, Any]) -> None:
+        EzPickle.__setstate__(self, st)
+        _restore(self, st)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -238,11 +280,13 @@ class CEPAMEnv(gym.Env, EzPickle):
 
     def step(self, action):
         core = self.core
-        if core.fast_single and getattr(action, "shape", None) == (2,):
+        if core.needs_reset:
+            raise ResetNeeded("call reset() before step(): the env has no episode yet")
+        if core.fast_single and getattr(action, "shape", None) == (2,) and action.dtype.kind in "iuf":
             # the hot path (kept lean: a single env's step is mostly Python overhead)
             x0, x1 = float(action[0]), float(action[1])
             if not (math.isfinite(x0) and math.isfinite(x1)):
-                raise ValueError(f"action contains NaN or inf: {action!r}")
+                raise InputError(f"action contains NaN or inf: {action.tolist()}; actions must be finite")
             reward, reason = core.step_single(x0, x1)
             info = self._fast_info()
         else:
@@ -295,7 +339,7 @@ def _autoreset_mode(mode) -> AutoresetMode:
         return _AUTORESET_MODES[mode.lower()]
     if isinstance(mode, str) and mode in [m.value for m in _AUTORESET_MODES.values()]:
         return AutoresetMode(mode)  # "NextStep", "SameStep"
-    raise ValueError(
+    raise InputError(
         f"autoreset_mode must be one of {list(_AUTORESET_MODES)} (or gymnasium's "
         f"AutoresetMode.NEXT_STEP / SAME_STEP), got {mode!r}"
     )
@@ -371,6 +415,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self._mujoco = None
+        _check_kwargs(kwargs, _ENV_KWARGS + _VECTOR_KWARGS)
         self.core = CEPAMBatch(num_envs, task=self.default_task if task is None else task, **kwargs)
         self.renderer = _check_renderer(self.core, renderer)
         if self.renderer == "mujoco":
@@ -383,7 +428,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         if max_episode_steps is not None and (
             int(max_episode_steps) != max_episode_steps or max_episode_steps < 1
         ):
-            raise ValueError(
+            raise InputError(
                 f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}"
             )
         self.max_episode_steps = max_episode_steps
@@ -392,7 +437,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self.action_space = gym.vector.utils.batch_space(self.single_action_space, self.num_envs)
         self.observation_space = gym.vector.utils.batch_space(self.single_observation_space, self.num_envs)
         if render_mode is not None and render_mode != "rgb_array":
-            raise ValueError(f"the vector env renders only 'rgb_array', got {render_mode!r}")
+            raise InputError(f"the vector env renders only 'rgb_array', got {render_mode!r}")
         self.render_mode = render_mode
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._autoreset = np.zeros(self.num_envs, dtype=bool)  # envs to reset at the next step
@@ -401,6 +446,17 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
 
     def _infos(self, scored: bool) -> dict[str, np.ndarray]:
         return self.core.task.info_arrays(self.core, scored)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """As the single env's: the episode (and the autoreset bookkeeping) travels along."""
+        st = {**EzPickle.__getstate__(self), **_episode_of(self)}
+        st["elapsed"], st["autoreset"] = self._elapsed.copy(), self._autoreset.copy()
+        return st
+
+    def __setstate__(self, st: dict[str, Any]) -> None:
+        EzPickle.__setstate__(self, st)
+        _restore(self, st)
+        self._elapsed[:], self._autoreset[:] = st["elapsed"], st["autoreset"]
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -416,6 +472,8 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
 
     def step(self, actions):
         core = self.core
+        if core.needs_reset:
+            raise ResetNeeded("call reset() before step(): the vector env has no episode yet")
         a = core.check_actions(actions)
         next_step = self.autoreset_mode == AutoresetMode.NEXT_STEP
         pending = np.flatnonzero(self._autoreset) if next_step else np.empty(0, dtype=np.int64)
@@ -482,9 +540,9 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         per env, all equal (the envs share the object)."""
         if isinstance(values, (list, tuple)):
             if len(values) != self.num_envs:
-                raise ValueError(f"set_attr: {len(values)} values for {self.num_envs} envs")
+                raise InputError(f"set_attr: {len(values)} values for {self.num_envs} envs")
             if any(v is not values[0] and v != values[0] for v in values[1:]):
-                raise ValueError(
+                raise InputError(
                     f"set_attr({name!r}): the envs of a native vector env share one "
                     "object, so per-env values must be equal"
                 )

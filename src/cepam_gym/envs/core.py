@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
+from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.params import PlantParams, preset
 from ..tasks import kernel as tk
@@ -52,23 +53,23 @@ def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tu
     """``(sub-steps per control step, control steps per episode)``; ``ValueError`` when the
     sub-step does not divide the control period or a duration is not positive."""
     if not (control_dt > 0 and sub_dt > 0):
-        raise ValueError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
+        raise InputError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
     if control_dt > _MAX_CONTROL_DT:
-        raise ValueError(
+        raise InputError(
             f"control_dt is in seconds and at most {_MAX_CONTROL_DT:g} s, got {control_dt} (20 ms is 0.02)"
         )
     n_sub = round(control_dt / sub_dt)
     if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
-        raise ValueError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
+        raise InputError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
     if not episode_seconds > 0:
-        raise ValueError(f"episode_seconds must be > 0, got {episode_seconds}")
+        raise InputError(f"episode_seconds must be > 0, got {episode_seconds}")
     return int(n_sub), max(1, round(episode_seconds / control_dt))
 
 
 def check_action_mode(action_mode: str) -> int:
     """The plant's valve mode of an env ``action_mode`` (``ValueError`` naming the valid ones)."""
     if action_mode not in pl.MODES:
-        raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        raise InputError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
     return pl.MODES[action_mode]
 
 
@@ -79,13 +80,13 @@ def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[floa
     keys = PlantParams.edge_keys()
     for key, rng in dict(randomize or {}).items():
         if key not in keys:
-            raise ValueError(f"randomize: unknown plant parameter {key!r}; valid keys: {sorted(keys)}")
+            raise InputError(f"randomize: unknown plant parameter {key!r}; valid keys: {sorted(keys)}")
         try:
             lo, hi = (float(v) for v in rng)
         except (TypeError, ValueError):
-            raise ValueError(f"randomize: {key!r} needs a [low, high] pair of numbers, got {rng!r}") from None
+            raise InputError(f"randomize: {key!r} needs a [low, high] pair of numbers, got {rng!r}") from None
         if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-            raise ValueError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
+            raise InputError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
         out[key] = (lo, hi)
     return out
 
@@ -101,25 +102,36 @@ def _check_threads(num_threads) -> int | None:
 
     top = numba.config.NUMBA_NUM_THREADS
     if isinstance(num_threads, bool) or int(num_threads) != num_threads or not 1 <= num_threads <= top:
-        raise ValueError(
+        raise InputError(
             f"num_threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS) or None, got {num_threads!r}"
         )
     return int(num_threads)
 
 
+def _expected_shape(num_envs: int) -> tuple[int, ...]:
+    return (2,) if num_envs == 1 else (num_envs, 2)
+
+
 def as_actions(actions, num_envs: int) -> np.ndarray:
     """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array (a single env's may have
-    any shape of 2 elements); ``ValueError`` on a wrong shape, NaN or inf. Not clipped."""
-    a = np.asarray(actions, dtype=np.float64)
+    any shape of 2 elements); ``InputError`` on anything but real numbers of that shape, NaN or
+    inf (naming the envs, not printing the batch). Not clipped."""
+    shape = _expected_shape(num_envs)
+    raw = np.asarray(actions) if not isinstance(actions, (str, bytes, Mapping)) else None
+    if raw is None or raw.dtype.kind not in "biuf":
+        kind = type(actions).__name__ if raw is None else f"{type(actions).__name__} of {raw.dtype}"
+        raise InputError(f"action must be real numbers of shape {shape} in [-1, 1], got a {kind}")
+    a = raw.astype(np.float64, copy=False)
     if a.shape != (num_envs, 2):
         if a.size == 2 and num_envs == 1:
             a = a.reshape(1, 2)
         else:
-            raise ValueError(
-                f"action must have shape {(2,) if num_envs == 1 else (num_envs, 2)}, got {np.shape(actions)}"
-            )
-    if not np.isfinite(a).all():
-        raise ValueError(f"action contains NaN or inf: {actions!r}")
+            raise InputError(f"action must have shape {shape}, got {np.shape(actions)}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        envs = np.flatnonzero(bad)
+        where = "" if num_envs == 1 else f" in env(s) {envs[:8].tolist()}{' ...' if envs.size > 8 else ''}"
+        raise InputError(f"action contains NaN or inf{where} (of {num_envs}); actions must be finite")
     return a
 
 
@@ -128,10 +140,10 @@ def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
     sd = dict(sensor_noise or {})
     bad = set(sd) - set(_NOISE_KEYS)
     if bad:
-        raise ValueError(f"sensor_noise: unknown keys {sorted(bad)}; valid: {sorted(_NOISE_KEYS)}")
+        raise InputError(f"sensor_noise: unknown keys {sorted(bad)}; valid: {sorted(_NOISE_KEYS)}")
     for k, v in sd.items():
         if not (np.isfinite(v) and v >= 0):
-            raise ValueError(f"sensor_noise: {k} must be finite and >= 0, got {v!r}")
+            raise InputError(f"sensor_noise: {k} must be finite and >= 0, got {v!r}")
     p = sd.get("pressure_kpa", 0.0) * 1e3
     return np.array([sd.get("length_mm", 0.0) * 1e-3, sd.get("velocity_mm_s", 0.0) * 1e-3, p, p, p])
 
@@ -164,8 +176,9 @@ class CEPAMBatch:
         preview_steps: int = 0,
         joint: Mapping[str, float] | None = None,
     ):
-        if int(num_envs) != num_envs or num_envs < 1:
-            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self._init_args = {k: v for k, v in locals().items() if k not in ("self", "__class__")}
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise InputError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.num_envs = n = int(num_envs)
         self.task = make_task(task, task_options, reward_weights, preview_steps, joint)
         self.preview_steps = self.task.preview_steps
@@ -187,14 +200,14 @@ class CEPAMBatch:
         self.randomizer = self.task.randomizer(self.randomize, self.sub_dt)
         self.noise_sd = _check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
-            raise ValueError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
+            raise InputError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
         self.latency = int(action_latency_steps)
         if isinstance(stream, bool) or int(stream) != stream or stream < 0:
-            raise ValueError(f"stream must be an integer >= 0, got {stream!r}")
+            raise InputError(f"stream must be an integer >= 0, got {stream!r}")
         self.stream = int(stream)
         self.num_threads = _check_threads(num_threads)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
-            raise ValueError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
+            raise InputError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
         self.obs_layout = self.task.layout
         self.task_vec = self.task.task_vector.copy()
@@ -238,6 +251,7 @@ class CEPAMBatch:
             self.reasons = np.zeros(n, dtype=np.int64)
             self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
         self.initial = np.zeros((n, 2))  # the (position, stiffness) each episode starts at
+        self.needs_reset = True  # no episode yet: the envs refuse to step (Gymnasium's ResetNeeded)
         self.queue = np.zeros((self.latency + 1, n, 2))
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         self.seed(None)
@@ -266,6 +280,60 @@ class CEPAMBatch:
             self.aux,
             self.reasons,
         )
+
+    # -------------------------------------------------- copies, pickles
+    # the arrays an episode lives in (views of the single env's slabs included: restored in place)
+    _EPISODE_ARRAYS = (
+        "state",
+        "aux",
+        "inputs",
+        "params",
+        "hinge",
+        "target_l",
+        "target_k",
+        "load",
+        "t_idx",
+        "prev_action",
+        "rewards",
+        "terms",
+        "reasons",
+        "noise",
+        "obs",
+        "queue",
+        "redraws",
+        "initial",
+        "task_vec",
+        "_normals",
+        "_normal_pos",
+    )
+
+    def episode_state(self) -> dict[str, Any]:
+        """Everything a running episode is (arrays, random streams), as copies."""
+        out = {k: getattr(self, k).copy() for k in self._EPISODE_ARRAYS}
+        out["rngs"] = [r.bit_generator.state for r in self.rngs]
+        out["noise_rngs"] = [r.bit_generator.state for r in self.noise_rngs]
+        out["needs_reset"] = self.needs_reset
+        return out
+
+    def restore(self, episode: dict[str, Any]) -> None:
+        """Continue the episode of :meth:`episode_state` (on a core built with the same args)."""
+        for k in self._EPISODE_ARRAYS:
+            getattr(self, k)[...] = episode[k]
+        for r, st in zip(self.rngs, episode["rngs"]):
+            r.bit_generator.state = st
+        for r, st in zip(self.noise_rngs, episode["noise_rngs"]):
+            r.bit_generator.state = st
+        self.needs_reset = episode["needs_reset"]
+
+    def __getstate__(self) -> dict[str, Any]:
+        # rebuilt from the constructor's arguments, then the episode restored in place: the
+        # single env's arrays are views of two slabs and the kernel's argument tuple holds them,
+        # which a plain copy of __dict__ would tear apart
+        return {"init": self._init_args, "episode": self.episode_state()}
+
+    def __setstate__(self, st: dict[str, Any]) -> None:
+        self.__init__(**st["init"])
+        self.restore(st["episode"])
 
     def step_single(self, x0: float, x1: float) -> tuple[float, int]:
         """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
@@ -319,13 +387,13 @@ class CEPAMBatch:
         if not options:
             return
         if not isinstance(options, Mapping):
-            raise ValueError(
+            raise InputError(
                 f"reset options must be a dict with keys among {list(self.task.pin_keys)}, "
                 f"got {type(options).__name__}"
             )
         bad = set(options) - set(self.task.pin_keys)
         if bad:
-            raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.task.pin_keys)}")
+            raise InputError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.task.pin_keys)}")
         self.task.apply_options(self, dict(options))
         self._observe()
 
@@ -371,6 +439,8 @@ class CEPAMBatch:
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
         self._observe()
+        if indices is None:
+            self.needs_reset = False
 
     def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
         """``(target_l, target_k, load, initial)`` of the task (:meth:`Task.plan`)."""
@@ -425,11 +495,13 @@ class CEPAMBatch:
     def check_actions(self, actions) -> np.ndarray:
         """A float64 (N, 2) copy of ``actions``; ``ValueError`` on a wrong shape, NaN or inf.
         Out-of-range values are clipped by the step kernel."""
-        if self.num_envs == 1 and np.shape(actions) == (2,):
+        if self.num_envs == 1 and isinstance(actions, np.ndarray) and actions.shape == (2,):
             # the single env's hot path: no temporary arrays
+            if actions.dtype.kind not in "biuf":
+                as_actions(actions, 1)  # raises, naming the dtype
             x0, x1 = float(actions[0]), float(actions[1])
             if not (math.isfinite(x0) and math.isfinite(x1)):
-                raise ValueError(f"action contains NaN or inf: {actions!r}")
+                raise InputError(f"action contains NaN or inf: {actions.tolist()}; actions must be finite")
             a = self._single_action
             a[0, 0] = x0
             a[0, 1] = x1

@@ -23,6 +23,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from .. import plant as pl
+from ..errors import InputError
 from ..mujoco._mj import require_mujoco
 from ..mujoco.joint_sim import JointSimulator
 from ..mujoco.joint_view import JointView
@@ -219,7 +220,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.observation_space = spaces.Box(-clip, clip, (self.obs_layout.size,), np.float32)
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.control_dt)}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
+            raise InputError(
                 f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}"
             )
         self.render_mode = render_mode

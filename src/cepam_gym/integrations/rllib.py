@@ -51,6 +51,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from ..errors import InputError
 from ..registration import ENV_IDS, JOINT_ENV_IDS, MUJOCO_ENV_IDS, register_envs
 
 DEFAULT_ID = "cepam_gym/CEPAM-v0"
@@ -77,7 +78,7 @@ def env_seed(base_seed: int | None, worker_index: int = 0, vector_index: int = 0
     63 bits: a non-negative int64, as Gymnasium's and numpy's seeding take it."""
     for name, v in (("worker_index", worker_index), ("vector_index", vector_index), ("instance", instance)):
         if int(v) != v or v < 0:
-            raise ValueError(f"{name} must be a non-negative integer, got {v!r}")
+            raise InputError(f"{name} must be a non-negative integer, got {v!r}")
     ss = np.random.SeedSequence(base_seed, spawn_key=(int(worker_index), int(vector_index), int(instance)))
     return int(ss.generate_state(1, np.uint64)[0] >> np.uint64(1))
 
@@ -87,7 +88,7 @@ def valid_keys(env_id: str) -> tuple[str, ...]:
     register_envs()
     known = sorted(ENV_IDS) + sorted(JOINT_ENV_IDS) + sorted(MUJOCO_ENV_IDS)
     if env_id not in known:
-        raise ValueError(f"env_config['id']: unknown id {env_id!r}; valid: {known}")
+        raise InputError(f"env_config['id']: unknown id {env_id!r}; valid: {known}")
     if env_id in JOINT_ENV_IDS:
         from ..envs.core import CEPAMBatch
         from ..envs.joint import CEPAMJointV1Env
@@ -121,7 +122,7 @@ def check_env_config(env_config: Mapping[str, Any]) -> tuple[str, int | None, di
     if not isinstance(env_config, Mapping):
         raise TypeError(f"env_config must be a mapping, got {type(env_config).__name__}")
     if "num_envs" in env_config:
-        raise ValueError(
+        raise InputError(
             "env_config['num_envs']: got RLlib's gym_env_vectorize_mode='vector_entry_point', "
             "which drops the EnvContext (worker_index), so runners could not be seeded "
             "apart; use the default gym_env_vectorize_mode='sync' and "
@@ -134,12 +135,12 @@ def check_env_config(env_config: Mapping[str, Any]) -> tuple[str, int | None, di
     unknown = sorted(set(env_config) - set(allowed), key=str)
     if unknown:
         more = f" (and {unknown[1:]})" if unknown[1:] else ""
-        raise ValueError(
+        raise InputError(
             f"env_config: unknown key {unknown[0]!r}{more} for {env_id}; valid keys: {list(allowed)}"
         )
     seed = env_config.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise ValueError(f"env_config['seed'] must be a non-negative integer or None, got {seed!r}")
+        raise InputError(f"env_config['seed'] must be a non-negative integer or None, got {seed!r}")
     kwargs = {k: v for k, v in env_config.items() if k not in ("id", "seed")}
     return env_id, (None if seed is None else int(seed)), kwargs
 
@@ -186,7 +187,7 @@ def register_env(name: str = DEFAULT_NAME) -> str:
     Call it in the driver before building the algorithm (Ray ships the registry to the env
     runners; they import ``cepam_gym`` by reference, so it must be installed on every node)."""
     if not isinstance(name, str) or not name:
-        raise ValueError(f"name must be a non-empty string, got {name!r}")
+        raise InputError(f"name must be a non-empty string, got {name!r}")
     ray_register_env = _require_ray()
     ray_register_env(name, make_env)
     return name

@@ -16,6 +16,7 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
     ) from e
 
 from ..envs.cepam import CEPAMVectorEnv
+from ..errors import InputError
 
 
 class SB3VecEnv(VecEnv):
@@ -28,7 +29,7 @@ class SB3VecEnv(VecEnv):
         from gymnasium.vector import AutoresetMode
 
         if getattr(venv, "autoreset_mode", None) != AutoresetMode.SAME_STEP:
-            raise ValueError(
+            raise InputError(
                 "SB3VecEnv needs a vector env made with autoreset_mode='same_step', got "
                 f"{getattr(venv, 'autoreset_mode', None)!r}"
             )

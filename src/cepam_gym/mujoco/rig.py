@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import plant as pl
+from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.muscle import braid_diameter
 from ._mj import make_renderer, require_mujoco, scene_header
@@ -102,7 +103,7 @@ def _row(params) -> np.ndarray:
         params = params.to_array()
     p = np.asarray(params, dtype=float)
     if p.shape != (ix.N_PARAMS,):
-        raise ValueError(f"expected one parameter row of {ix.N_PARAMS} columns, got shape {p.shape}")
+        raise InputError(f"expected one parameter row of {ix.N_PARAMS} columns, got shape {p.shape}")
     return p
 
 
@@ -247,7 +248,7 @@ class RigSimulator:
         from ..plant.coupling import PlantLink
 
         if action_mode not in pl.MODES:
-            raise ValueError(f"action_mode must be one of {tuple(pl.MODES)}, got {action_mode!r}")
+            raise InputError(f"action_mode must be one of {tuple(pl.MODES)}, got {action_mode!r}")
         self.p = p = _row(params)
         pl.check_stability(p[None], sub_dt)
         self.n_sub = int(n_sub)

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from .. import units
+from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.muscle import braid_from_rest
 
@@ -187,17 +188,17 @@ class PlantParams:
         for f in fields(self):
             v = getattr(self, f.name)
             if isinstance(v, float) and not math.isfinite(v):
-                raise ValueError(f"parameter {f.name} is not finite: {v}")
+                raise InputError(f"parameter {f.name} is not finite: {v}")
         if self.force_model not in FORCE_MODELS:
-            raise ValueError(f"force_model must be one of {FORCE_MODELS}, got {self.force_model!r}")
+            raise InputError(f"force_model must be one of {FORCE_MODELS}, got {self.force_model!r}")
         if self.force_form not in FORCE_FORMS:
-            raise ValueError(f"force_form must be one of {FORCE_FORMS}, got {self.force_form!r}")
+            raise InputError(f"force_form must be one of {FORCE_FORMS}, got {self.force_form!r}")
         if self.braid_tension not in BRAID_TENSIONS:
-            raise ValueError(f"braid_tension must be one of {BRAID_TENSIONS}, got {self.braid_tension!r}")
+            raise InputError(f"braid_tension must be one of {BRAID_TENSIONS}, got {self.braid_tension!r}")
         if self.bladder_model not in BLADDER_MODELS:
-            raise ValueError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
+            raise InputError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
         if self.spool_order not in (1, 2):
-            raise ValueError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
+            raise InputError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
         positive = (
             "cpam_rest_length",
             "cpam_rest_diameter",
@@ -243,32 +244,32 @@ class PlantParams:
         )
         for name in positive:
             if not getattr(self, name) > 0.0:
-                raise ValueError(f"parameter {name} must be > 0, got {getattr(self, name)}")
+                raise InputError(f"parameter {name} must be > 0, got {getattr(self, name)}")
         for name in nonneg:
             if not getattr(self, name) >= 0.0:
-                raise ValueError(f"parameter {name} must be >= 0, got {getattr(self, name)}")
+                raise InputError(f"parameter {name} must be >= 0, got {getattr(self, name)}")
         for name in ("cpam_rest_angle", "epam_sleeve_free_angle"):
             a = getattr(self, name)
             if not 0.0 < a < math.pi / 2:
-                raise ValueError(
+                raise InputError(
                     f"parameter {name} must be between 0 and 90 deg, got {math.degrees(a):.3g} deg"
                 )
         if not self.cpam_rest_angle < math.acos(1 / math.sqrt(3)):
-            raise ValueError(
+            raise InputError(
                 "cpam_rest_angle must be below 54.7 deg (a contractor's braid), got "
                 f"{math.degrees(self.cpam_rest_angle):.3g} deg"
             )
         if not 0.0 <= self.valve_critical_ratio < self.laminar_ratio < 1.0:
-            raise ValueError(
+            raise InputError(
                 "need 0 <= valve_critical_ratio < laminar_ratio < 1, got "
                 f"{self.valve_critical_ratio} and {self.laminar_ratio}"
             )
         if not self.min_length < self.max_length:
-            raise ValueError(
+            raise InputError(
                 f"min_length ({self.min_length} m) must be below max_length ({self.max_length} m)"
             )
         if self.end_mass <= 0:
-            raise ValueError("end_mass must be > 0")
+            raise InputError("end_mass must be > 0")
         self._check_geometry()
 
     def _check_geometry(self) -> None:
@@ -277,7 +278,7 @@ class PlantParams:
         ta = self.wall_thickness()
         for name, b in (("CPAM", bc), ("EPAM", be)):
             if self.max_length >= b:
-                raise ValueError(
+                raise InputError(
                     f"{name} braid thread ({b * 100:.3g} cm) is not longer than max_length "
                     f"({self.max_length * 100:.3g} cm): the braid cannot reach that length; "
                     "change the braid angle or the end stops"
@@ -286,10 +287,10 @@ class PlantParams:
         dc = bc * np.sqrt(1 - (lengths / bc) ** 2) / (np.pi * nc)
         de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
         if np.any(dc - 2 * ta <= 0):
-            raise ValueError("wall thickness (bladder_thickness + sleeve_thickness) leaves the CPAM no air")
+            raise InputError("wall thickness (bladder_thickness + sleeve_thickness) leaves the CPAM no air")
         if np.any(de - 2 * ta <= dc):
             i = int(np.argmax(de - 2 * ta <= dc))
-            raise ValueError(
+            raise InputError(
                 f"the CPAM (outer diameter {dc[i] * 1e3:.3g} mm) does not fit inside the EPAM "
                 f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm"
             )
@@ -401,7 +402,7 @@ class PlantParams:
         for key, value in data.items():
             if key not in keys:
                 hint = [k for k in keys if k.split("_")[0] == key.split("_")[0]][:6]
-                raise ValueError(
+                raise InputError(
                     f"unknown key {key!r} in {where}"
                     + (f"; did you mean one of {hint}?" if hint else f"; valid keys: {sorted(keys)}")
                 )
@@ -411,11 +412,11 @@ class PlantParams:
             default = getattr(base, name)
             if isinstance(default, str):
                 if not isinstance(value, str):
-                    raise ValueError(f"key {key!r} in {where} must be a string, got {value!r}")
+                    raise InputError(f"key {key!r} in {where} must be a string, got {value!r}")
                 changes[name] = value
             elif isinstance(default, int) and not isinstance(default, bool) and name == "spool_order":
                 if not isinstance(value, int) or isinstance(value, bool):
-                    raise ValueError(f"key {key!r} in {where} must be an integer, got {value!r}")
+                    raise InputError(f"key {key!r} in {where} must be an integer, got {value!r}")
                 changes[name] = value
             else:
                 changes[name] = _number(value, key, where) * units.EDGE_UNITS[unit]
@@ -442,7 +443,7 @@ class PlantParams:
         with path.open() as fh:
             data = yaml.safe_load(fh) or {}
         if not isinstance(data, dict):
-            raise ValueError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
+            raise InputError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
         return cls.from_dict(data, where=str(path))
 
 
@@ -499,13 +500,13 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
 def _number(value: Any, key: str, where: str) -> float:
     # YAML 1.1 reads "1e-3" as a string; accept numeric strings, reject everything else by name.
     if isinstance(value, bool):
-        raise ValueError(f"key {key!r} in {where} must be a number, got {value!r}")
+        raise InputError(f"key {key!r} in {where} must be a number, got {value!r}")
     try:
         out = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"key {key!r} in {where} must be a number, got {value!r}") from None
+        raise InputError(f"key {key!r} in {where} must be a number, got {value!r}") from None
     if not math.isfinite(out):
-        raise ValueError(f"key {key!r} in {where} must be finite, got {value!r}")
+        raise InputError(f"key {key!r} in {where} must be finite, got {value!r}")
     return out
 
 
@@ -520,5 +521,5 @@ def preset(name: str) -> PlantParams:
     """Named parameter set shipped with the package (``balloon`` is the default plant)."""
     path = _PRESET_DIR / f"{name}.yaml"
     if not path.exists():
-        raise ValueError(f"unknown preset {name!r}; available: {preset_names()}")
+        raise InputError(f"unknown preset {name!r}; available: {preset_names()}")
     return PlantParams.from_yaml(path)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import jit
+from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.air import state_from_pressure
 from ..physics.muscle import chamber_volumes
@@ -39,9 +40,9 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
     prow = np.broadcast_to(params, (n, params.shape[1]))
     lo, hi = prow[:, ix.L_MIN], prow[:, ix.L_MAX]
     if np.any((L < lo) | (L > hi)) or not np.all(np.isfinite(L)):
-        raise ValueError(f"initial length must lie within the end stops [{lo.min()}, {hi.max()}] m, got {L}")
+        raise InputError(f"initial length must lie within the end stops [{lo.min()}, {hi.max()}] m, got {L}")
     if np.any(pc + prow[:, ix.P_ATM] <= 0) or np.any(pe + prow[:, ix.P_ATM] <= 0):
-        raise ValueError("initial gauge pressures must be above vacuum (> -atmospheric)")
+        raise InputError("initial gauge pressures must be above vacuum (> -atmospheric)")
     x = np.zeros((n, N_STATE))
     for i in range(n):
         _initial_row(L[i], pc[i], pe[i], temp[i], prow[i], x[i])
@@ -87,7 +88,7 @@ def check_stability(params, dt: float, limit: float = 1.2) -> None:
     s = stability_number(params, dt)
     if np.any(s > limit):
         worst = float(s.max())
-        raise ValueError(
+        raise InputError(
             f"sub-step {dt * 1e3:.3g} ms is too long for the valve conductance, heat transfer and "
             f"chamber volume (stability number {worst:.2f} > {limit}): use sub_dt <= "
             f"{dt * limit / worst * 1e3:.3g} ms, a smaller valve_conductance or heat_transfer, "

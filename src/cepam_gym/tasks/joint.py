@@ -17,6 +17,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.hinge import H_DAMP, H_INERTIA, H_MASS_MOMENT, H_R, N_HINGE
 from .layout import ObsColumn, ObsLayout, preview_fields
@@ -42,14 +43,14 @@ class JointGeometry:
         for f in fields(self):
             v = getattr(self, f.name)
             if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ValueError(f"joint geometry {f.name} must be a finite number, got {v!r}")
+                raise InputError(f"joint geometry {f.name} must be a finite number, got {v!r}")
         for name in ("lever_arm", "link_length", "link_mass", "link_com"):
             if not getattr(self, name) > 0:
-                raise ValueError(f"joint geometry {name} must be > 0, got {getattr(self, name)}")
+                raise InputError(f"joint geometry {name} must be > 0, got {getattr(self, name)}")
         if self.joint_damping < 0:
-            raise ValueError(f"joint geometry joint_damping must be >= 0, got {self.joint_damping}")
+            raise InputError(f"joint geometry joint_damping must be >= 0, got {self.joint_damping}")
         if self.link_com > self.link_length:
-            raise ValueError(
+            raise InputError(
                 f"link_com ({self.link_com} m) must not exceed link_length ({self.link_length} m)"
             )
 
@@ -62,7 +63,7 @@ class JointGeometry:
         names = {f.name for f in fields(cls)}
         bad = set(joint) - names
         if bad:
-            raise ValueError(f"joint: unknown keys {sorted(bad)}; valid: {sorted(names)}")
+            raise InputError(f"joint: unknown keys {sorted(bad)}; valid: {sorted(names)}")
         return cls(**{k: float(v) for k, v in joint.items()})
 
     @property
@@ -135,11 +136,11 @@ class JointTask:
     def __post_init__(self):
         lo, hi = self.angle_range
         if not 0 <= lo < hi:
-            raise ValueError(f"angle_range must be increasing and >= 0, got {self.angle_range}")
+            raise InputError(f"angle_range must be increasing and >= 0, got {self.angle_range}")
         if not 0 < self.stiffness_range[0] < self.stiffness_range[1]:
-            raise ValueError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
+            raise InputError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
         if not 0 <= self.torque_range[0] <= self.torque_range[1]:
-            raise ValueError(
+            raise InputError(
                 f"torque_range must be 0 <= low <= high (extension torques), got {self.torque_range}"
             )
         # the fields shared with the rig's TaskSpec are checked by TaskSpec itself
@@ -156,7 +157,7 @@ class JointTask:
         """``ValueError`` when the target angles exceed the joint's range for plant row ``p``."""
         amax = geom.max_angle(p)
         if self.angle_range[1] > amax:
-            raise ValueError(
+            raise InputError(
                 f"task angle_range {self.angle_range} rad exceeds the joint's range "
                 f"[0, {amax:.3g}] rad (muscle end stops through lever_arm {geom.lever_arm} m)"
             )
@@ -208,7 +209,7 @@ class JointRewardWeights:
         for f in fields(self):
             v = getattr(self, f.name)
             if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
+                raise InputError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
 
 
 # the quantities the joint env measures, in the order of the rig's OBS_FIELDS
@@ -371,6 +372,28 @@ PIN_KEYS = ("target_angle", "target_stiffness", "external_torque")  # reset opti
 INIT_KEYS = ("initial_angle", "initial_stiffness")  # reset options of the starting point
 
 
+_OPTION_UNITS = {
+    "target_angle": "rad",
+    "target_stiffness": "N m/rad",
+    "external_torque": "N m",
+    "initial_angle": "rad",
+    "initial_stiffness": "N m/rad",
+}
+
+
+def _option_number(options, key: str) -> float:
+    """Reset option ``key`` as a float (``InputError`` naming the key and its unit)."""
+    value = options[key]
+    try:
+        if isinstance(value, (str, bytes, bool)) or np.iscomplexobj(value):
+            raise TypeError
+        return float(value)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"reset option {key} must be a number [{_OPTION_UNITS[key]}], got {value!r}"
+        ) from None
+
+
 def apply_reset_options(options, schedules, initial, geom: JointGeometry, p):
     """``reset(options=...)`` of the joint env on one episode's ``schedules`` (target angle,
     target stiffness, external torque: pinned in place by :data:`PIN_KEYS`) and ``initial``
@@ -379,24 +402,24 @@ def apply_reset_options(options, schedules, initial, geom: JointGeometry, p):
     options = dict(options or {})
     bad = set(options) - set(PIN_KEYS) - set(INIT_KEYS)
     if bad:
-        raise ValueError(f"reset options: unknown keys {sorted(bad)}; valid: {list(PIN_KEYS + INIT_KEYS)}")
+        raise InputError(f"reset options: unknown keys {sorted(bad)}; valid: {list(PIN_KEYS + INIT_KEYS)}")
     for key, arr in zip(PIN_KEYS, schedules):
         if key in options:
-            v = float(options[key])
+            v = _option_number(options, key)
             if not math.isfinite(v):
-                raise ValueError(f"reset option {key} must be finite, got {options[key]!r}")
+                raise InputError(f"reset option {key} must be finite, got {options[key]!r}")
             if key == "target_stiffness" and not v > 0:  # the reward divides by it
-                raise ValueError(f"reset option target_stiffness must be > 0 N m/rad, got {v!r}")
+                raise InputError(f"reset option target_stiffness must be > 0 N m/rad, got {v!r}")
             if key == "target_angle" and not 0.0 <= v <= geom.max_angle(p):
-                raise ValueError(
+                raise InputError(
                     f"reset option target_angle is in radians and must lie within "
                     f"[0, {geom.max_angle(p):.3g}] rad, got {v!r}"
                 )
             arr[:] = v
-    a0 = float(options.get("initial_angle", initial[0]))
-    k0 = float(options.get("initial_stiffness", initial[1]))
+    a0 = _option_number(options, "initial_angle") if "initial_angle" in options else float(initial[0])
+    k0 = _option_number(options, "initial_stiffness") if "initial_stiffness" in options else float(initial[1])
     if not (0.0 <= a0 <= geom.max_angle(p)) or not (math.isfinite(k0) and k0 > 0):
-        raise ValueError(
+        raise InputError(
             f"initial_angle must be within [0, {geom.max_angle(p):.3g}] rad and "
             f"initial_stiffness > 0, got {a0}, {k0}"
         )

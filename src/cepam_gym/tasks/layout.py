@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import InputError
+
 # the quantities the rig envs measure, in the order the step kernel computes them
 OBS_FIELDS = (
     "length",
@@ -43,7 +45,7 @@ class ObsColumn:
 
     def __post_init__(self):
         if not (np.isfinite(self.scale) and self.scale > 0 and np.isfinite(self.offset)):
-            raise ValueError(
+            raise InputError(
                 f"observation column {self.name!r}: scale must be finite and > 0 and "
                 f"offset finite, got {self.scale!r}, {self.offset!r}"
             )
@@ -60,12 +62,12 @@ class ObsLayout:
     def __post_init__(self):
         names = self.names
         if len(set(names)) != len(names):
-            raise ValueError(f"observation columns must have distinct names, got {names}")
+            raise InputError(f"observation columns must have distinct names, got {names}")
         unknown = [n for n in names if n not in self.fields]
         if unknown:
-            raise ValueError(f"observation columns {unknown} are not among the measured fields {self.fields}")
+            raise InputError(f"observation columns {unknown} are not among the measured fields {self.fields}")
         if not self.clip > 0:
-            raise ValueError(f"observation clip must be > 0, got {self.clip!r}")
+            raise InputError(f"observation clip must be > 0, got {self.clip!r}")
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -108,7 +110,7 @@ class ObsLayout:
         """``{column name: SI values}`` of observation(s) ``(..., size)`` (exact inside the clip)."""
         o = np.asarray(obs, dtype=float)
         if o.shape[-1] != self.size:
-            raise ValueError(f"observation has {o.shape[-1]} columns, the layout {self.size}: {self.names}")
+            raise InputError(f"observation has {o.shape[-1]} columns, the layout {self.size}: {self.names}")
         return {c.name: o[..., j] * c.scale + c.offset for j, c in enumerate(self.columns)}
 
     def value(self, obs, name: str) -> np.ndarray:

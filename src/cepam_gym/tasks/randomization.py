@@ -21,6 +21,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import plant as pl
+from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.params import PlantParams
 from .schedules import stiffness_interval
@@ -110,7 +111,7 @@ class Randomizer:
         self.check = check if check is not None else self._check_rig
         why = self.check(self.nominal_row)
         if why:
-            raise ValueError(f"the nominal plant cannot run this env: {why}")
+            raise InputError(f"the nominal plant cannot run this env: {why}")
         if self.ranges:
             self._check_ranges()
 
@@ -121,12 +122,12 @@ class Randomizer:
         try:
             return PlantParams.from_dict(dict(values), base=self.nominal, where="randomize").to_array()
         except ValueError as e:
-            raise ValueError(f"randomize: {what} is not a valid plant: {e}") from None
+            raise InputError(f"randomize: {what} is not a valid plant: {e}") from None
 
     def _check(self, values: Mapping[str, float], what: str) -> None:
         why = self.check(self._row(values, what))
         if why:
-            raise ValueError(f"randomize: {what}: {why}; narrow that range")
+            raise InputError(f"randomize: {what}: {why}; narrow that range")
 
     def _check_ranges(self) -> None:
         keys = list(self.ranges)

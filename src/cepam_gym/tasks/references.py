@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..physics import api
 from ..physics import layout as ix
 from .schedules import episode_schedules, stiffness_interval
@@ -87,7 +88,7 @@ def project(target_l, target_k, load, params_row, spec: TaskSpec):
     k_lo, k_hi = stiffness_interval(L, w, w, p, spec)
     if np.any(k_hi <= k_lo):
         i = int(np.argmax(k_hi <= k_lo))
-        raise ValueError(
+        raise InputError(
             f"task {spec.name!r}: no reachable stiffness at L = {L[i] * 100:.3g} cm with "
             f"load {load[i]:.3g} kg (step {i}); lower the load range or widen the length range"
         )
@@ -175,7 +176,7 @@ def periodic_length(
         if pressure_rate_ratio(L, tk, load, p, dt).max() <= rate_fraction:
             return L, tk
         f0, f1 = f0 * _SLOWDOWN, f1 * _SLOWDOWN
-    raise ValueError(
+    raise InputError(
         f"task {spec.name!r}: no followable {kind} reference after {_RETRIES * 2} tries "
         "(loads too large for a constant stiffness, or valves too small)"
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..errors import InputError
 from .hinge_task import JOINT_TASKS, HingeTask
 from .joint import JointTask
 from .rig_task import RigTask
@@ -16,12 +17,12 @@ def make_task(task, task_options=None, reward_weights=None, preview_steps: int =
     preview_steps = check_preview_steps(preview_steps)
     if isinstance(task, Task):
         if task_options or reward_weights or joint:
-            raise ValueError("task_options, reward_weights and joint apply to a task name, not a Task object")
+            raise InputError("task_options, reward_weights and joint apply to a task name, not a Task object")
         return task
     if (isinstance(task, str) and task in JOINT_TASKS) or isinstance(task, JointTask):
         return HingeTask.from_kwargs(task, task_options, reward_weights, preview_steps, joint)
     if joint:
-        raise ValueError(f"the joint kwarg applies to the joint tasks {sorted(JOINT_TASKS)}, not {task!r}")
+        raise InputError(f"the joint kwarg applies to the joint tasks {sorted(JOINT_TASKS)}, not {task!r}")
     if isinstance(task, str) and task not in TASKS:
-        raise ValueError(f"unknown task {task!r}; available: {sorted(TASKS) + sorted(JOINT_TASKS)}")
+        raise InputError(f"unknown task {task!r}; available: {sorted(TASKS) + sorted(JOINT_TASKS)}")
     return RigTask.from_kwargs(task, task_options, reward_weights, preview_steps)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
+from ..errors import InputError
 from ..physics import api
 from ..physics import layout as ix
 from . import kernel as tk
@@ -84,7 +85,7 @@ class RigTask(Task):
             ("fixed_length", () if t.fixed_length is None else (t.fixed_length,)),
         ):
             if any(not lo <= v <= hi for v in vals):
-                raise ValueError(
+                raise InputError(
                     f"task {name} is in metres and must lie within the end stops "
                     f"[{lo:g}, {hi:g}] m, got {vals}"
                 )
@@ -132,7 +133,7 @@ class RigTask(Task):
             try:
                 v = np.broadcast_to(np.asarray(val, dtype=float), idx.shape)
             except (TypeError, ValueError):
-                raise ValueError(
+                raise InputError(
                     f"{name} must be a number or one per env ({len(idx)}), got {val!r}"
                 ) from None
             self._check_pin(name, v)
@@ -141,22 +142,22 @@ class RigTask(Task):
     def _check_pin(self, name: str, v: np.ndarray) -> None:
         """Units and ranges of a pinned target (SI: m, N/m, kg), ``ValueError`` naming it."""
         if not np.isfinite(v).all():
-            raise ValueError(f"{name} must be finite, got {v.tolist()}")
+            raise InputError(f"{name} must be finite, got {v.tolist()}")
         if name == "target_length":
             lo, hi = self.nominal.min_length, self.nominal.max_length
             if ((v < lo) | (v > hi)).any():
-                raise ValueError(
+                raise InputError(
                     f"target_length is in metres and must lie within the end stops "
                     f"[{lo:g}, {hi:g}] m, got {v.tolist()} (17.5 cm is 0.175)"
                 )
         elif name == "target_stiffness":
             if (v <= 0).any():
-                raise ValueError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
+                raise InputError(f"target_stiffness must be > 0 N/m, got {v.tolist()}")
         elif name == "load_mass":
             if (v < 0).any():
-                raise ValueError(f"load_mass must be >= 0 kg, got {v.tolist()}")
+                raise InputError(f"load_mass must be >= 0 kg, got {v.tolist()}")
             if (v > _MAX_LOAD_KG).any():
-                raise ValueError(
+                raise InputError(
                     f"load_mass is in kg and at most {_MAX_LOAD_KG:g} kg, got {v.tolist()} (200 g is 0.2)"
                 )
 

@@ -7,6 +7,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from ..errors import InputError
+
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
 REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # tasks.references
 
@@ -22,7 +24,7 @@ def check_kwargs(cls, given, what: str, noun: str = "keys", exclude=()) -> dict:
     names = {f.name for f in fields(cls)} - set(exclude)
     bad = set(given) - names
     if bad:
-        raise ValueError(f"{what}: unknown {noun} {sorted(bad)}; valid: {sorted(names)}")
+        raise InputError(f"{what}: unknown {noun} {sorted(bad)}; valid: {sorted(names)}")
     return given
 
 
@@ -46,7 +48,7 @@ class TaskScales:
         for f in fields(self):
             v = getattr(self, f.name)
             if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"task scale {f.name} must be finite and > 0, got {v!r}")
+                raise InputError(f"task scale {f.name} must be finite and > 0, got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,7 @@ class RewardWeights:
         for f in fields(self):
             v = getattr(self, f.name)
             if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
+                raise InputError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
 
 
 @dataclass(frozen=True)
@@ -92,31 +94,31 @@ class TaskSpec:
     def __post_init__(self):
         lo, hi = self.length_range
         if not 0 < lo < hi:
-            raise ValueError(f"length_range must be increasing and positive, got {self.length_range}")
+            raise InputError(f"length_range must be increasing and positive, got {self.length_range}")
         if not 0 <= self.load_range[0] <= self.load_range[1]:
-            raise ValueError(f"load_range must be 0 <= low <= high, got {self.load_range}")
+            raise InputError(f"load_range must be 0 <= low <= high, got {self.load_range}")
         if not 0 < self.stiffness_range[0] < self.stiffness_range[1]:
-            raise ValueError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
+            raise InputError(f"stiffness_range must be increasing and positive, got {self.stiffness_range}")
         bad = [k for k in self.load_kinds if k not in LOAD_KINDS]
         if bad or not self.load_kinds:
-            raise ValueError(f"load_kinds must be a non-empty subset of {LOAD_KINDS}, got {self.load_kinds}")
+            raise InputError(f"load_kinds must be a non-empty subset of {LOAD_KINDS}, got {self.load_kinds}")
         if not 0 < self.segment_duration[0] <= self.segment_duration[1]:
-            raise ValueError(f"segment_duration must be 0 < low <= high, got {self.segment_duration}")
+            raise InputError(f"segment_duration must be 0 < low <= high, got {self.segment_duration}")
         if not 0 < self.pressure_margin <= 1:
-            raise ValueError(f"pressure_margin must be in (0, 1], got {self.pressure_margin}")
+            raise InputError(f"pressure_margin must be in (0, 1], got {self.pressure_margin}")
         if not (self.track_length or self.track_stiffness):
-            raise ValueError("a task must track the length, the stiffness or both")
+            raise InputError("a task must track the length, the stiffness or both")
         bad = [k for k in self.references if k not in REFERENCE_KINDS]
         if bad or not self.references:
-            raise ValueError(
+            raise InputError(
                 f"references must be a non-empty subset of {REFERENCE_KINDS}, got {self.references}"
             )
         if self.fixed_length is not None and {"sine", "chirp"} & set(self.references):
-            raise ValueError(
+            raise InputError(
                 f"task {self.name!r} holds a fixed length: sine and chirp length references do not apply"
             )
         if not (np.isfinite(self.move_s) and self.move_s > 0):
-            raise ValueError(f"move_s must be finite and > 0, got {self.move_s!r}")
+            raise InputError(f"move_s must be finite and > 0, got {self.move_s!r}")
 
 
 TASKS = {

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
 from .layout import ObsLayout
 
 MAX_PREVIEW_STEPS = 100
@@ -34,7 +35,7 @@ def check_preview_steps(preview_steps) -> int:
         or int(preview_steps) != preview_steps
         or not 0 <= preview_steps <= MAX_PREVIEW_STEPS
     ):
-        raise ValueError(
+        raise InputError(
             f"preview_steps must be an integer in [0, {MAX_PREVIEW_STEPS}] (control steps announced), "
             f"got {preview_steps!r}"
         )

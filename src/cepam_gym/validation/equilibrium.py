@@ -40,6 +40,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .._jit import jit
+from ..errors import InputError
 from ..physics import api, muscle
 from ..physics import layout as ix
 from ..plant.params import PlantParams
@@ -205,7 +206,7 @@ def simulate(exp: Experiment, params: PlantParams) -> Outcome:
     if exp.measured == "extension":
         return Outcome(100.0 * (L0 - p.min_length) / p.min_length, "free length", "; ".join(notes))
     if exp.measured != "stiffness":
-        raise ValueError(f"experiment {exp.id}: cannot simulate a {exp.measured!r}")
+        raise InputError(f"experiment {exp.id}: cannot simulate a {exp.measured!r}")
 
     # stiffness by hanging weights (sections II, III, XII)
     if where != "free":

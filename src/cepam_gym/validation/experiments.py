@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import InputError
+
 REPORTED_PATH = Path(__file__).resolve().parent.parent / "data" / "reported.yaml"
 
 MEASURED_UNITS = {
@@ -91,46 +93,46 @@ def load_experiments(path: str | Path | None = None) -> list[Experiment]:
     with path.open() as fh:
         doc = yaml.safe_load(fh)
     if not isinstance(doc, dict) or not isinstance(doc.get("experiments"), list):
-        raise ValueError(f"{path}: expected a mapping with a list 'experiments'")
+        raise InputError(f"{path}: expected a mapping with a list 'experiments'")
     default_loads = tuple(float(x) for x in (doc.get("defaults") or {}).get("loads_g", ()))
     out: list[Experiment] = []
     seen: set[str] = set()
     for i, e in enumerate(doc["experiments"]):
         where = f"{path}: experiment {i + 1}" + (f" ({e.get('id')})" if isinstance(e, dict) else "")
         if not isinstance(e, dict):
-            raise ValueError(f"{where}: expected a mapping")
+            raise InputError(f"{where}: expected a mapping")
         unknown = set(e) - _YAML_KEYS
         if unknown:
-            raise ValueError(f"{where}: unknown key(s) {sorted(unknown)}")
+            raise InputError(f"{where}: unknown key(s) {sorted(unknown)}")
         for key in ("id", "name", "measured", "unit", "value", "section", "device", "bladder"):
             if key not in e:
-                raise ValueError(f"{where}: missing key {key!r}")
+                raise InputError(f"{where}: missing key {key!r}")
         if e["id"] in seen:
-            raise ValueError(f"{where}: duplicate id {e['id']!r}")
+            raise InputError(f"{where}: duplicate id {e['id']!r}")
         seen.add(e["id"])
         measured, device, bladder = e["measured"], e["device"], e["bladder"]
         if measured not in MEASURED_UNITS:
-            raise ValueError(f"{where}: measured must be one of {sorted(MEASURED_UNITS)}, got {measured!r}")
+            raise InputError(f"{where}: measured must be one of {sorted(MEASURED_UNITS)}, got {measured!r}")
         if e["unit"] != MEASURED_UNITS[measured]:
-            raise ValueError(
+            raise InputError(
                 f"{where}: unit of a {measured} must be {MEASURED_UNITS[measured]!r}, got {e['unit']!r}"
             )
         if device not in DEVICES:
-            raise ValueError(f"{where}: device must be one of {DEVICES}, got {device!r}")
+            raise InputError(f"{where}: device must be one of {DEVICES}, got {device!r}")
         if bladder not in BLADDERS:
-            raise ValueError(f"{where}: bladder must be one of {BLADDERS}, got {bladder!r}")
+            raise InputError(f"{where}: bladder must be one of {BLADDERS}, got {bladder!r}")
         if bladder == "tube" and "bladder_thickness_mm" not in e:
-            raise ValueError(f"{where}: a tube row needs bladder_thickness_mm")
+            raise InputError(f"{where}: a tube row needs bladder_thickness_mm")
         if measured == "contraction" and device != "cpam":
-            raise ValueError(f"{where}: contraction is defined for the cpam only")
+            raise InputError(f"{where}: contraction is defined for the cpam only")
         if measured == "extension" and device == "cpam":
-            raise ValueError(f"{where}: extension is defined for the epam and the cepam")
+            raise InputError(f"{where}: extension is defined for the epam and the cepam")
         value = float(e["value"])
         if not math.isfinite(value) or value <= 0:
-            raise ValueError(f"{where}: value must be a positive number, got {e['value']!r}")
+            raise InputError(f"{where}: value must be a positive number, got {e['value']!r}")
         loads = tuple(float(x) for x in e.get("loads_g", default_loads)) if measured == "stiffness" else ()
         if measured == "stiffness" and (not loads or min(loads) <= 0):
-            raise ValueError(f"{where}: a stiffness needs positive loads_g")
+            raise InputError(f"{where}: a stiffness needs positive loads_g")
         out.append(
             Experiment(
                 id=str(e["id"]),
@@ -159,5 +161,5 @@ def load_experiments(path: str | Path | None = None) -> list[Experiment]:
     ids = {x.id for x in out}
     for x in out:
         if x.derived_from is not None and x.derived_from not in ids:
-            raise ValueError(f"{path}: experiment {x.id}: derived_from {x.derived_from!r} is not an id")
+            raise InputError(f"{path}: experiment {x.id}: derived_from {x.derived_from!r} is not an id")
     return out

@@ -9,6 +9,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import InputError
 from .experiments import Experiment, load_experiments
 
 DATA_DIR = Path(__file__).resolve().parent.parent / "data"
@@ -43,9 +44,9 @@ def _number(cell: str, where: str, column: str) -> float:
     try:
         x = float(cell)
     except ValueError:
-        raise ValueError(f"{where}, column {column!r}: {cell!r} is not a number") from None
+        raise InputError(f"{where}, column {column!r}: {cell!r} is not a number") from None
     if not math.isfinite(x):
-        raise ValueError(f"{where}, column {column!r}: {cell!r} is not a finite number")
+        raise InputError(f"{where}, column {column!r}: {cell!r} is not a finite number")
     return x
 
 
@@ -67,39 +68,39 @@ def read_csv(path: str | Path) -> list[Measurement]:
             header = [c.lower() for c in cells]
             dup = {c for c in header if header.count(c) > 1}
             if dup:
-                raise ValueError(f"{path}, line {line} (header): duplicate column(s) {sorted(dup)}")
+                raise InputError(f"{path}, line {line} (header): duplicate column(s) {sorted(dup)}")
             unknown = [c for c in header if c not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS]
             if unknown:
-                raise ValueError(
+                raise InputError(
                     f"{path}, line {line} (header): unknown column(s) {unknown}; "
                     f"known: {list(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}"
                 )
             missing = [c for c in REQUIRED_COLUMNS if c not in header]
             if missing:
-                raise ValueError(
+                raise InputError(
                     f"{path}, line {line} (header): missing column(s) {missing}; "
                     f"required: {list(REQUIRED_COLUMNS)}"
                 )
             continue
         where = f"{path}, line {line}"
         if len(cells) != len(header):
-            raise ValueError(f"{where}: {len(cells)} cells, but the header has {len(header)} columns")
+            raise InputError(f"{where}: {len(cells)} cells, but the header has {len(header)} columns")
         row = dict(zip(header, cells))
         out.append(_parse_row(row, where, line, f"{path.name}:{line}"))
     if header is None:
-        raise ValueError(f"{path}: empty file (no header)")
+        raise InputError(f"{path}: empty file (no header)")
     if not out:
-        raise ValueError(f"{path}: no measurement rows after the header")
+        raise InputError(f"{path}: no measurement rows after the header")
     return out
 
 
 def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measurement:
     kind = row["kind"].lower()
     if kind not in KINDS:
-        raise ValueError(f"{where}, column 'kind': unknown kind {row['kind']!r}; one of {list(KINDS)}")
+        raise InputError(f"{where}, column 'kind': unknown kind {row['kind']!r}; one of {list(KINDS)}")
     muscle = (row.get("muscle") or "cepam").lower()
     if muscle not in MUSCLES:
-        raise ValueError(
+        raise InputError(
             f"{where}, column 'muscle': unknown muscle {row['muscle']!r}; one of {list(MUSCLES)}"
         )
 
@@ -107,7 +108,7 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
         cell = row[column]
         if cell == "":
             if required:
-                raise ValueError(f"{where}, column {column!r}: empty, but a {kind} of the {muscle} needs it")
+                raise InputError(f"{where}, column {column!r}: empty, but a {kind} of the {muscle} needs it")
             return default
         return _number(cell, where, column)
 
@@ -115,13 +116,13 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
     pe = num("pe_kpa", required=muscle in ("cepam", "epam"), default=0.0)
     for column, v in (("pc_kpa", pc), ("pe_kpa", pe)):
         if v < 0:
-            raise ValueError(
+            raise InputError(
                 f"{where}, column {column!r}: negative gauge pressure {v:g} kPa (suction is not modelled)"
             )
     if muscle == "cpam" and pe != 0:
-        raise ValueError(f"{where}, column 'pe_kpa': a single CPAM has no EPAM chamber; leave it empty or 0")
+        raise InputError(f"{where}, column 'pe_kpa': a single CPAM has no EPAM chamber; leave it empty or 0")
     if muscle == "epam" and pc != 0:
-        raise ValueError(f"{where}, column 'pc_kpa': a single EPAM has no CPAM chamber; leave it empty or 0")
+        raise InputError(f"{where}, column 'pc_kpa': a single EPAM has no CPAM chamber; leave it empty or 0")
 
     length = num("length_cm", required=kind == "force")
     loads: tuple[float, ...] = ()
@@ -129,46 +130,46 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
         parts = [s.strip() for s in row["load_g"].split(";")]
         loads = tuple(_number(s, where, "load_g") for s in parts)
         if any(m < 0 for m in loads):
-            raise ValueError(f"{where}, column 'load_g': negative load {row['load_g']!r}")
+            raise InputError(f"{where}, column 'load_g': negative load {row['load_g']!r}")
     if kind == "equilibrium_length":
         if length is not None:
-            raise ValueError(
+            raise InputError(
                 f"{where}, column 'length_cm': an equilibrium_length is measured, not held; "
                 "leave length_cm empty (the measured length goes in 'value')"
             )
         if len(loads) > 1:
-            raise ValueError(f"{where}, column 'load_g': one hanging load per equilibrium_length row")
+            raise InputError(f"{where}, column 'load_g': one hanging load per equilibrium_length row")
     elif kind == "stiffness":
         if (length is None) == (not loads):
-            raise ValueError(
+            raise InputError(
                 f"{where}, columns 'length_cm'/'load_g': a stiffness needs exactly one of "
                 "length_cm (held length: local -dF/dL) or load_g (the weights hung, "
                 "';'-separated: K = mean(m g / displacement))"
             )
         if loads and min(loads) <= 0:
-            raise ValueError(f"{where}, column 'load_g': stiffness weights must be > 0")
+            raise InputError(f"{where}, column 'load_g': stiffness weights must be > 0")
     else:  # force
         if loads and any(m != 0 for m in loads):
-            raise ValueError(
+            raise InputError(
                 f"{where}, column 'load_g': a force is measured at a held length; leave load_g empty"
             )
     if length is not None and length <= 0:
-        raise ValueError(f"{where}, column 'length_cm': length must be > 0, got {length:g}")
+        raise InputError(f"{where}, column 'length_cm': length must be > 0, got {length:g}")
 
     value = _number(row["value"], where, "value") if row["value"] != "" else None
     if value is None:
-        raise ValueError(f"{where}, column 'value': empty")
+        raise InputError(f"{where}, column 'value': empty")
     unit = row["unit"]
     factors = UNITS[kind]
     if unit.lower() not in factors:
-        raise ValueError(
+        raise InputError(
             f"{where}, column 'unit': {unit!r} is not a unit of a {kind}; one of {sorted(factors)}"
         )
     v = value * factors[unit.lower()]
     if kind in ("equilibrium_length", "stiffness") and v <= 0:
-        raise ValueError(f"{where}, column 'value': a {kind} must be > 0, got {value:g}")
+        raise InputError(f"{where}, column 'value': a {kind} must be > 0, got {value:g}")
     if v == 0:
-        raise ValueError(f"{where}, column 'value': 0 cannot carry a relative residual")
+        raise InputError(f"{where}, column 'value': 0 cannot carry a relative residual")
     name = row.get("name") or f"line {line}: {kind} {muscle} Pc={pc:g} Pe={pe:g}"
     exp = Experiment(
         id=ident,
