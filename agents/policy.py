@@ -8,7 +8,6 @@ A run directory (written by ``cepam-gym train``) holds ``config.yaml`` and the m
 
 from __future__ import annotations
 
-import json
 import pickle
 from pathlib import Path
 
@@ -80,13 +79,11 @@ class AgentPolicy:
 # --------------------------------------------------------------------------- loading
 def _files(run: Path, which: str) -> tuple[Path, Path | None]:
     """(model zip, VecNormalize pickle or None) of a run directory."""
-    candidates = {
-        "best": (run / "best_model.zip", run / "best_vecnormalize.pkl"),
-        "final": (run / "model.zip", run / "vecnormalize.pkl"),
-    }
-    latest = run / "checkpoints" / "latest.json"
-    if latest.is_file():
-        meta = guarded_load(latest, "checkpoint index", lambda: json.loads(latest.read_text()))
+    from .checkpoints import SAVED, read_index
+
+    candidates = {kind: (run / model, run / norm) for kind, (model, norm) in SAVED.items()}
+    meta = read_index(run)
+    if meta is not None:
         candidates["latest"] = (
             run / meta["model"],
             run / meta["vecnormalize"] if meta.get("vecnormalize") else None,
