@@ -8,11 +8,22 @@ of trained agents as controllers): never by an import.
 Needs the ``[train]`` extra (stable-baselines3, torch). Importing this package imports nothing
 heavy; the modules do:
 
-| module | what |
+| module of ``cepam_gym_agents`` | what |
 |---|---|
-| :mod:`cepam_gym_agents.config` | YAML training config as frozen dataclasses, validated |
-| :mod:`cepam_gym_agents.features` | what the agent sees and sends (optional baseline residual, history) |
-| :mod:`cepam_gym_agents.train` | ``cepam-gym train --config configs/<name>.yaml`` |
-| :mod:`cepam_gym_agents.policy` | ``load_policy(run_dir, env)``: a trained agent as a benchmark controller |
-| :mod:`cepam_gym_agents.evaluate` | ``cepam-gym eval --run DIR``: the agent beside the baseline |
+| ``config`` | YAML training config: finding and reading the files; every config name |
+| ``config_schema`` | the config's sections as frozen dataclasses, each checking its YAML |
+| ``config_checks`` | ``ConfigError`` and the typed readers of YAML values |
+| ``algorithm`` | the SB3 algorithm a config names: class, policy, checks, constructor arguments |
+| ``features`` | what the agent sees and sends (optional baseline residual, history) |
+| ``privileged``, ``asymmetric`` | the privileged critic's view and policy |
+| ``train`` | ``cepam-gym train --config configs/<name>.yaml`` (the command line) |
+| ``trainer`` | one training session: ``train()`` and the ``Trainer`` |
+| ``envs`` | the training and evaluation envs a session builds |
+| ``callbacks`` | the callback inside ``learn``: logging, evaluations, checkpoints, time limit |
+| ``checkpoints`` | a run's saved models, ``checkpoints/`` and what a resume starts from |
+| ``lock``, ``signals`` | one session per run directory; SIGTERM as Ctrl-C |
+| ``provenance``, ``progress`` | ``run.json``; the progress bar |
+| ``policy`` | ``load_policy(run_dir, env)``: a trained agent as a benchmark controller |
+| ``evaluate`` | ``cepam-gym eval --run DIR``: the agent beside the baseline |
+| ``curves`` | the reference learning curves (``python -m cepam_gym_agents.curves``) |
 """

@@ -18,6 +18,8 @@ import json
 import sys
 from pathlib import Path
 
+from cepam_gym.errors import InputError
+
 # goals per suite: (reference controller, largest agent / reference score ratio)
 GOALS = {
     "nominal": [("baseline", 1.05)],  # v0: within 5 % of the baseline
@@ -124,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     run = Path(args.run)
     if not (run / "config.yaml").is_file():
-        ap.error(f"--run {run}: not a training run directory (no config.yaml)")
+        raise InputError(f"--run {run}: not a training run directory (no config.yaml)")
     from .policy import load_run_config
 
     env_id = load_run_config(run).env.id
@@ -138,19 +140,19 @@ def main(argv: list[str] | None = None) -> int:
         suites = [s for s in SUITES if SUITES[s].traces is (RIG_V1 if v1 else RIG)]
     bad = [s for s in suites if s not in SUITES]
     if bad:
-        ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
+        raise InputError(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
     if args.episodes is not None and args.episodes < 1:
-        ap.error("--episodes must be >= 1")
+        raise InputError("--episodes must be >= 1")
     against = [] if args.no_baseline else (args.against or ["baseline"])
     bad = [c for c in against if c not in controller_names()]
     if bad:
-        ap.error(f"--against: unknown controller(s) {bad}; choose from {list(controller_names())}")
+        raise InputError(f"--against: unknown controller(s) {bad}; choose from {list(controller_names())}")
     from .policy import _files
 
     try:
         model_path, _ = _files(run, args.model)
     except FileNotFoundError as e:
-        ap.error(str(e))
+        raise InputError(str(e)) from None
     spec = str(model_path) if args.model != "auto" else str(run)
     out = Path(args.out_dir) if args.out_dir else run / "eval"
     out.mkdir(parents=True, exist_ok=True)

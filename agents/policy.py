@@ -8,13 +8,13 @@ A run directory (written by ``cepam-gym train``) holds ``config.yaml`` and the m
 
 from __future__ import annotations
 
-import json
 import pickle
 from pathlib import Path
 
 import numpy as np
 
 from cepam_gym._cli_errors import guarded_load
+from cepam_gym.errors import InputError
 
 from .config import TrainConfig, algorithm_class
 from .features import Features
@@ -33,12 +33,12 @@ class AgentPolicy:
         self.obs_dim = features.raw_dim
         want = model.observation_space.shape
         if want != (features.dim,):
-            raise ValueError(
+            raise InputError(
                 f"the model expects observations of shape {want}, the features give "
                 f"({features.dim},): wrong env for this agent?"
             )
         if model.action_space.shape != (features.n_actions,):
-            raise ValueError(
+            raise InputError(
                 f"the model sends actions of shape {model.action_space.shape}, the agent config "
                 f"expects ({features.n_actions},): wrong env for this agent?"
             )
@@ -58,7 +58,7 @@ class AgentPolicy:
         single = np.ndim(obs) == 1
         o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
         if o.shape[1] != self.obs_dim:
-            raise ValueError(
+            raise InputError(
                 f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}), got {np.shape(obs)}"
             )
         f, base = self.features(o)
@@ -80,13 +80,11 @@ class AgentPolicy:
 # --------------------------------------------------------------------------- loading
 def _files(run: Path, which: str) -> tuple[Path, Path | None]:
     """(model zip, VecNormalize pickle or None) of a run directory."""
-    candidates = {
-        "best": (run / "best_model.zip", run / "best_vecnormalize.pkl"),
-        "final": (run / "model.zip", run / "vecnormalize.pkl"),
-    }
-    latest = run / "checkpoints" / "latest.json"
-    if latest.is_file():
-        meta = guarded_load(latest, "checkpoint index", lambda: json.loads(latest.read_text()))
+    from .checkpoints import SAVED, read_index
+
+    candidates = {kind: (run / model, run / norm) for kind, (model, norm) in SAVED.items()}
+    meta = read_index(run)
+    if meta is not None:
         candidates["latest"] = (
             run / meta["model"],
             run / meta["vecnormalize"] if meta.get("vecnormalize") else None,
@@ -137,18 +135,18 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
     else:
         run = spec
         if not run.is_dir():
-            raise ValueError(
+            raise InputError(
                 f"unknown controller {str(spec)!r}: not a run directory or model .zip "
                 f"(use baseline, zero, random, or a trained agent's run directory)"
             )
         if which not in (*MODEL_CHOICES, "auto"):
-            raise ValueError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
+            raise InputError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
         model_path, norm_path = _files(run, which)
     cfg = load_run_config(run)
     core = _core(env)
     trained_mode = cfg.env.kwargs.get("action_mode", "valve")
     if core.action_mode != trained_mode:
-        raise ValueError(
+        raise InputError(
             f"agent {run} was trained with action_mode={trained_mode!r}, the env uses {core.action_mode!r}"
         )
     torch.set_num_threads(max(1, cfg.torch_threads))

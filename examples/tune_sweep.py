@@ -1,4 +1,4 @@
-"""Small Ray Tune sweep over hyperparameters of our own SB3 trainer (agents/train.py).
+"""Small Ray Tune sweep over hyperparameters of our own SB3 trainer (agents/trainer.py).
 
     .venv/bin/python examples/tune_sweep.py --config quick --total-timesteps 100000 \
         --grid learning_rate=1e-4,3e-4 --grid gamma=0.97,0.98

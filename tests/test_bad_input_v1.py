@@ -123,3 +123,33 @@ def test_video_plays_a_run_on_its_own_env_id(tmp_path):
     (tmp_path / "config.yaml").write_text("env: [unclosed\n")
     with pytest.raises(InputError, match="config.yaml"):
         _run_env_id(tmp_path)
+
+
+def _cli(*args, timeout=300):
+    import subprocess
+    import sys
+
+    return subprocess.run(
+        [sys.executable, "-m", "cepam_gym.cli", *args], capture_output=True, text=True, timeout=timeout
+    )
+
+
+@pytest.mark.train
+def test_run_with_a_config_typo_fails_before_any_step(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    r = _cli("run", "--config", "typo", "--out-dir", str(tmp_path))
+    assert r.returncode == 2 and "config file not found: typo" in r.stderr
+    assert r.stderr.strip().count("\n") == 0 and "Traceback" not in r.stderr
+    assert not (tmp_path / "step_response.png").exists()  # nothing ran
+
+
+@pytest.mark.train
+def test_eval_of_a_run_without_a_model_is_one_line_without_the_usage(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    from pathlib import Path
+
+    shipped = Path(__file__).resolve().parents[1] / "configs" / "quick.yaml"
+    (tmp_path / "config.yaml").write_text(shipped.read_text())
+    r = _cli("eval", "--run", str(tmp_path))
+    assert r.returncode == 2 and "no model in run directory" in r.stderr
+    assert "usage:" not in r.stderr and r.stderr.strip().count("\n") == 0

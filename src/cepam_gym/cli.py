@@ -66,6 +66,13 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
     from . import demo
     from .validation.cli import validate_main
 
+    if not args.no_train:  # a bad --config fails now, not after the steps before training
+        try:
+            code = _plugin_command("train")(["--config", args.config, "--check"])
+        except ImportError:
+            code = 0  # reported at step 3, with the extra to install
+        if code:
+            return code
     steps.append(["plant step response", "failed", None])
     steps[-1][1:] = ["done", demo.step_response(out_dir=out)]
     print(f"[1/3] plant step response: {steps[-1][2]}", flush=True)

@@ -1,0 +1,100 @@
+"""The callback a training session runs inside SB3's ``learn``: it averages the env's reward terms
+and errors into the log, triggers the periodic evaluations and checkpoints (the first one early),
+moves the progress bar, and stops the session at the config's time limit."""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .trainer import Trainer
+
+FIRST_CHECKPOINT_FRACTION = 0.1  # of the session's steps
+FIRST_CHECKPOINT_MINUTES = 2.0
+
+
+def _next(n: int, due: int, every: int) -> int:
+    """The first multiple of ``every`` steps after ``due`` that is past ``n`` (a step of ``learn``
+    may cross several)."""
+    return due + every * max(1, (n - due) // every + 1)
+
+
+def make_callback_class():
+    """The callback class (built on first use: SB3 is imported only when training)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class RunCallback(BaseCallback):
+        """Logs the env's reward terms and errors, evaluates, keeps the best model, checkpoints,
+        and draws the progress bar (with the latest evaluation score)."""
+
+        def __init__(self, trainer: Trainer):
+            super().__init__(verbose=0)
+            self.t = trainer
+            self._sums: dict[str, float] = {}
+            self._count = 0
+
+        def _on_training_start(self) -> None:
+            n = self.num_timesteps
+            cfg = self.t.cfg
+            self.next_log = _next(n, 0, cfg.log_every_steps)
+            self.next_eval = _next(n, 0, cfg.eval.every_steps)
+            self.next_ckpt = _next(n, 0, cfg.checkpoint.every_steps)
+            # an early first checkpoint: a run killed early still has something to resume from
+            remaining = max(1, cfg.total_timesteps - n)
+            self.first_ckpt = n + max(1, int(FIRST_CHECKPOINT_FRACTION * remaining))
+            self.first_ckpt_wall = time.perf_counter() + 60.0 * FIRST_CHECKPOINT_MINUTES
+            self.t.progress.open(n, self.t.last_score, self.t.best_score)
+
+        def _on_step(self) -> bool:
+            self._accumulate(self.locals.get("infos") or [])
+            n, cfg = self.num_timesteps, self.t.cfg
+            if n >= self.next_log:
+                self._log()
+                self.next_log = _next(n, self.next_log, cfg.log_every_steps)
+            if n >= self.next_eval:
+                self.t.evaluate(n)
+                self.next_eval = _next(n, self.next_eval, cfg.eval.every_steps)
+            if self.first_ckpt is not None and (
+                n >= self.first_ckpt or time.perf_counter() >= self.first_ckpt_wall
+            ):
+                self.first_ckpt = None
+                if n < self.next_ckpt:
+                    self.t.save_checkpoint(n)
+            if n >= self.next_ckpt:
+                self.first_ckpt = None
+                self.t.save_checkpoint(n)
+                self.next_ckpt = _next(n, self.next_ckpt, cfg.checkpoint.every_steps)
+            self.t.progress.to(n)
+            limit = cfg.time_limit_minutes
+            if limit is not None and self.t.wall() >= 60.0 * limit:
+                self.t.stopped_by_time = True
+                return False
+            return True
+
+        def _accumulate(self, infos) -> None:
+            if not infos or "length" not in infos[0]:
+                return
+            keys = self.t.info_keys
+            vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
+            L, Lt = vals[:, keys.index("length")], vals[:, keys.index("target_length")]
+            row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
+            row["length_error_mm"] = 1000.0 * np.abs(L - Lt).sum()
+            if self.t.track_stiffness:
+                K, Kt = vals[:, keys.index("stiffness")], vals[:, keys.index("target_stiffness")]
+                row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
+            for k, v in row.items():
+                self._sums[k] = self._sums.get(k, 0.0) + float(v)
+            self._count += len(infos)
+
+        def _log(self) -> None:
+            if self._count:
+                for k, v in self._sums.items():
+                    self.logger.record(f"env/{k}", v / self._count)
+            self.logger.record("time/wall_s", self.t.wall())
+            self.logger.dump(self.num_timesteps)
+            self._sums, self._count = {}, 0
+
+    return RunCallback

@@ -1,0 +1,285 @@
+"""The training config's schema: one frozen dataclass per section (env, normalize, agent, eval,
+checkpoint) and :class:`TrainConfig` holding them, each with the ``parse`` that checks its section
+of the YAML (the layout and the defaults are described in :mod:`cepam_gym_agents.config`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from .algorithm import ALGORITHMS, ON_POLICY, check_hyperparameters, check_policy_kwargs
+from .config_checks import (
+    ConfigError,
+    as_bool,
+    as_float,
+    as_int,
+    as_mapping,
+    check_keys,
+    numbers_deep,
+)
+
+
+# --------------------------------------------------------------------------- sections
+@dataclass(frozen=True)
+class EnvConfig:
+    """``suite`` (optional) starts the kwargs from a benchmark suite's (e.g. ``randomized``: the
+    same plant spread, noise and drift); ``kwargs`` are then merged over them, key by key. The
+    resolved config stores the merged kwargs."""
+
+    id: str = "cepam_gym/CEPAM-v0"
+    num_envs: int = 8
+    suite: str | None = None
+    kwargs: dict = field(default_factory=dict)
+
+    @classmethod
+    def parse(cls, data: Any) -> EnvConfig:
+        d = as_mapping(data, "env")
+        check_keys(d, cls, "env")
+        suite = d.get("suite")
+        base: dict = {}
+        if suite is not None:
+            from cepam_gym.bench.suites import SUITES
+
+            if suite not in SUITES:
+                raise ConfigError(f"env.suite: unknown suite {suite!r}; choose from {list(SUITES)}")
+            base = numbers_deep(SUITES[suite].env_kwargs)
+        env_id = d.get("id", cls.id)
+        import gymnasium as gym
+
+        import cepam_gym  # noqa: F401  (registers the ids)
+
+        if not isinstance(env_id, str) or env_id not in gym.registry:
+            ids = sorted(k for k in gym.registry if k.startswith("cepam_gym/"))
+            raise ConfigError(f"env.id: unknown environment {env_id!r}; registered CE-PAM ids: {ids}")
+        kwargs = {**base, **numbers_deep(as_mapping(d.get("kwargs"), "env.kwargs"))}
+        _check_env_kwargs(kwargs, "env.kwargs")
+        return cls(env_id, as_int(d.get("num_envs", cls.num_envs), "env.num_envs", 1), suite, kwargs)
+
+
+def _check_env_kwargs(kwargs: Mapping, where: str) -> None:
+    """Reject kwargs the CE-PAM envs do not take (their values are checked by the env itself)."""
+    from cepam_gym.envs.cepam import CEPAMVectorEnv
+    from cepam_gym.envs.core import CEPAMBatch
+
+    names = set(inspect.signature(CEPAMBatch.__init__).parameters) | set(
+        inspect.signature(CEPAMVectorEnv.__init__).parameters
+    )
+    names -= {"self", "kwargs", "num_envs", "task", "render_mode"}
+    bad = sorted(set(kwargs) - names)
+    if bad:
+        raise ConfigError(f"{where}: unknown env kwarg {bad[0]!r}; valid: {sorted(names)}")
+
+
+@dataclass(frozen=True)
+class NormalizeConfig:
+    obs: bool = False
+    reward: bool = False
+    clip_obs: float = 10.0
+    clip_reward: float = 10.0
+
+    @property
+    def enabled(self) -> bool:
+        return self.obs or self.reward
+
+    @classmethod
+    def parse(cls, data: Any) -> NormalizeConfig:
+        if data is None or data is False:
+            return cls()
+        if data is True:
+            return cls(obs=True, reward=True)
+        d = as_mapping(data, "normalize")
+        check_keys(d, cls, "normalize")
+        return cls(
+            as_bool(d.get("obs", False), "normalize.obs"),
+            as_bool(d.get("reward", False), "normalize.reward"),
+            as_float(d.get("clip_obs", 10.0), "normalize.clip_obs", 0.0),
+            as_float(d.get("clip_reward", 10.0), "normalize.clip_reward", 0.0),
+        )
+
+
+def _filters(value: Any, where: str) -> list:
+    if not isinstance(value, (list, tuple)):
+        raise ConfigError(f"{where} must be a list of time constants in seconds, got {value!r}")
+    out = [as_float(v, f"{where}[{i}]", 0.0) for i, v in enumerate(value)]
+    if any(v <= 0 for v in out):
+        raise ConfigError(f"{where}: time constants must be > 0 s, got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """What the policy sees and sends, on top of the inverse-model baseline
+    (:class:`cepam_gym.control.InverseStaticController`, nominal model):
+
+    * ``target_shift``: the policy's first actions move the targets the baseline is given: the
+      length by up to ``target_shift_length_mm``, the stiffness by a factor up to
+      ``exp(+-target_shift_stiffness)`` (length-only tasks: the length shift only), low-pass
+      filtered with time constant ``target_shift_filter_s`` if > 0. The baseline then computes
+      pressures and valve commands for the shifted targets.
+    * ``residual``: the policy's (remaining) two actions are added to the valve commands:
+      ``clip(baseline + residual_scale * a, -1, 1)``.
+    * ``baseline_in_obs``: the baseline's action is appended to the observation (not with
+      ``target_shift``: the baseline acts only after the policy has chosen the shift).
+    * ``history``: the last ``history`` observations are stacked.
+    * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
+      restarted with each episode) are appended: a cheap memory over seconds.
+    * ``privileged_critic`` (PPO): an asymmetric actor-critic (Pinto et al. 2018). During training
+      the critic also sees what only the simulator knows (:mod:`agents.privileged`: the true plant
+      parameters, the load, the true errors); the actor's input masks those columns out, and a
+      deployed policy is given NaN there (:mod:`agents.asymmetric`).
+
+    With neither ``target_shift`` nor ``residual`` the policy drives the valves directly."""
+
+    residual: bool = False
+    residual_scale: float = 0.5
+    baseline_in_obs: bool = False
+    history: int = 1
+    target_shift: bool = False
+    target_shift_length_mm: float = 5.0
+    target_shift_stiffness: float = 0.4
+    target_shift_filter_s: float = 0.0  # first-order low-pass of the shifts (0: none) [s]
+    obs_filters_s: list = field(
+        default_factory=list
+    )  # time constants [s] of low-passed copies of the observation
+    privileged_critic: bool = False
+
+    @property
+    def uses_baseline(self) -> bool:
+        return self.residual or self.baseline_in_obs or self.target_shift
+
+    @classmethod
+    def parse(cls, data: Any) -> AgentConfig:
+        d = as_mapping(data, "agent")
+        check_keys(d, cls, "agent")
+        out = cls(
+            as_bool(d.get("residual", False), "agent.residual"),
+            as_float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
+            as_bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
+            as_int(d.get("history", 1), "agent.history", 1),
+            as_bool(d.get("target_shift", False), "agent.target_shift"),
+            as_float(d.get("target_shift_length_mm", 5.0), "agent.target_shift_length_mm", 0.0),
+            as_float(d.get("target_shift_stiffness", 0.4), "agent.target_shift_stiffness", 0.0),
+            as_float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
+            _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),
+            as_bool(d.get("privileged_critic", False), "agent.privileged_critic"),
+        )
+        if out.target_shift and out.baseline_in_obs:
+            raise ConfigError(
+                "agent.baseline_in_obs cannot be used with agent.target_shift (the baseline "
+                "acts after the policy has chosen the shift); drop one of them"
+            )
+        return out
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """Periodic evaluation: ``episodes`` seeded episodes, scored with the benchmark's combined
+    score (lower is better); the best model is kept. ``suite`` names a benchmark suite whose env
+    id and kwargs are used (with this ``seed``, not the suite's, so that the benchmark's own
+    episodes are never used to pick the model); without it, the training env is used."""
+
+    every_steps: int = 20000
+    episodes: int = 16
+    suite: str | None = None
+    seed: int = 12345
+
+    @classmethod
+    def parse(cls, data: Any) -> EvalConfig:
+        d = as_mapping(data, "eval")
+        check_keys(d, cls, "eval")
+        suite = d.get("suite")
+        if suite is not None:
+            from cepam_gym.bench.suites import SUITES
+
+            if suite not in SUITES:
+                raise ConfigError(f"eval.suite: unknown suite {suite!r}; choose from {list(SUITES)}")
+        return cls(
+            as_int(d.get("every_steps", cls.every_steps), "eval.every_steps", 1),
+            as_int(d.get("episodes", cls.episodes), "eval.episodes", 1),
+            suite,
+            as_int(d.get("seed", cls.seed), "eval.seed", 0),
+        )
+
+
+@dataclass(frozen=True)
+class CheckpointConfig:
+    every_steps: int = 50000
+    keep: int = 2  # checkpoints kept on disk (the newest)
+    replay_buffer: bool = True  # off-policy algorithms: save the replay buffer for --resume
+
+    @classmethod
+    def parse(cls, data: Any) -> CheckpointConfig:
+        d = as_mapping(data, "checkpoint")
+        check_keys(d, cls, "checkpoint")
+        return cls(
+            as_int(d.get("every_steps", cls.every_steps), "checkpoint.every_steps", 1),
+            as_int(d.get("keep", cls.keep), "checkpoint.keep", 1),
+            as_bool(d.get("replay_buffer", True), "checkpoint.replay_buffer"),
+        )
+
+
+# --------------------------------------------------------------------------- the config
+@dataclass(frozen=True)
+class TrainConfig:
+    algorithm: str
+    total_timesteps: int = 100_000
+    seed: int = 0
+    torch_threads: int = 1
+    env: EnvConfig = field(default_factory=EnvConfig)
+    normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    hyperparameters: dict = field(default_factory=dict)
+    policy_kwargs: dict = field(default_factory=dict)
+    eval: EvalConfig = field(default_factory=EvalConfig)
+    checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
+    log_every_steps: int = 5000
+    time_limit_minutes: float | None = None
+
+    @classmethod
+    def from_dict(cls, data: Any) -> TrainConfig:
+        d = as_mapping(data, "config")
+        check_keys(d, cls, "")
+        if "algorithm" not in d:
+            raise ConfigError(f"config needs 'algorithm' (one of {list(ALGORITHMS)})")
+        algo = d["algorithm"]
+        names = {a.upper(): a for a in ALGORITHMS}
+        if not isinstance(algo, str) or algo.upper() not in names:
+            raise ConfigError(f"algorithm must be one of {list(ALGORITHMS)}, got {algo!r}")
+        algo = names[algo.upper()]
+        hp = check_hyperparameters(
+            algo, numbers_deep(as_mapping(d.get("hyperparameters"), "hyperparameters"))
+        )
+        pk = check_policy_kwargs(algo, numbers_deep(as_mapping(d.get("policy_kwargs"), "policy_kwargs")))
+        if algo in ON_POLICY and "action_noise" in hp:
+            raise ConfigError(f"hyperparameters.action_noise is for SAC and TD3, not {algo}")
+        agent = AgentConfig.parse(d.get("agent"))
+        if agent.privileged_critic and algo != "PPO":
+            raise ConfigError(
+                f"agent.privileged_critic is built for PPO (an asymmetric actor-critic), not {algo}"
+            )
+        return cls(
+            algorithm=algo,
+            total_timesteps=as_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
+            seed=as_int(d.get("seed", cls.seed), "seed", 0),
+            torch_threads=as_int(d.get("torch_threads", cls.torch_threads), "torch_threads", 1),
+            env=EnvConfig.parse(d.get("env")),
+            normalize=NormalizeConfig.parse(d.get("normalize")),
+            agent=agent,
+            hyperparameters=hp,
+            policy_kwargs=pk,
+            eval=EvalConfig.parse(d.get("eval")),
+            checkpoint=CheckpointConfig.parse(d.get("checkpoint")),
+            log_every_steps=as_int(d.get("log_every_steps", cls.log_every_steps), "log_every_steps", 1),
+            time_limit_minutes=None
+            if d.get("time_limit_minutes") is None
+            else as_float(d["time_limit_minutes"], "time_limit_minutes", 0.0),
+        )
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def replace(self, **changes) -> TrainConfig:
+        return dataclasses.replace(self, **changes)

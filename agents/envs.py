@@ -1,0 +1,61 @@
+"""The envs a training session builds from its config: the training VecEnv (native batched env ->
+agent features -> optional VecNormalize), the periodic evaluation's env, and the per-step info keys
+the session logs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .config import TrainConfig
+
+
+def make_train_env(cfg: TrainConfig, seed: int):
+    """SB3 VecEnv: native batched env (one process) -> agent features -> VecNormalize (optional)."""
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
+
+    from .features import make_agent_vec_env
+
+    env = make_sb3_vec_env(cfg.env.id, num_envs=cfg.env.num_envs, seed=seed, **cfg.env.kwargs)
+    return make_agent_vec_env(env, cfg.agent)
+
+
+def normalize(env, cfg: TrainConfig, load_from: Path | None = None):
+    """``env`` wrapped in the config's VecNormalize (new, or the statistics saved at ``load_from``,
+    training on); ``env`` itself if the config does not normalize."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if not cfg.normalize.enabled:
+        return env
+    if load_from is not None:
+        vn = VecNormalize.load(str(load_from), env)
+        vn.training = True
+        return vn
+    gamma = cfg.hyperparameters.get("gamma", 0.99)
+    return VecNormalize(
+        env,
+        norm_obs=cfg.normalize.obs,
+        norm_reward=cfg.normalize.reward,
+        clip_obs=cfg.normalize.clip_obs,
+        clip_reward=cfg.normalize.clip_reward,
+        gamma=gamma,
+    )
+
+
+def eval_env_spec(cfg: TrainConfig) -> tuple[str, dict, object]:
+    """(env id, kwargs, trace spec) of the periodic evaluation: the eval suite's, else the
+    training env scored as the benchmark scores its version (v1 ids: the settling allowance)."""
+    from cepam_gym.bench.suites import SUITES, trace_spec_for
+
+    if cfg.eval.suite is None:
+        return cfg.env.id, dict(cfg.env.kwargs), trace_spec_for(cfg.env.id)
+    s = SUITES[cfg.eval.suite]
+    return s.env_id, dict(s.env_kwargs), s.traces
+
+
+def info_keys() -> list[str]:
+    """The per-env info entries the session averages into its log: lengths, stiffnesses, reward terms."""
+    from cepam_gym.tasks.kernel import REWARD_TERMS
+
+    return ["length", "target_length", "stiffness", "target_stiffness"] + [
+        f"reward_{t}" for t in REWARD_TERMS
+    ]
