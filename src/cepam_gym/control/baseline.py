@@ -32,6 +32,7 @@ import numpy as np
 from .. import plant as pl
 from ..physics import api
 from ..physics import layout as ix
+from ..plant.actions import pressure_actions
 from ..tasks.schedules import stiffness_interval
 
 
@@ -162,7 +163,7 @@ class InverseStaticController:
     def _drive(self, pc_set, pe_set, L, pc, pe, setpoint_max: float, single: bool) -> np.ndarray:
         """Actions that bring the chambers to the set-points, by action mode (step 4 above)."""
         if self.mode == "pressure":
-            action = np.stack([2 * pc_set / setpoint_max - 1, 2 * pe_set / setpoint_max - 1], axis=1)
+            action = pressure_actions(pc_set, pe_set, setpoint_max)
         else:
             vc, ve, _, _ = api.chamber_volumes(L, self.params)
             uc, self._integral[:, 0] = self._valve_command(pc_set, pc, vc, self._integral[:, 0])

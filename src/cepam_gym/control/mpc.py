@@ -80,7 +80,7 @@ class ModelPredictiveController(InverseStaticController):
         """Target length and stiffness over the horizon (N, H): the target, then the preview
         columns, the last value held (no preview: the target held)."""
         h = self.cfg.horizon_steps
-        steps = sum(n.startswith("target_length_+") for n in self.layout.names)
+        steps = self.layout.preview_steps
         K_t = K_t if K_t is not None else np.full_like(L_t, 1000.0)  # no stiffness tracked: unused
         cols_l, cols_k = [L_t], [K_t]
         for j in range(1, min(steps, h - 1) + 1):

@@ -240,7 +240,8 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._obs_row = self.core.obs[0]
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self.observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
+        clip = self.core.obs_layout.clip  # the kernel clips every column to it
+        self.observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,), np.float32)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise InputError(
                 f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}"
@@ -433,7 +434,8 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             )
         self.max_episode_steps = max_episode_steps
         self.single_action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self.single_observation_space = spaces.Box(-10.0, 10.0, (self.core.obs_dim,), np.float32)
+        clip = self.core.obs_layout.clip
+        self.single_observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,), np.float32)
         self.action_space = gym.vector.utils.batch_space(self.single_action_space, self.num_envs)
         self.observation_space = gym.vector.utils.batch_space(self.single_observation_space, self.num_envs)
         if render_mode is not None and render_mode != "rgb_array":

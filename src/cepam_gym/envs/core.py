@@ -17,13 +17,12 @@ import numpy as np
 from .. import plant as pl
 from ..errors import InputError
 from ..physics import layout as ix
+from ..plant.actions import check_action_mode
 from ..plant.params import PlantParams, preset
 from ..tasks import kernel as tk
 from ..tasks.randomization import MAX_REDRAWS
 from ..tasks.registry import make_task
 from ..tasks.task import Task
-
-ACTION_MODES = tuple(pl.MODES)  # "valve", "pwm", "pressure"
 
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6
@@ -64,13 +63,6 @@ def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tu
     if not episode_seconds > 0:
         raise InputError(f"episode_seconds must be > 0, got {episode_seconds}")
     return int(n_sub), max(1, round(episode_seconds / control_dt))
-
-
-def check_action_mode(action_mode: str) -> int:
-    """The plant's valve mode of an env ``action_mode`` (``ValueError`` naming the valid ones)."""
-    if action_mode not in pl.MODES:
-        raise InputError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
-    return pl.MODES[action_mode]
 
 
 def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:

@@ -28,6 +28,7 @@ from ..mujoco._mj import require_mujoco
 from ..mujoco.joint_sim import JointSimulator
 from ..mujoco.joint_view import JointView
 from ..physics import layout as ix
+from ..plant.actions import check_action_mode, valve_commands
 from ..tasks import kernel as tk
 from ..tasks.joint import (
     JointGeometry,
@@ -41,7 +42,6 @@ from ..tasks.randomization import MAX_REDRAWS, sample_params
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
 from .core import (
     as_actions,
-    check_action_mode,
     check_randomize,
     check_timing,
     resolve_params,
@@ -300,7 +300,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         a = np.clip(as_actions(action, 1)[0], -1.0, 1.0)
         k = min(self.t_idx, self.n_steps - 1)
         inp = self.link.inp
-        inp[pl.I_CMD_C], inp[pl.I_CMD_E] = tk.valve_commands(self.mode, a[0], a[1], self.setpoint_max)
+        inp[pl.I_CMD_C], inp[pl.I_CMD_E] = valve_commands(self.mode, a[0], a[1], self.setpoint_max)
         inp[pl.I_LOAD] = inp[pl.I_FEXT] = 0.0
         self.aux[:] = self.sim.step(float(self.external_torque[k]), self.n_sub)
         self.prev_action[:] = a

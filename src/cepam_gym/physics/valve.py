@@ -7,8 +7,20 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .._jit import jit, jit_inline, sqrt
 from .layout import RHO0, T0
+
+
+@jit_inline
+def laminar_factor(r_lam, b):
+    """``sqrt(1 - x^2) / (1 - r_lam)`` with ``x = (r_lam - b) / (1 - b)``: the slope of the
+    laminar piece of the ISO 6358 flow per unit of choked flow (continuous with the subsonic curve
+    at ``r_lam``). Scalars or arrays (the derived parameter column ``LAM_K``, the stability number):
+    the one place it is written."""
+    x = (r_lam - b) / (1.0 - b)
+    return np.sqrt(1.0 - x * x) / (1.0 - r_lam)
 
 
 @jit
@@ -21,16 +33,8 @@ def iso6358_flow(p_up, p_down, t_up, c, b, r_lam):
     ``r_lam``. The ISO curve has an infinite slope at ``r = 1``; the linear piece keeps the pressure
     ODE well-conditioned (its slope bounds the stiffest eigenvalue the sub-step must resolve).
     """
-    x = (r_lam - b) / (1.0 - b)
     return iso6358_flow_k(
-        p_up,
-        p_down,
-        math.sqrt(T0 / t_up),
-        c,
-        b,
-        1.0 / (1.0 - b),
-        r_lam,
-        math.sqrt(1.0 - x * x) / (1.0 - r_lam),
+        p_up, p_down, math.sqrt(T0 / t_up), c, b, 1.0 / (1.0 - b), r_lam, laminar_factor(r_lam, b)
     )
 
 
@@ -58,17 +62,8 @@ def signed_flow(pa, ta, pb, tb, c, b, r_lam):
     The upstream side's temperature is used, whichever it is; the direction is chosen first, so
     the ISO 6358 formula always sees ``p_up >= p_down``.
     """
-    x = (r_lam - b) / (1.0 - b)
     return signed_flow_k(
-        pa,
-        math.sqrt(T0 / ta),
-        pb,
-        math.sqrt(T0 / tb),
-        c,
-        b,
-        1.0 / (1.0 - b),
-        r_lam,
-        math.sqrt(1.0 - x * x) / (1.0 - r_lam),
+        pa, math.sqrt(T0 / ta), pb, math.sqrt(T0 / tb), c, b, 1.0 / (1.0 - b), r_lam, laminar_factor(r_lam, b)
     )
 
 

@@ -26,6 +26,7 @@ from .. import units
 from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.muscle import braid_from_rest
+from ..physics.valve import laminar_factor
 
 FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
@@ -490,8 +491,7 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
     q[ix.HA_E] = np.where(h > 0.0, h * math.pi * (d_e - 2.0 * ta + d_c) * lm, q[ix.HA])
     bc = q[ix.B_CRIT]
     q[ix.INV_1MB] = 1.0 / (1.0 - bc)
-    x = (q[ix.R_LAM] - bc) / (1.0 - bc)
-    q[ix.LAM_K] = np.sqrt(1.0 - x * x) / (1.0 - q[ix.R_LAM])
+    q[ix.LAM_K] = laminar_factor(q[ix.R_LAM], bc)
     q[ix.K_SUP] = np.sqrt(T0 / q[ix.T_SUP])
     q[ix.K_AMB] = np.sqrt(T0 / q[ix.T_AMB])
     return p

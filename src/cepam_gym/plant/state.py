@@ -9,6 +9,7 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.air import state_from_pressure
 from ..physics.muscle import chamber_volumes
+from ..physics.valve import laminar_factor
 from .layout import N_AUX, N_STATE, S_L, S_MC, S_ME, S_UC, S_UE
 from .substep import measure_row
 
@@ -68,9 +69,8 @@ def stability_number(params, dt: float) -> np.ndarray:
     """
     p = np.atleast_2d(params)
     c = np.maximum(p[:, ix.C_PROP], p[:, ix.C_ONOFF]) + p[:, ix.C_LEAK]
-    x = (p[:, ix.R_LAM] - p[:, ix.B_CRIT]) / (1.0 - p[:, ix.B_CRIT])
     t = np.maximum(p[:, ix.T_SUP], p[:, ix.T_AMB])
-    slope = c * ix.RHO0 * np.sqrt(ix.T0 / t) * np.sqrt(1.0 - x * x) / (1.0 - p[:, ix.R_LAM])
+    slope = c * ix.RHO0 * np.sqrt(ix.T0 / t) * laminar_factor(p[:, ix.R_LAM], p[:, ix.B_CRIT])
     v_min = np.full(p.shape[0], np.inf)
     from ..physics import api
 

@@ -72,7 +72,7 @@ _MIN_MASS = 1e-15  # kg: keeps T = U/(m cv) defined if a chamber were ever empti
 
 
 @jit_inline
-def _command(mode, u, pressure_gauge, t, p):
+def valve_command(mode, u, pressure_gauge, t, p):
     """Spool command of one chamber's valve for this sub-step."""
     if mode == ONOFF:
         period = p[ix.PWM_PERIOD]
@@ -143,8 +143,8 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     te = temperature(me, ue)
     pc = pca - patm  # gauge
     pe = pea - patm
-    sc, src = spool_step(sc, src, _command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
-    se, sre = spool_step(se, sre, _command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
+    sc, src = spool_step(sc, src, valve_command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
+    se, sre = spool_step(se, sre, valve_command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
     vk = (p[ix.B_CRIT], p[ix.INV_1MB], p[ix.R_LAM], p[ix.LAM_K])
     cleak = p[ix.C_LEAK]
     dmc, duc, supc = chamber_rates(

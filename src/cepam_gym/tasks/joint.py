@@ -251,7 +251,7 @@ def joint_layout(
         for name in names
         for c in [cols[5] if name.startswith("target_angle") else cols[6]]
     )
-    return ObsLayout(cols, JOINT_FIELDS + names, s.obs_clip)
+    return ObsLayout(cols, JOINT_FIELDS + names, s.obs_clip, preview_steps, "angle")
 
 
 def joint_schedules(

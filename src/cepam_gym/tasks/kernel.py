@@ -20,7 +20,8 @@ from .. import plant as pl
 from .._jit import jit
 from ..physics import layout as ix
 from ..physics.hinge import H_R, N_HINGE
-from .layout import OBS_FIELDS, ObsLayout, preview_fields
+from ..plant.actions import valve_commands
+from .layout import OBS_FIELDS, ObsLayout
 from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
 
 __all__ = [
@@ -92,22 +93,19 @@ def task_vector(
     v[T_STIFF_CLIP], v[T_AIR_UNIT] = scales.stiffness_clip, scales.air_unit
     v[T_SETPOINT_MAX] = setpoint_max
     # the measured columns (at most one per measured quantity), then the preview columns
-    n = sum("_+" not in name for name in layout.names)
-    preview = layout.names[n:]
-    if n > MAX_OBS or any("_+" not in name for name in preview):
-        raise ValueError(
-            f"an observation layout has at most {MAX_OBS} measured columns, then the "
-            f"preview columns; got {layout.names}"
-        )
+    n = layout.n_measured
+    if n > MAX_OBS:
+        raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns; got {layout.names}")
     v[T_OBS_CLIP], v[T_OBS_N] = layout.clip, n
     v[T_OBS : T_OBS + 3 * n : 3] = layout.sources()[:n]
     v[T_OBS + 1 : T_OBS + 3 * n : 3] = layout.offsets()[:n]
     v[T_OBS + 2 : T_OBS + 3 * n : 3] = layout.scales()[:n]
-    steps = sum(name.startswith(f"target_{position}_+") for name in preview)
+    steps = layout.preview_steps
     if steps:
-        if preview != preview_fields(steps, track_stiffness, position):
+        if layout.preview_of != position or layout.has("target_stiffness") != bool(track_stiffness):
             raise ValueError(
-                f"preview columns must be {preview_fields(steps, track_stiffness, position)}, got {preview}"
+                f"the layout previews {layout.preview_of} (stiffness: {layout.has('target_stiffness')}), "
+                f"the task tracks {position} (stiffness: {bool(track_stiffness)})"
             )
         v[T_PREVIEW] = steps
         v[T_PREV_L_OFF] = layout.columns[n].offset
@@ -211,16 +209,6 @@ def termination(finite, burst):
     if not finite:
         return TERMINATION_NONFINITE
     return TERMINATION_BURST if burst else TERMINATION_NONE
-
-
-@jit
-def valve_commands(mode, a0, a1, setpoint_max):
-    """The plant's two valve inputs for an (already clipped) action: in pressure mode the action
-    maps [-1, 1] to a gauge set-point in [0, setpoint_max] [Pa]; otherwise it is the command."""
-    if mode == pl.PRESSURE:
-        half = 0.5 * setpoint_max
-        return half * (a0 + 1.0), half * (a1 + 1.0)
-    return a0, a1
 
 
 @jit

@@ -58,6 +58,10 @@ class ObsLayout:
     columns: tuple[ObsColumn, ...]
     fields: tuple[str, ...] = OBS_FIELDS
     clip: float = 10.0
+    # the last columns announce the targets of the next ``preview_steps`` control steps
+    # (:func:`preview_fields`, position ``preview_of``): the count is kept here, never parsed back
+    preview_steps: int = 0
+    preview_of: str = "length"
 
     def __post_init__(self):
         names = self.names
@@ -68,6 +72,21 @@ class ObsLayout:
             raise InputError(f"observation columns {unknown} are not among the measured fields {self.fields}")
         if not self.clip > 0:
             raise InputError(f"observation clip must be > 0, got {self.clip!r}")
+        tail = names[len(names) - self.n_preview :] if self.n_preview else ()
+        want = preview_fields(self.preview_steps, "target_stiffness" in names, self.preview_of)
+        if tail != want:
+            raise InputError(f"the last observation columns must be the preview columns {want}, got {tail}")
+
+    @property
+    def n_preview(self) -> int:
+        """Number of preview columns (``preview_steps`` per tracked target)."""
+        per_step = 1 + ("target_stiffness" in self.names)
+        return self.preview_steps * per_step
+
+    @property
+    def n_measured(self) -> int:
+        """Number of columns before the preview."""
+        return self.size - self.n_preview
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -154,4 +173,4 @@ def rig_layout(spec, nominal, preview_steps: int = 0) -> ObsLayout:
     for name in names:  # preview columns scale like the target they announce
         src = cols[5] if name.startswith("target_length") else cols[6]
         cols.append(ObsColumn(name, src.scale, src.offset, src.unit))
-    return ObsLayout(tuple(cols), OBS_FIELDS + names, s.obs_clip)
+    return ObsLayout(tuple(cols), OBS_FIELDS + names, s.obs_clip, preview_steps)
