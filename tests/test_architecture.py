@@ -111,7 +111,7 @@ def _find_cycle(graph: dict[str, dict[str, int]]) -> list[str] | None:
 def test_the_graph_reader_sees_imports_inside_functions():
     # the check below is only as good as this reader: a known import inside a function
     assert "cepam_gym.control" in _graph()["cepam_gym.video"]
-    assert "cepam_gym.mujoco.rig" in _graph()["cepam_gym.envs.cepam"]  # inside render()
+    assert "cepam_gym.mujoco.rig" in _graph()["cepam_gym.envs.shared"]  # inside mujoco_frames()
     assert _find_cycle({"a": {"b": 1}, "b": {"c": 1}, "c": {"a": 1}}) == ["a", "b", "c", "a"]
     assert _find_cycle({"a": {"b": 1}, "b": {}}) is None
 

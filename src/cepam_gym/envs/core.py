@@ -18,126 +18,15 @@ from .. import plant as pl
 from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
-from ..plant.params import PlantParams, preset
 from ..tasks import kernel as tk
 from ..tasks.randomization import MAX_REDRAWS
 from ..tasks.registry import make_task
 from ..tasks.task import Task
+from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
 
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6
 _NORMAL_CHUNK = 32
-_MAX_CONTROL_DT = 1.0  # s: larger values are milliseconds passed as seconds
-_NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
-
-
-def resolve_params(plant: PlantParams | str | Mapping[str, Any] | None) -> PlantParams:
-    """A PlantParams from an instance, a preset name, a YAML path or a dict of edge-unit keys."""
-    if plant is None:
-        return PlantParams()
-    if isinstance(plant, PlantParams):
-        return plant
-    if isinstance(plant, str):
-        if plant.endswith((".yaml", ".yml")):
-            return PlantParams.from_yaml(plant)
-        return preset(plant)
-    if isinstance(plant, Mapping):
-        return PlantParams.from_dict(dict(plant), where="env kwarg 'plant'")
-    raise TypeError(
-        f"plant must be a PlantParams, preset name, YAML path or dict, got {type(plant).__name__}"
-    )
-
-
-def check_timing(control_dt: float, sub_dt: float, episode_seconds: float) -> tuple[int, int]:
-    """``(sub-steps per control step, control steps per episode)``; ``ValueError`` when the
-    sub-step does not divide the control period or a duration is not positive."""
-    if not (control_dt > 0 and sub_dt > 0):
-        raise InputError(f"control_dt and sub_dt must be > 0, got {control_dt}, {sub_dt}")
-    if control_dt > _MAX_CONTROL_DT:
-        raise InputError(
-            f"control_dt is in seconds and at most {_MAX_CONTROL_DT:g} s, got {control_dt} (20 ms is 0.02)"
-        )
-    n_sub = round(control_dt / sub_dt)
-    if n_sub < 1 or abs(n_sub * sub_dt - control_dt) > 1e-9 * control_dt:
-        raise InputError(f"sub_dt ({sub_dt} s) must divide control_dt ({control_dt} s) evenly")
-    if not episode_seconds > 0:
-        raise InputError(f"episode_seconds must be > 0, got {episode_seconds}")
-    return int(n_sub), max(1, round(episode_seconds / control_dt))
-
-
-def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[float, float]]:
-    """``{plant key: (low, high)}`` of the ``randomize`` kwarg, checked (``ValueError`` naming the
-    key); keys are unit-named like the YAML files."""
-    out = {}
-    keys = PlantParams.edge_keys()
-    for key, rng in dict(randomize or {}).items():
-        if key not in keys:
-            raise InputError(f"randomize: unknown plant parameter {key!r}; valid keys: {sorted(keys)}")
-        try:
-            lo, hi = (float(v) for v in rng)
-        except (TypeError, ValueError):
-            raise InputError(f"randomize: {key!r} needs a [low, high] pair of numbers, got {rng!r}") from None
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-            raise InputError(f"randomize: {key!r} needs finite low <= high, got {rng!r}")
-        out[key] = (lo, hi)
-    return out
-
-
-def _check_threads(num_threads) -> int | None:
-    """``num_threads`` of the batched kernel: ``None`` (numba's default, every core), or 1 ..
-    ``NUMBA_NUM_THREADS``. On a machine where another process keeps a core busy (training: the
-    learner), fewer threads than cores avoid waiting on a descheduled thread (benchmarks/throughput.py
-    ``--busy-core`` measures both)."""
-    if num_threads is None:
-        return None
-    import numba
-
-    top = numba.config.NUMBA_NUM_THREADS
-    if isinstance(num_threads, bool) or int(num_threads) != num_threads or not 1 <= num_threads <= top:
-        raise InputError(
-            f"num_threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS) or None, got {num_threads!r}"
-        )
-    return int(num_threads)
-
-
-def _expected_shape(num_envs: int) -> tuple[int, ...]:
-    return (2,) if num_envs == 1 else (num_envs, 2)
-
-
-def as_actions(actions, num_envs: int) -> np.ndarray:
-    """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array (a single env's may have
-    any shape of 2 elements); ``InputError`` on anything but real numbers of that shape, NaN or
-    inf (naming the envs, not printing the batch). Not clipped."""
-    shape = _expected_shape(num_envs)
-    raw = np.asarray(actions) if not isinstance(actions, (str, bytes, Mapping)) else None
-    if raw is None or raw.dtype.kind not in "biuf":
-        kind = type(actions).__name__ if raw is None else f"{type(actions).__name__} of {raw.dtype}"
-        raise InputError(f"action must be real numbers of shape {shape} in [-1, 1], got a {kind}")
-    a = raw.astype(np.float64, copy=False)
-    if a.shape != (num_envs, 2):
-        if a.size == 2 and num_envs == 1:
-            a = a.reshape(1, 2)
-        else:
-            raise InputError(f"action must have shape {shape}, got {np.shape(actions)}")
-    bad = ~np.isfinite(a).all(axis=1)
-    if bad.any():
-        envs = np.flatnonzero(bad)
-        where = "" if num_envs == 1 else f" in env(s) {envs[:8].tolist()}{' ...' if envs.size > 8 else ''}"
-        raise InputError(f"action contains NaN or inf{where} (of {num_envs}); actions must be finite")
-    return a
-
-
-def _check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
-    """Noise standard deviations (SI) for [length, velocity, pressure_c, pressure_e, supply]."""
-    sd = dict(sensor_noise or {})
-    bad = set(sd) - set(_NOISE_KEYS)
-    if bad:
-        raise InputError(f"sensor_noise: unknown keys {sorted(bad)}; valid: {sorted(_NOISE_KEYS)}")
-    for k, v in sd.items():
-        if not (np.isfinite(v) and v >= 0):
-            raise InputError(f"sensor_noise: {k} must be finite and >= 0, got {v!r}")
-    p = sd.get("pressure_kpa", 0.0) * 1e3
-    return np.array([sd.get("length_mm", 0.0) * 1e-3, sd.get("velocity_mm_s", 0.0) * 1e-3, p, p, p])
 
 
 class CEPAMBatch:
@@ -190,14 +79,14 @@ class CEPAMBatch:
             )
         self.randomize = check_randomize(randomize)
         self.randomizer = self.task.randomizer(self.randomize, self.sub_dt)
-        self.noise_sd = _check_noise(sensor_noise)
+        self.noise_sd = check_noise(sensor_noise)
         if int(action_latency_steps) != action_latency_steps or action_latency_steps < 0:
             raise InputError(f"action_latency_steps must be an integer >= 0, got {action_latency_steps!r}")
         self.latency = int(action_latency_steps)
         if isinstance(stream, bool) or int(stream) != stream or stream < 0:
             raise InputError(f"stream must be an integer >= 0, got {stream!r}")
         self.stream = int(stream)
-        self.num_threads = _check_threads(num_threads)
+        self.num_threads = check_threads(num_threads)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise InputError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)

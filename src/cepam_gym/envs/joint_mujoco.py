@@ -40,7 +40,7 @@ from ..tasks.joint import (
 )
 from ..tasks.randomization import MAX_REDRAWS, sample_params
 from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
-from .core import (
+from .checks import (
     as_actions,
     check_randomize,
     check_timing,
