@@ -202,6 +202,7 @@ LAYERS = {
         "cepam_gym.cli",
         "cepam_gym.demo",
         "cepam_gym.validation",
+        "cepam_gym.identify",
         "cepam_gym.integrations",
         "cepam_gym.rllib",
         "cepam_gym.mujoco",

@@ -25,7 +25,7 @@ from ..params import PlantParams
 from ..validation import fitcore
 from .dynamic_params import ALL_PARAMS, SENSOR_NEUTRAL, SENSOR_PARAMS
 from .logs import Recording
-from .simulate import N_CHANNELS, plant_commands, refinement, replay, sensed
+from .simulate import plant_commands, refinement, replay, sensed
 
 SENSOR_NAMES = tuple(SENSOR_PARAMS)
 _FD_STEP = 2e-3  # forward-difference step in z (0.2 % of the log-span: about 1 % of a conductance)
