@@ -1,10 +1,10 @@
 """``identify``'s self-check: a rig whose dynamics lie outside every preset, simulated with sensor
 errors and noise, identified, and compared with the truth.
 
-The truth moves every default-free dynamic parameter of the mode away from the preset by 20-70 %
-(and gives the end a Coulomb friction the presets lack), and its sensors are late, scaled and
-offset. A fitting log and a different held-out log (another seed of :func:`.excite.schedule`) are
-simulated on it; :func:`run` returns the identification and the truth.
+The truth moves every default-free dynamic parameter of the mode away from the preset by 20-80 %
+(and gives the end a Coulomb friction and the chambers a leak 10 times the presets'), and its
+sensors are late, scaled and offset. A fitting log and a different held-out log (another seed of
+:func:`.excite.schedule`) are simulated on it; :func:`run` returns the identification and the truth.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from .run import Identification, identify
 # factor on the preset's value (edge units); a value the presets leave at 0 gets an absolute one
 TRUTH_FACTORS = {
     "valve_conductance": 0.8,
+    "valve_critical_ratio": 1.3,
     "onoff_conductance": 0.8,
     "spool_time_constant": 1.4,
     "onoff_switch_time": 1.5,
@@ -33,7 +34,7 @@ TRUTH_FACTORS = {
     "friction_presliding": 1.4,
     "damping": 1.5,
 }
-TRUTH_ABSOLUTE = {"coulomb_friction": 0.05}
+TRUTH_ABSOLUTE = {"coulomb_friction": 0.05, "leak_conductance": 0.001}
 # sensors: delay [s], gain, bias [Pa, Pa, m]
 TRUTH_SENSORS = {
     "delay_s": (0.002, 0.002, 0.006),
