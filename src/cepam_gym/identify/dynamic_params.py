@@ -46,8 +46,10 @@ DYNAMIC_PARAMS: dict[str, FitParam] = {
             "onoff_conductance", 0.005, 1.0, "sonic conductance of the on/off solenoid valves", log=True
         ),
         field_param("onoff_switch_time", 0.3, 30.0, "on/off valve switching lag", log=True),
-        field_param("onoff_open_delay", 0.0, 20.0, "dead time from a PWM rising edge to the valve opening"),
-        field_param("onoff_close_delay", 0.0, 20.0, "dead time from a PWM falling edge to the valve closing"),
+        # dead times of solenoid valves are a few ms; beyond half the 20 ms PWM period a shift of
+        # both edges aliases with the period (the fit finds such false minima)
+        field_param("onoff_open_delay", 0.0, 10.0, "dead time from a PWM rising edge to the valve opening"),
+        field_param("onoff_close_delay", 0.0, 10.0, "dead time from a PWM falling edge to the valve closing"),
         field_param(
             "regulator_gain",
             0.001,

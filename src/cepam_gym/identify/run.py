@@ -10,7 +10,9 @@ Uncertainty: the fitting core's ``s^2 (J^T J)^-1``, widened by ``(1 + rho) / (1 
 ``rho`` the largest lag-1 autocorrelation of the residuals over the channels: residuals that are
 model error rather than sensor noise are correlated in time, and hold fewer independent samples
 than rows. A plant parameter is called identifiable when the Jacobian sees it, it is off its
-bounds and its approximate 95 % interval (2 sd) is within 10 % of its value.
+bounds and its approximate 95 % interval (2 sd) is within 10 % of its value, and the residuals
+are close to white (``rho`` at most 0.82): else the fit has not reached the sensor noise, and a
+local interval vouches for nothing.
 """
 
 from __future__ import annotations
@@ -30,6 +32,9 @@ from .simulate import CHANNELS
 
 HOLDOUT_FRACTION = 0.25
 REL_CI = 0.10  # identifiable: 2 sd within 10 % of the value
+# residuals this correlated (lag-1 rho above 0.82) are model error or a local minimum, not sensor
+# noise: intervals from the local Jacobian then vouch for nothing (a wrong minimum can be sharp)
+MAX_INFLATION = 10.0
 
 
 def scores(pred: np.ndarray, meas: np.ndarray) -> dict[str, dict[str, float]]:
@@ -140,6 +145,8 @@ def identify(
     values = problem.scale.to_edge(z)
     at_bound = fitcore.at_bounds(sol)
     ident = unc.rank_ok & ~at_bound & (2.0 * unc.std <= REL_CI * np.abs(values))
+    if inflation > MAX_INFLATION:
+        ident[:] = False
     params = problem.plant(z[:k])
     # every recording, fitted and held out, scored by the fit and by the preset alone
     held_recs, n_held = _grid(held, sub_dt)
@@ -155,6 +162,13 @@ def identify(
         sc.fit, sc.base = scores(pred[s:], rec.measured[s:]), scores(pre[s:], rec.measured[s:])
         records.append(sc)
     notes = list(unc.notes)
+    if inflation > MAX_INFLATION:
+        notes.append(
+            f"the residuals are correlated in time (intervals widened x{np.sqrt(inflation):.2g}): the fit "
+            "did not reach the sensor noise (a model structure that differs from the rig's, or a local "
+            "minimum: try more --starts, --free the parameters the rig may differ in), so no value is "
+            "called identifiable"
+        )
     if np.any(at_bound):
         notes.append(
             "at a bound (no confidence interval): " + ", ".join(np.array(problem.scale.names)[at_bound])
