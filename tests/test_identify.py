@@ -83,6 +83,11 @@ def test_a_good_log_reads_in_si(tmp_path):
     rec = read_log(path)
     assert rec.measured[0].tolist() == pytest.approx([50e3, 60e3, 0.17])
     assert rec.loads[0] == pytest.approx(0.1) and rec.commands[0].tolist() == [0.1, -0.2]
+    assert rec.supply is None
+    lines = GOOD.splitlines()
+    with_supply = [lines[0] + ",supply_kpa"] + [f"{ln},{300 + i}" for i, ln in enumerate(lines[1:])]
+    path.write_text("\n".join(with_supply) + "\n")
+    assert read_log(path).supply == pytest.approx((300 + 9.5) * 1e3)  # the mean
 
 
 def test_resampling_holds_commands_and_interpolates_measurements(tmp_path):
@@ -132,18 +137,19 @@ def test_a_schedule_starts_exhausted_and_anchors_every_segment():
 
 @pytest.mark.slow
 def test_recovery_of_a_truth_outside_every_preset(tmp_path):
-    """A short log (20 s fitted, 10 s held out, noise and sensor errors): the held-out NRMSE within
-    2 % on every channel, far below the preset's; every parameter the fit calls identifiable
-    within 10 % of the truth; one that the data cannot see (the on/off valves' conductance, in
-    valve mode) called not identifiable."""
+    """Two short logs fitted jointly (10 s each), a third held out (10 s), with noise and sensor
+    errors: the held-out NRMSE within 2 % on every channel, far below the preset's; every parameter
+    the fit calls identifiable within 10 % of the truth; one that the data cannot see (the on/off
+    valves' conductance, in valve mode) called not identifiable."""
     truth, values = truth_plant(preset("balloon"), "valve")
     logs = []
-    for name, sec, seed in (("fit", 20.0, 0), ("held", 10.0, 1)):
+    for name, sec, seed in (("fit1", 10.0, 0), ("fit2", 10.0, 2), ("held", 10.0, 1)):
         log = simulate_log(
             schedule(sec, 500.0, "valve", seed=seed), truth, "valve", seed=seed, **TRUTH_SENSORS
         )
         logs.append(write_log(tmp_path / f"{name}.csv", log))
-    ident = identify([logs[0]], "balloon", "valve", free=("onoff_conductance",), holdout=[logs[1]], starts=1)
+    ident = identify(logs[:2], "balloon", "valve", free=("onoff_conductance",), holdout=logs[2:], starts=1)
+    assert [r.role for r in ident.records] == ["fitted", "fitted", "held out"]
     held = [r for r in ident.records if r.role == "held out"][0]
     for ch in ("pressure_c", "pressure_e", "length"):
         assert held.fit[ch]["nrmse"] <= 0.02, (ch, held.fit)

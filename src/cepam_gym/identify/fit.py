@@ -32,7 +32,6 @@ _FD_STEP = 2e-3  # forward-difference step in z (0.2 % of the log-span: about 1 
 # the on/off valves' dead times move a valve edge only by whole sub-steps (the PWM phase is read
 # once per sub-step): a step smaller than two sub-steps sees a staircase, a zero or a huge slope
 _QUANTIZED_MS = ("onoff_open_delay", "onoff_close_delay")
-_SCAN_SUBSTEPS = 1  # lattice of the global stage over them, in sub-steps
 
 
 def sensor_si(values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -155,28 +154,6 @@ class Problem:
             blocks.append(np.nan_to_num(J))
         return np.concatenate(blocks)
 
-    def scan(self, z: np.ndarray, cols: list[int], lattices: list[np.ndarray]) -> np.ndarray:
-        """``z`` with the parameters ``cols`` set to the best point of the product of their
-        ``lattices`` (edge values), the rest held: one batched run per recording."""
-        x = self.scale.to_edge(z)
-        grid = np.array(np.meshgrid(*lattices, indexing="ij")).reshape(len(cols), -1).T
-        zs, rows = [], []
-        for point in grid:
-            xi = x.copy()
-            xi[cols] = point
-            zi = self.scale.to_z(xi)
-            try:
-                rows.append(self.plant(zi[: self.k]))
-                zs.append(zi)
-            except ValueError:
-                continue
-        cost = np.zeros(len(rows))
-        for i in range(len(self.recordings)):
-            for r, y in enumerate(self.run(rows, i)):
-                res = self._residual(self.predict(zs[r], i, y), i)
-                cost[r] += float(np.sum(np.nan_to_num(res, nan=10.0) ** 2))
-        return zs[int(np.argmin(cost))]
-
     def start(self) -> np.ndarray:
         """``z`` of the base plant with neutral sensors (a 1 ms delay: off the bound)."""
         x = [ALL_PARAMS[n].get(self.base) for n in self.names]
@@ -197,13 +174,4 @@ def solve(problem: Problem, starts: int = 4, seed: int = 0, budget: int = 12, po
     common = dict(jac=problem.jacobian, tol=1e-8)
     best = fitcore.solve(problem.residuals, z0s, max_nfev=budget, **common) if starts > 1 else None
     z = best.x if best is not None else z0
-    cols = [j for j, n in enumerate(problem.names) if n in _QUANTIZED_MS]
-    if cols:
-        # the dead times act in whole sub-steps: a staircase that a local method crawls along (and
-        # stops on a false step). A short global stage: every pair on the sub-step lattice, the
-        # rest held at the best short fit, then the polish from the best pair.
-        step = problem.sub_dt * 1e3 * _SCAN_SUBSTEPS
-        lattices = [np.arange(problem.scale.lo[j], problem.scale.hi[j] + 1e-9, step) for j in cols]
-        z = fitcore.solve(problem.residuals, [z], max_nfev=budget, **common).x
-        z = problem.scan(z, cols, lattices)
     return fitcore.solve(problem.residuals, [z], max_nfev=polish, **common)
