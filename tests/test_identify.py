@@ -221,3 +221,22 @@ def test_a_rig_the_model_cannot_describe_gets_no_false_verdicts(tmp_path):
     for j, n in enumerate(ident.names[: ident.k]):
         if ident.identifiable[j]:
             assert abs(ident.values[j] - values[n]) <= 0.1 * abs(values[n]), (n, ident.values[j], values[n])
+
+
+@pytest.mark.parametrize(
+    "extra, needle",
+    [
+        (["--free", "nope"], "unknown fit parameter 'nope'"),
+        (["--bounds", "damping=5"], "expected name=lo:hi"),
+        (["--bounds", "nope=1:2"], "not fitted"),
+        (["--bounds", "damping=5:1"], "lo < hi"),
+        (["--mode", "valve", "--preset", "nope"], "unknown preset 'nope'"),
+    ],
+)
+def test_bad_options_are_one_line(capsys, tmp_path, extra, needle):
+    path = tmp_path / "good.csv"
+    path.write_text(
+        GOOD.replace("\n", "\n", 1)
+        + "".join(f"{0.04 + k * 0.002:.3f},0,0,50,60,17.0,100\n" for k in range(2000))
+    )
+    _one_line(capsys, ["identify", "--data", str(path), "--out", str(tmp_path / "x.yaml"), *extra], needle)

@@ -43,6 +43,16 @@ def sensor_si(values: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndar
     return delay, gain, bias
 
 
+def scaling(names: tuple[str, ...], bounds: dict | None) -> fitcore.Scaling:
+    """The scaling of plant parameters ``names`` and the sensors; ``ValueError`` for an unknown
+    name, two names writing one field, a bound on something not fitted, or ``lo >= hi``."""
+    fitcore.check_names(ALL_PARAMS, names)
+    unknown = sorted(set(bounds or {}) - set(names) - set(SENSOR_NAMES))
+    if unknown:
+        raise ValueError(f"--bounds names {unknown}, which are not fitted (fitted: {list(names)})")
+    return fitcore.Scaling([ALL_PARAMS[n] for n in names] + [SENSOR_PARAMS[n] for n in SENSOR_NAMES], bounds)
+
+
 @dataclass
 class Problem:
     """Recordings on their grids, the base plant, the action mode and what is free."""
@@ -57,10 +67,7 @@ class Problem:
     bounds: dict | None = None
 
     def __post_init__(self):
-        fitcore.check_names(ALL_PARAMS, self.names)
-        self.scale = fitcore.Scaling(
-            [ALL_PARAMS[n] for n in self.names] + [SENSOR_PARAMS[n] for n in SENSOR_NAMES], self.bounds
-        )
+        self.scale = scaling(self.names, self.bounds)
         self.k = len(self.names)
         self.fd = np.full(self.scale.lo.size, _FD_STEP)
         for j, n in enumerate(self.names):

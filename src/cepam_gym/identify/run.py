@@ -26,7 +26,7 @@ import numpy as np
 from ..params import PlantParams, preset
 from ..validation import fitcore
 from .dynamic_params import ALL_PARAMS, DEFAULT_FREE, SENSOR_CHANNELS, SENSOR_NEUTRAL, SENSOR_PARAMS
-from .fit import SENSOR_NAMES, Problem, sensor_si, solve
+from .fit import SENSOR_NAMES, Problem, scaling, sensor_si, solve
 from .logs import Recording, grid_steps, read_log, resample
 from .simulate import CHANNELS
 
@@ -120,6 +120,8 @@ def identify(
     t0 = time.perf_counter()
     if mode not in DEFAULT_FREE:
         raise ValueError(f"mode must be one of {sorted(DEFAULT_FREE)}, got {mode!r}")
+    names = tuple(dict.fromkeys(DEFAULT_FREE[mode] + tuple(free)))
+    scaling(names, bounds)  # bad options: refused before any file is read
     recs = [r if isinstance(r, Recording) else read_log(r) for r in data]
     held = [r if isinstance(r, Recording) else read_log(r) for r in holdout]
     if not recs:
@@ -131,7 +133,6 @@ def identify(
             raise ValueError(
                 f"{r.name}: {r.duration:.3g} s; needs more than the {warmup_s:g} s warm-up + 1 s"
             )
-    names = tuple(dict.fromkeys(DEFAULT_FREE[mode] + tuple(free)))
     base_params = preset(base)
     fit_recs, n_fit = _grid(recs, sub_dt)
     problem = Problem(fit_recs, n_fit, sub_dt, base_params, mode, names, warmup_s, bounds)
