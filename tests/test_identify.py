@@ -237,3 +237,23 @@ def test_bad_options_are_one_line(capsys, tmp_path, extra, needle):
     path = tmp_path / "good.csv"
     path.write_text(GOOD)  # too short to fit: the options are refused before the data are read
     _one_line(capsys, ["identify", "--data", str(path), "--out", str(tmp_path / "x.yaml"), *extra], needle)
+
+
+def test_a_replayed_plant_does_not_depend_on_its_batch():
+    """The Jacobian's rows run side by side: each must be exactly the plant run alone, whatever
+    block or thread it lands in."""
+    from cepam_gym import plant as pl
+    from cepam_gym.identify.simulate import _splits, replay
+
+    p = np.repeat(preset("balloon").to_array()[None], 13, 0)
+    p[:, 20] *= np.linspace(0.5, 1.5, 13)  # valve conductances differ
+    cmd = np.repeat(np.random.default_rng(0).uniform(-1, 1, (20, 2)), 25, axis=0)
+    loads = np.full(len(cmd), 0.1)
+    y = replay(p, cmd, loads, pl.PROPORTIONAL, 5e-4, 4, (0.17, 0.0, 0.0))
+    alone = replay(p[7:8], cmd, loads, pl.PROPORTIONAL, 5e-4, 4, (0.17, 0.0, 0.0))
+    assert np.array_equal(y[7], alone[0])
+    assert not np.array_equal(y[6], y[7])
+    for n, threads in ((13, 2), (40, 1), (3, 8)):
+        s = _splits(n, threads)
+        assert s[0] == 0 and s[-1] == n and np.all(np.diff(s) >= 1) and np.all(np.diff(s) <= pl.BLOCK)
+    assert len(_splits(13, 2)) == 3  # one block per thread when there are plants enough
