@@ -170,6 +170,8 @@ def test_excite_identify_and_the_yaml_into_gym_make(tmp_path, capsys):
 
     log = tmp_path / "run1.csv"
     assert main(["excite", "--simulate", "--preset", "balloon", "--seconds", "12", "--out", str(log)]) == 0
+    lines = log.read_text().splitlines()  # the rig logged its supply pressure too
+    log.write_text("\n".join([lines[0] + ",supply_kpa"] + [ln + ",245" for ln in lines[1:]]) + "\n")
     out, rep = tmp_path / "my_rig.yaml", tmp_path / "report"
     argv = [
         "identify",
@@ -192,6 +194,7 @@ def test_excite_identify_and_the_yaml_into_gym_make(tmp_path, capsys):
     assert len(list(rep.glob("*.png"))) == 2
     header = [ln for ln in out.read_text().splitlines() if ln.startswith("#")]
     assert any("worst NRMSE on held out data" in ln for ln in header)
+    assert "supply_pressure_kpa: 245" in out.read_text()  # the measured supply, not the preset's 250
     env = gym.make("cepam_gym/CEPAM-v1", plant=str(out))
     plant = env.unwrapped.nominal if hasattr(env.unwrapped, "nominal") else None
     env.reset(seed=0)

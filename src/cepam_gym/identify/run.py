@@ -25,8 +25,8 @@ import numpy as np
 
 from ..params import PlantParams, preset
 from ..validation import fitcore
-from .dynamic_params import ALL_PARAMS, DEFAULT_FREE, SENSOR_CHANNELS, SENSOR_NEUTRAL, SENSOR_PARAMS
-from .fit import SENSOR_NAMES, Problem, scaling, sensor_si, solve
+from .dynamic_params import ALL_PARAMS, DEFAULT_FREE, SENSOR_NEUTRAL, SENSOR_PARAMS
+from .fit import SENSOR_NAMES, Problem, scaling, solve
 from .logs import Recording, grid_steps, read_log, resample
 from .simulate import CHANNELS
 
@@ -91,7 +91,10 @@ class Identification:
     k: int  # number of plant parameters
 
     def fields(self) -> list[str]:
-        return [f for n in self.names[: self.k] for f in ALL_PARAMS[n].fields]
+        """The PlantParams fields the identification sets (the supply when the logs measured it)."""
+        out = [f for n in self.names[: self.k] for f in ALL_PARAMS[n].fields]
+        measured = self.params.supply_pressure != preset(self.preset).supply_pressure
+        return out + (["supply_pressure"] if measured and "supply_pressure" not in out else [])
 
     def worst(self, role: str) -> dict[str, float]:
         """The largest NRMSE per channel over the recordings of ``role``."""
@@ -149,6 +152,9 @@ def identify(
     if inflation > MAX_INFLATION:
         ident[:] = False
     params = problem.plant(z[:k])
+    supplies = [r.supply for r in recs if r.supply is not None]
+    if supplies:  # the logs' supply (their mean) goes into the plant the env will run
+        params = params.replace(supply_pressure=float(np.mean(supplies)))
     # every recording, fitted and held out, scored by the fit and by the preset alone
     held_recs, n_held = _grid(held, sub_dt)
     score = Problem(fit_recs + held_recs, n_fit + n_held, sub_dt, base_params, mode, names, warmup_s, bounds)
@@ -223,15 +229,3 @@ def _inflation(r: np.ndarray, problem: Problem) -> float:
                 rho = max(rho, float(x[1:] @ x[:-1]) / d)
     rho = min(max(rho, 0.0), 0.999)
     return (1.0 + rho) / (1.0 - rho)
-
-
-def sensor_values(ident: Identification) -> dict[str, float]:
-    return dict(zip(ident.names[ident.k :], ident.values[ident.k :]))
-
-
-def sensor_model(ident: Identification):
-    """``(delay [s], gain, bias [Pa, Pa, m])`` of the fitted sensors."""
-    return sensor_si(sensor_values(ident))
-
-
-__all__ = ["Identification", "identify", "scores", "SENSOR_CHANNELS", "sensor_model"]
