@@ -21,7 +21,7 @@ def test_main_job_never_reuses_a_run_directory(tmp_path):
 def test_help_lists_commands_and_unknown_command_fails():
     ok = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "--help"], capture_output=True, text=True)
     assert ok.returncode == 0
-    for cmd in ("run", "bench", "train", "eval", "validate", "calibrate", "video"):
+    for cmd in ("run", "bench", "train", "eval", "validate", "calibrate", "identify", "excite", "video"):
         assert cmd in ok.stdout
     bad = subprocess.run([sys.executable, "-m", "cepam_gym.cli", "fly"], capture_output=True, text=True)
     assert bad.returncode == 2 and "fly" in bad.stderr

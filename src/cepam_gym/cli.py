@@ -221,12 +221,14 @@ def _dispatch(argv: list[str]) -> int:
         "bench": "cepam_gym.bench.cli",
         "video": "cepam_gym.video",
         "calibrate": "cepam_gym.validation.cli:calibrate_main",
+        "identify": "cepam_gym.identify.cli:identify_main",
+        "excite": "cepam_gym.identify.cli:excite_main",
     }
     plugins = ("train", "eval")
     if not argv or argv[0] in ("-h", "--help"):
         print(
-            "usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,rollout,video} "
-            "[options] [--debug]\n"
+            "usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,identify,excite,"
+            "rollout,video} [options] [--debug]\n"
             "  bench     score controllers on the benchmark suites\n"
             "  train     train an agent from a YAML config (--config quick, or a file)\n"
             "  eval      score a trained agent beside the baseline (--run DIR)\n"
@@ -234,6 +236,8 @@ def _dispatch(argv: list[str]) -> int:
             "  demo      plant step response plot\n"
             "  validate  the paper's reported numbers beside the model's\n"
             "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
+            "  identify  fit the plant's dynamics and sensors to a rig's logs (docs/identify.md)\n"
+            "  excite    an excitation schedule to play on a rig (or a simulated log of it)\n"
             "  rollout   random-action episodes of every registered id\n"
             "  video     MP4/GIF of an episode, MuJoCo view beside the traces (the [mujoco] extra)\n"
             "A user error (bad config, missing or corrupted file) is one line on stderr and exit code 2;\n"

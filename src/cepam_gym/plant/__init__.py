@@ -19,7 +19,15 @@ from .layout import *  # noqa: F403 (the column constants, listed in layout.__al
 from .layout import __all__ as _layout_names
 from .params import PlantParams, preset
 from .state import check_stability, initial_state, measure, stability_number
-from .substep import end_of_step, substep_account, substep_air, substep_forces, valve_setup, volumes_at
+from .substep import (
+    end_of_step,
+    measure_row,
+    substep_account,
+    substep_air,
+    substep_forces,
+    valve_setup,
+    volumes_at,
+)
 
 __all__ = [
     *_layout_names,
@@ -33,6 +41,7 @@ __all__ = [
     "end_of_step",
     "initial_state",
     "measure",
+    "measure_row",
     "preset",
     "stability_number",
     "step",

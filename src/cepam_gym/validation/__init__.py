@@ -5,34 +5,31 @@
   lengths, stiffness by hanging weights, force at a held length);
 * :mod:`.table`: the reproduction table per force-model level and form, and its summary;
 * :mod:`.measurements`: calibration data (the measurement CSV, and the paper's numbers in it);
-* :mod:`.fit`: bounded least squares over the unreported parameters, uncertainty, minimax check;
+* :mod:`.fitcore`: the fitting core shared with :mod:`cepam_gym.identify` (parameter tables,
+  scaling, bounded least squares, uncertainty, the fitted YAML);
+* :mod:`.static_params`: the static parameters and their bounds; :mod:`.fit`: their fit to the
+  measured numbers, minimax check; :mod:`.crossval`: leave-one-group-out;
 * :mod:`.plots`: the figures of both; :mod:`.cli`: ``cepam-gym validate`` and ``calibrate``.
 
 Nothing model-related is stored: every model value is computed from a
 :class:`~cepam_gym.plant.params.PlantParams` each time (docs/calibration.md).
 """
 
+from .crossval import CrossValidation, cross_validate, format_cross_validation
 from .equilibrium import Outcome, experiment_params, settle, simulate
 from .experiments import DEVICES, MEASURED_UNITS, REPORTED_PATH, Experiment, load_experiments
 from .fit import (
-    DEFAULT_FIT,
-    FIT_PARAMS,
-    V1_BOUNDS,
-    V1_FIT,
-    V1_STARTS,
-    CrossValidation,
     FitResult,
     apply,
-    cross_validate,
     experiment_group,
     fit,
-    format_cross_validation,
     minimax,
     model_values,
     relative_errors,
     sleeve_diameter_ratio,
 )
 from .measurements import PAPER_CSV, PAPER_SINGLE_CSV, paper_csv_text, read_csv
+from .static_params import DEFAULT_FIT, FIT_PARAMS, V1_BOUNDS, V1_FIT, V1_STARTS
 from .table import (
     DEFAULT_LEVELS,
     LEVELS,

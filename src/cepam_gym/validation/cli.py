@@ -9,22 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from ..plant.params import PlantParams, preset
+from .crossval import cross_validate, format_cross_validation
 from .experiments import load_experiments
-from .fit import (
-    DEFAULT_FIT,
-    FIT_PARAMS,
-    V1_BOUNDS,
-    V1_FIT,
-    V1_STARTS,
-    cross_validate,
-    fit,
-    fitted_yaml,
-    format_cross_validation,
-    format_report,
-    minimax,
-)
+from .fit import fit, fitted_yaml, format_report, minimax
 from .measurements import read_csv, write_paper_csvs
 from .plots import plot_fit, write_plots
+from .static_params import DEFAULT_FIT, FIT_PARAMS, V1_BOUNDS, V1_FIT, V1_STARTS
 from .table import base_params, format_headline, format_table, geometry_lines, json_rows, validation_rows
 
 

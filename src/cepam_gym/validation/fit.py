@@ -3,212 +3,30 @@
 Input: a CSV with one measurement per row (format in docs/calibration.md; the paper's own numbers
 ship as ``cepam_gym/data/paper_cepam.csv``, generated from ``data/reported.yaml``). Each row is
 simulated exactly as :func:`cepam_gym.validation.equilibrium.simulate` simulates the paper's
-experiments (pressures
-held, the free end hanging; stiffness by hanging weights or at a held length; force at a held
-length), with the plant's own force model and form (``balloon``: enhanced, virtual work).
+experiments (pressures held, the free end hanging; stiffness by hanging weights or at a held
+length; force at a held length), with the plant's own force model and form (``balloon``:
+enhanced, virtual work).
 
-Fit: bounded least squares (``scipy.optimize.least_squares``, trust-region reflective) on the
-relative residuals ``(model - measured) / measured`` over the chosen parameters, each scaled to
-``[0, 1]`` inside its physical bounds (:data:`FIT_PARAMS`). Uncertainty from the Jacobian at the
-optimum: ``cov = s^2 (J^T J)^-1`` with ``s^2 = sum(r^2) / (m - p)`` (pseudo-inverse when ``J``
-is rank deficient; such directions are reported as not identifiable). The result is written as a
-YAML that :meth:`PlantParams.from_yaml` loads: ``preset: <base>`` plus the fitted keys in edge
-units (``PlantParams.to_dict`` names).
-
-Parameters that only enter through a combination cannot be told apart: the bladder and sleeve
-thicknesses enter only as ``t_a = t_s + t_b`` (Eq. 35), so the default set fits ``wall_thickness``
-(``t_a``, keeping the base ratio ``t_b : t_s``); ``kr_scale`` scales both ``K_r`` of Eq. 27.
+Fit: bounded least squares (:func:`.fitcore.solve`) on the relative residuals
+``(model - measured) / measured`` over the chosen parameters of :data:`.static_params.FIT_PARAMS`,
+each scaled to ``[0, 1]`` inside its physical bounds; uncertainty from the Jacobian at the optimum
+(:func:`.fitcore.uncertainty`). The result is written as a YAML that
+:meth:`PlantParams.from_yaml` loads (:func:`fitted_yaml`). The dynamic counterpart is
+:mod:`cepam_gym.identify`, on the same core.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..plant.params import PlantParams
-from ..units import from_si, to_si
+from . import fitcore
 from .equilibrium import simulate
 from .experiments import Experiment
-
-# ------------------------------------------------------------------ the parameters that can be fitted
-KR_HIGH_PAPER = 2.0e6  # Pa/m, Eq. 27
-KR_LOW_PAPER = 5.0e5
-
-
-@dataclass(frozen=True)
-class FitParam:
-    """A fittable quantity in edge units, its physical bounds and how it maps onto PlantParams."""
-
-    name: str
-    unit: str
-    lo: float
-    hi: float
-    why: str
-    get: Callable[[PlantParams], float]
-    set: Callable[[PlantParams, float], dict]
-    fields: tuple[str, ...]  # PlantParams fields it writes
-
-
-def _field(name: str) -> tuple[Callable[[PlantParams], float], Callable[[PlantParams, float], dict]]:
-    """Getter and setter of a PlantParams field in its edge unit (the field's own unit)."""
-    unit = PlantParams.__dataclass_fields__[name].metadata["unit"]
-    return (lambda p: from_si(getattr(p, name), unit)), (lambda p, v: {name: to_si(v, unit)})
-
-
-def _split_wall(p: PlantParams, ta_mm: float) -> dict:
-    ta = to_si(ta_mm, "mm")
-    total = p.bladder_thickness + p.sleeve_thickness
-    frac = p.bladder_thickness / total if total > 0 else 0.5
-    return {"bladder_thickness": ta * frac, "sleeve_thickness": ta * (1.0 - frac)}
-
-
-FIT_PARAMS: dict[str, FitParam] = {
-    fp.name: fp
-    for fp in (
-        FitParam(
-            "cpam_rest_angle",
-            "deg",
-            5.0,
-            50.0,
-            "braid angle of the CPAM at rest: a contractor's braid is below 54.7 deg; commercial "
-            "sleeves are woven at about 15-45 deg",
-            *_field("cpam_rest_angle"),
-            ("cpam_rest_angle",),
-        ),
-        FitParam(
-            "epam_sleeve_free_angle",
-            "deg",
-            5.0,
-            50.0,
-            "braid angle of the EPAM sleeve before it is compressed (the same kind of sleeve)",
-            *_field("epam_sleeve_free_angle"),
-            ("epam_sleeve_free_angle",),
-        ),
-        FitParam(
-            "wall_thickness",
-            "mm",
-            0.1,
-            1.5,
-            "t_a = t_s + t_b (Eq. 35): a balloon wall of a few tenths of a mm (< 1 mm, sections "
-            "I-II) plus a braid of nylon threads; a wall cannot be thinner than 0.1 mm; the base "
-            "ratio t_b : t_s is kept",
-            lambda p: from_si(p.bladder_thickness + p.sleeve_thickness, "mm"),
-            _split_wall,
-            ("bladder_thickness", "sleeve_thickness"),
-        ),
-        FitParam(
-            "bladder_thickness",
-            "mm",
-            0.0,
-            1.0,
-            "t_b (Eq. 35): the balloon is thinner than the 1 mm tube",
-            *_field("bladder_thickness"),
-            ("bladder_thickness",),
-        ),
-        FitParam(
-            "sleeve_thickness",
-            "mm",
-            0.0,
-            1.0,
-            "t_s (Eq. 35): a braid of nylon threads",
-            *_field("sleeve_thickness"),
-            ("sleeve_thickness",),
-        ),
-        FitParam(
-            "kr_scale",
-            "",
-            0.0,
-            4.0,
-            "factor on both K_r of Eq. 27 (2000 and 500 kPa/m, measured by Tsagarakis and "
-            "Caldwell on another muscle); 4 lets a balloon lose up to 80 kPa to inflation",
-            lambda p: p.kr_high / KR_HIGH_PAPER,
-            lambda p, v: {"kr_high": v * KR_HIGH_PAPER, "kr_low": v * KR_LOW_PAPER},
-            ("kr_high", "kr_low"),
-        ),
-        FitParam(
-            "elastic_stiffness",
-            "n_per_m",
-            0.0,
-            400.0,
-            "axial stiffness of the two bladders (not in the paper): latex E of 1-2 MPa, wall "
-            "<= 1 mm, 5 and 10 mm diameter, 15-20 cm long gives at most a few hundred N/m",
-            *_field("elastic_stiffness"),
-            ("elastic_stiffness",),
-        ),
-        FitParam(
-            "elastic_rest_length",
-            "cm",
-            15.0,
-            19.5,
-            "rest length of that elasticity: between the EPAM bladder (15 cm) and the CPAM (19.5 cm)",
-            *_field("elastic_rest_length"),
-            ("elastic_rest_length",),
-        ),
-        FitParam(
-            "bladder_shear_modulus",
-            "kpa",
-            50.0,
-            3000.0,
-            "neo-Hookean shear modulus of the balloon rubber (natural latex: about 0.3-0.6 MPa "
-            "in small strain; wide bounds because only mu t_b is seen by most data)",
-            *_field("bladder_shear_modulus"),
-            ("bladder_shear_modulus",),
-        ),
-        FitParam(
-            "tube_shear_modulus",
-            "kpa",
-            50.0,
-            3000.0,
-            "neo-Hookean shear modulus of the rubber-tube bladders (natural or silicone rubber: "
-            "about 0.2-1 MPa)",
-            *_field("tube_shear_modulus"),
-            ("tube_shear_modulus",),
-        ),
-        FitParam(
-            "end_mass",
-            "g",
-            5.0,
-            100.0,
-            "the hanging end cap (3D printed)",
-            *_field("end_mass"),
-            ("end_mass",),
-        ),
-    )
-}
-DEFAULT_FIT = ("cpam_rest_angle", "epam_sleeve_free_angle", "wall_thickness", "kr_scale", "elastic_stiffness")
-
-# ------------------------------------------------------------------ plant v1: one fit across all data
-# The braid angles' lower bounds keep each sleeve within twice its nominal diameter over the stroke
-# (docs/calibration.md, "Plant v1"): a braid of free length L_f, angle theta_0, pressed to L has
-# D / D_0 = sin(theta) / sin(theta_0) with cos(theta) = (L / L_f) cos(theta_0); D / D_0 <= 2 at the
-# shortest length (15 cm) needs theta_0 >= 20.3 deg (CPAM, L_f = 19.5 cm) and >= 26.6 deg (EPAM
-# sleeve, L_f = 30 cm). Moduli: rubber in small strain, 0.2-1 MPa (latex, natural and silicone
-# rubber); walls: a balloon of 0.05-0.5 mm, a braid of 0.05-0.5 mm.
-# K_r of Eq. 27 stays the paper's (fitting its scale moves the mean error by 0.3 %).
-V1_FIT = (
-    "cpam_rest_angle",
-    "epam_sleeve_free_angle",
-    "bladder_thickness",
-    "sleeve_thickness",
-    "bladder_shear_modulus",
-    "tube_shear_modulus",
-)
-V1_BOUNDS = {
-    "cpam_rest_angle": (20.3, 50.0),
-    "epam_sleeve_free_angle": (26.6, 50.0),
-    "bladder_thickness": (0.05, 0.5),
-    "sleeve_thickness": (0.05, 0.5),
-    "bladder_shear_modulus": (200.0, 1000.0),
-    "tube_shear_modulus": (200.0, 1000.0),
-}
-V1_STARTS = (
-    [21.0, 35.0, 0.2, 0.1, 500.0, 300.0],
-    [22.0, 40.0, 0.3, 0.1, 300.0, 600.0],
-    [30.0, 45.0, 0.1, 0.2, 800.0, 200.0],
-)  # edge units, in V1_FIT order
+from .static_params import DEFAULT_FIT, FIT_PARAMS
 
 
 def sleeve_diameter_ratio(length: float, free_length: float, free_angle: float) -> float:
@@ -223,11 +41,8 @@ def experiment_group(exp: Experiment) -> str:
 
 
 def apply(base: PlantParams, names: tuple[str, ...], values: np.ndarray) -> PlantParams:
-    """``base`` with the fit parameters ``names`` set to ``values`` (edge units); validated."""
-    p = base
-    for name, v in zip(names, values):
-        p = p.replace(**FIT_PARAMS[name].set(p, float(v)))
-    return p
+    """``base`` with the static fit parameters ``names`` set to ``values`` (edge units); validated."""
+    return fitcore.apply(FIT_PARAMS, base, names, values)
 
 
 # ------------------------------------------------------------------ the fit
@@ -281,105 +96,45 @@ def fit(
     given starting points (edge units); ``max_nfev`` (default ``200 * len(names)``) and ``tol``
     (xtol, ftol, gtol) bound the work of each start.
     """
-    from scipy.optimize import least_squares
-
     names = tuple(names)
-    for n in names:
-        if n not in FIT_PARAMS:
-            raise ValueError(f"unknown fit parameter {n!r}; one of {sorted(FIT_PARAMS)}")
-    written = [f for n in names for f in FIT_PARAMS[n].fields]
-    if len(set(written)) != len(written):
-        raise ValueError(
-            f"fit parameters {list(names)} write the same field twice (e.g. wall_thickness "
-            "and bladder_thickness); choose one"
-        )
-    lo = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[0] for n in names])
-    hi = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[1] for n in names])
-    span = hi - lo
+    fitcore.check_names(FIT_PARAMS, names)
+    scale = fitcore.Scaling([FIT_PARAMS[n] for n in names], bounds)
     x_start = np.array([FIT_PARAMS[n].get(base) for n in names])
     model_start = model_values(experiments, base)
 
-    def to_edge(z: np.ndarray) -> np.ndarray:
-        return lo + z * span
-
     def residuals(z: np.ndarray) -> np.ndarray:
         try:
-            p = apply(base, names, to_edge(z))
+            p = apply(base, names, scale.to_edge(z))
         except ValueError:
             return np.full(len(experiments), 1.0)  # impossible geometry: 100 % off everywhere
         return relative_errors(model_values(experiments, p), experiments)
 
     rng = np.random.default_rng(seed)
-    z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [
-        rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)
-    ]
-    z0s += [np.clip((np.asarray(x, float) - lo) / span, 0.0, 1.0) for x in (x0s or [])]
-    best = None
-    for z0 in z0s:
-        try:
-            sol = least_squares(
-                residuals,
-                z0,
-                bounds=(0.0, 1.0),
-                method="trf",
-                diff_step=1e-4,
-                x_scale=1.0,
-                xtol=tol,
-                ftol=tol,
-                gtol=tol,
-                max_nfev=max_nfev or 200 * len(names),
-            )
-        except ValueError:
-            continue
-        if best is None or sol.cost < best.cost:
-            best = sol
-    if best is None:
-        raise RuntimeError("no start gave a valid parameter set")
-    values = to_edge(best.x)
+    z0s = [scale.to_z(x_start)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
+    z0s += [scale.to_z(x) for x in (x0s or [])]
+    best = fitcore.solve(residuals, z0s, max_nfev=max_nfev or 200 * len(names), tol=tol)
+    values = scale.to_edge(best.x)
     params = apply(base, names, values)
     model = model_values(experiments, params)
     r = relative_errors(model, experiments)
-    m, k = len(experiments), len(names)
-    Jz = _jacobian(residuals, best.x, r)  # d r / d z, own finite differences (see _jacobian)
-    J = Jz / span  # d r / d (edge value)
-    notes: list[str] = []
-    identifiable = np.ones(k, bool)
-    if m > k:
-        s2 = float(r @ r) / (m - k)
-        JtJ = J.T @ J
-        cov = s2 * np.linalg.pinv(JtJ, rcond=1e-10)
-        # a parameter is not identifiable if the data do not move it: its column is (near) zero or it
-        # lies in the null space of J
-        _, s, vt = np.linalg.svd(Jz, full_matrices=False)
-        tiny = s < 1e-8 * max(s.max(), 1e-300)
-        for j in range(k):
-            if np.any(tiny & (np.abs(vt[:, j]) > 1e-3)):
-                identifiable[j] = False
-        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        std[~identifiable] = np.nan
-    else:
-        cov = np.full((k, k), np.nan)
-        std = np.full(k, np.nan)
-        notes.append(f"{m} measurements for {k} parameters: no residual degrees of freedom, no uncertainty")
-    at_bound = (best.active_mask != 0) | (best.x < 1e-6) | (best.x > 1.0 - 1e-6)
+    Jz = fitcore.fd_jacobian(residuals, best.x, r)  # own differences: one-sided at a bound
+    unc = fitcore.uncertainty(Jz, r, scale.dx_dz(best.x), names)
+    at_bound = fitcore.at_bounds(best)
+    notes = unc.notes[:1] if len(experiments) <= len(names) else []
     if np.any(at_bound):
         notes.append(
             "at a bound (the uncertainty of a bounded parameter is not a confidence interval): "
             + ", ".join(n for n, b in zip(names, at_bound) if b)
         )
-    if np.any(~identifiable):
-        notes.append(
-            "not identifiable from these data (the Jacobian has no component along them): "
-            + ", ".join(n for n, i in zip(names, identifiable) if not i)
-        )
+    notes += unc.notes if len(experiments) > len(names) else []
     return FitResult(
         names,
         x_start,
         values,
-        std,
-        cov,
+        unc.std,
+        unc.cov,
         at_bound,
-        identifiable,
+        unc.rank_ok,
         params,
         r,
         relative_errors(model_start, experiments),
@@ -390,24 +145,8 @@ def fit(
         str(best.message),
         len(z0s),
         notes,
-        {n: (float(a), float(b)) for n, a, b in zip(names, lo, hi)},
+        scale.bounds(),
     )
-
-
-def _jacobian(
-    fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray, r0: np.ndarray, h: float = 1e-4
-) -> np.ndarray:
-    """Finite-difference Jacobian of the residuals in the scaled variables ``z`` in [0, 1]:
-    central differences inside, one-sided at a bound (so a parameter that sits on its bound still
-    shows how the data pull on it)."""
-    J = np.empty((r0.size, z.size))
-    for j in range(z.size):
-        up, dn = z.copy(), z.copy()
-        up[j], dn[j] = min(z[j] + h, 1.0), max(z[j] - h, 0.0)
-        fu = fun(up) if up[j] != z[j] else r0
-        fd = fun(dn) if dn[j] != z[j] else r0
-        J[:, j] = (fu - fd) / (up[j] - dn[j])
-    return J
 
 
 def minimax(
@@ -439,19 +178,16 @@ def minimax(
 
 # ------------------------------------------------------------------ reporting
 def format_report(res: FitResult, experiments: list[Experiment]) -> str:
-    lines = [
-        "parameters (edge units):",
-        f"  {'name':<24} {'start':>10} {'fitted':>10} {'+/- 1 sd':>10} {'unit':>8}  bounds",
-    ]
-    for j, n in enumerate(res.names):
-        fp = FIT_PARAMS[n]
-        lo, hi = res.bounds.get(n, (fp.lo, fp.hi))
-        sd = "n/a" if not math.isfinite(res.std[j]) else f"{res.std[j]:.3g}"
-        flag = " (at bound)" if res.at_bound[j] else ""
-        lines.append(
-            f"  {n:<24} {res.start[j]:>10.4g} {res.values[j]:>10.4g} {sd:>10} {fp.unit:>8}  "
-            f"[{lo:g}, {hi:g}]{flag}"
-        )
+    lines = ["parameters (edge units):"]
+    lines += fitcore.parameter_lines(
+        res.names,
+        [FIT_PARAMS[n].unit for n in res.names],
+        res.start,
+        res.values,
+        res.std,
+        {n: res.bounds.get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi)) for n in res.names},
+        res.at_bound,
+    )
     lines.append("")
     lines.append("residuals per measurement (relative, model vs measured):")
     w = max(len(e.name) for e in experiments)
@@ -472,94 +208,17 @@ def format_report(res: FitResult, experiments: list[Experiment]) -> str:
     lines.append(
         f"  optimizer: {res.message} (success={res.success}, cost={res.cost:.4g}, starts={res.starts_tried})"
     )
-    for n in res.notes:
+    for n in res.notes + fitcore.correlation_notes(res.names, res.cov, res.at_bound):
         lines.append(f"  note: {n}")
-    for (a, b), rho in correlations(res).items():
-        lines.append(
-            f"  note: {a} and {b} are strongly correlated (rho = {rho:+.2f}): the data fix a "
-            "combination of them better than either"
-        )
     return "\n".join(lines)
 
 
 def correlations(res: FitResult, threshold: float = 0.9) -> dict[tuple[str, str], float]:
     """Pairs of fitted parameters whose estimates correlate beyond ``threshold`` (from ``cov``)."""
-    out = {}
-    sd = np.sqrt(np.clip(np.diag(res.cov), 0.0, None)) if np.all(np.isfinite(res.cov)) else None
-    if sd is None:
-        return out
-    for i in range(len(res.names)):
-        for j in range(i + 1, len(res.names)):
-            if sd[i] > 0 and sd[j] > 0 and not (res.at_bound[i] or res.at_bound[j]):
-                rho = res.cov[i, j] / (sd[i] * sd[j])
-                if abs(rho) > threshold:
-                    out[(res.names[i], res.names[j])] = float(rho)
-    return out
+    return fitcore.correlations(res.names, res.cov, res.at_bound, threshold)
 
 
 def fitted_yaml(res: FitResult, base_preset: str, header: str = "") -> str:
     """``preset: <base>`` plus the fitted fields, unit-named (the keys of ``PlantParams.to_dict``)."""
-    edge = res.params.to_dict()
-    keys = PlantParams.edge_keys()
     fields = [f for n in res.names for f in FIT_PARAMS[n].fields]
-    lines = [f"# {ln}" if ln else "#" for ln in header.splitlines()]
-    lines.append(f"preset: {base_preset}")
-    for key, name in keys.items():
-        if name in fields:
-            lines.append(f"{key}: {edge[key]:.6g}")
-    return "\n".join(lines) + "\n"
-
-
-@dataclass
-class CrossValidation:
-    """Leave-one-group-out: per group, the errors of its rows predicted by a fit without them."""
-
-    groups: list[str]
-    predicted: dict[str, np.ndarray]  # group -> relative errors of its rows, out of sample
-    in_sample: dict[str, np.ndarray]  # group -> relative errors of the fit to all data
-    values: dict[str, np.ndarray]  # group -> parameters fitted without it
-
-
-def cross_validate(
-    experiments: list[Experiment],
-    base: PlantParams,
-    names: tuple[str, ...],
-    bounds: dict[str, tuple[float, float]] | None = None,
-    x0s=None,
-    max_nfev: int | None = None,
-    tol: float = 1e-7,
-    full: FitResult | None = None,
-) -> CrossValidation:
-    """Fit without each experiment group in turn (:func:`experiment_group`) and predict it."""
-    groups = list(dict.fromkeys(experiment_group(e) for e in experiments))
-    full = full or fit(experiments, base, names, bounds=bounds, x0s=x0s, max_nfev=max_nfev, tol=tol)
-    pred, ins, vals = {}, {}, {}
-    for g in groups:
-        keep = [e for e in experiments if experiment_group(e) != g]
-        out = [e for e in experiments if experiment_group(e) == g]
-        res = fit(
-            keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol
-        )
-        pred[g] = relative_errors(model_values(out, res.params), out)
-        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if experiment_group(e) == g])
-        vals[g] = res.values
-    return CrossValidation(groups, pred, ins, vals)
-
-
-def format_cross_validation(cv: CrossValidation) -> str:
-    lines = [
-        "leave-one-group-out (fit without the group, predict it): mean |error| in sample -> out of sample",
-        f"  {'group':<16} {'rows':>4} {'in sample':>10} {'predicted':>10} {'worst pred.':>12}",
-    ]
-    for g in cv.groups:
-        i, p = np.abs(cv.in_sample[g]), np.abs(cv.predicted[g])
-        lines.append(
-            f"  {g:<16} {len(p):>4} {100 * i.mean():>9.1f}% {100 * p.mean():>9.1f}% {100 * p.max():>11.1f}%"
-        )
-    alli = np.abs(np.concatenate([cv.in_sample[g] for g in cv.groups]))
-    allp = np.abs(np.concatenate([cv.predicted[g] for g in cv.groups]))
-    lines.append(
-        f"  {'all':<16} {len(allp):>4} {100 * alli.mean():>9.1f}% {100 * allp.mean():>9.1f}% "
-        f"{100 * allp.max():>11.1f}%"
-    )
-    return "\n".join(lines)
+    return fitcore.fitted_yaml(res.params, fields, base_preset, header)
