@@ -168,6 +168,36 @@ FIT_PARAMS: dict[str, FitParam] = {
             ("tube_shear_modulus",),
         ),
         FitParam(
+            "friction_mu",
+            "",
+            0.0,
+            1e-3,
+            "plant v2 contact-area friction coefficient (F_b = mu (Pc+ S_c + Pe+ S_e)); up to 1e-3 "
+            "lets friction hold up to about 2 N at the paper's highest pair, more than half the "
+            "heaviest weight",
+            *_field("friction_mu"),
+            ("friction_mu",),
+        ),
+        FitParam(
+            "collapse_seal_diameter",
+            "mm",
+            0.0,
+            5.0,
+            "plant v2: seal of the collapsed CPAM on the end cap, at most its 5 mm bladder",
+            *_field("collapse_seal_diameter"),
+            ("collapse_seal_diameter",),
+        ),
+        FitParam(
+            "friction_presliding",
+            "mm",
+            0.1,
+            2.0,
+            "presliding displacement of the slowest Maxwell-slip element: PAM hysteresis loops "
+            "show stick over a few tenths of a mm to about a mm",
+            *_field("friction_presliding"),
+            ("friction_presliding",),
+        ),
+        FitParam(
             "end_mass",
             "g",
             5.0,
@@ -273,14 +303,21 @@ def fit(
     max_nfev: int | None = None,
     tol: float = 1e-10,
     x0s: list[np.ndarray] | None = None,
+    model_fn: Callable[[list[Experiment], PlantParams], np.ndarray] | None = None,
+    diff_step: float = 1e-4,
 ) -> FitResult:
     """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
 
     ``starts > 1`` adds ``starts - 1`` random starting points inside the bounds (seeded); the
     lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units). ``x0s`` adds
     given starting points (edge units); ``max_nfev`` (default ``200 * len(names)``) and ``tol``
-    (xtol, ftol, gtol) bound the work of each start.
+    (xtol, ftol, gtol) bound the work of each start. ``model_fn(experiments, params)`` computes
+    the model's values (default :func:`model_values`, the static simulation; plant v2: the
+    protocols, :func:`cepam_gym.validation.protocols.protocol_values`); ``diff_step`` is the
+    finite-difference step in the scaled variables (larger for a protocol with dry friction,
+    whose results are piecewise smooth).
     """
+    model_fn = model_fn or model_values
     from scipy.optimize import least_squares
 
     names = tuple(names)
@@ -297,7 +334,7 @@ def fit(
     hi = np.array([(bounds or {}).get(n, (FIT_PARAMS[n].lo, FIT_PARAMS[n].hi))[1] for n in names])
     span = hi - lo
     x_start = np.array([FIT_PARAMS[n].get(base) for n in names])
-    model_start = model_values(experiments, base)
+    model_start = model_fn(experiments, base)
 
     def to_edge(z: np.ndarray) -> np.ndarray:
         return lo + z * span
@@ -307,7 +344,7 @@ def fit(
             p = apply(base, names, to_edge(z))
         except ValueError:
             return np.full(len(experiments), 1.0)  # impossible geometry: 100 % off everywhere
-        return relative_errors(model_values(experiments, p), experiments)
+        return relative_errors(model_fn(experiments, p), experiments)
 
     rng = np.random.default_rng(seed)
     z0s = [np.clip((x_start - lo) / span, 0.0, 1.0)] + [
@@ -322,7 +359,7 @@ def fit(
                 z0,
                 bounds=(0.0, 1.0),
                 method="trf",
-                diff_step=1e-4,
+                diff_step=diff_step,
                 x_scale=1.0,
                 xtol=tol,
                 ftol=tol,
@@ -337,10 +374,10 @@ def fit(
         raise RuntimeError("no start gave a valid parameter set")
     values = to_edge(best.x)
     params = apply(base, names, values)
-    model = model_values(experiments, params)
+    model = model_fn(experiments, params)
     r = relative_errors(model, experiments)
     m, k = len(experiments), len(names)
-    Jz = _jacobian(residuals, best.x, r)  # d r / d z, own finite differences (see _jacobian)
+    Jz = _jacobian(residuals, best.x, r, h=diff_step)  # d r / d z, own finite differences (see _jacobian)
     J = Jz / span  # d r / d (edge value)
     notes: list[str] = []
     identifiable = np.ones(k, bool)
@@ -529,19 +566,24 @@ def cross_validate(
     max_nfev: int | None = None,
     tol: float = 1e-7,
     full: FitResult | None = None,
+    model_fn: Callable[[list[Experiment], PlantParams], np.ndarray] | None = None,
+    diff_step: float = 1e-4,
+    group_fn: Callable[[Experiment], str] | None = None,
 ) -> CrossValidation:
-    """Fit without each experiment group in turn (:func:`experiment_group`) and predict it."""
-    groups = list(dict.fromkeys(experiment_group(e) for e in experiments))
-    full = full or fit(experiments, base, names, bounds=bounds, x0s=x0s, max_nfev=max_nfev, tol=tol)
+    """Fit without each experiment group in turn (``group_fn``, default :func:`experiment_group`)
+    and predict it (``model_fn``, ``diff_step``: as :func:`fit`)."""
+    group_fn = group_fn or experiment_group
+    model_fn = model_fn or model_values
+    kw = dict(bounds=bounds, max_nfev=max_nfev, tol=tol, model_fn=model_fn, diff_step=diff_step)
+    groups = list(dict.fromkeys(group_fn(e) for e in experiments))
+    full = full or fit(experiments, base, names, x0s=x0s, **kw)
     pred, ins, vals = {}, {}, {}
     for g in groups:
-        keep = [e for e in experiments if experiment_group(e) != g]
-        out = [e for e in experiments if experiment_group(e) == g]
-        res = fit(
-            keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol
-        )
-        pred[g] = relative_errors(model_values(out, res.params), out)
-        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if experiment_group(e) == g])
+        keep = [e for e in experiments if group_fn(e) != g]
+        out = [e for e in experiments if group_fn(e) == g]
+        res = fit(keep, base, names, x0s=[full.values] + list(x0s or []), **kw)
+        pred[g] = relative_errors(model_fn(out, res.params), out)
+        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if group_fn(e) == g])
         vals[g] = res.values
     return CrossValidation(groups, pred, ins, vals)
 

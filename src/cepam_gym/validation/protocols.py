@@ -1,0 +1,198 @@
+"""The paper's experiments run through its own protocols on the dynamic plant.
+
+:mod:`cepam_gym.validation.equilibrium` solves each experiment statically (pressures held, the
+first equilibrium of ``F(L) + W = 0``). A rig does not: it pressurises the chambers in an order,
+waits, hangs weights and reads lengths, and dry friction between braids and bladders (the plant's
+Maxwell-slip elements, :mod:`cepam_gym.physics.friction`) makes the result depend on that history.
+This module runs the same experiments on :func:`cepam_gym.plant.step` (regulated pressures, the
+plant's valves, air, friction and free end), in the paper's order (sections II, III, XII):
+
+1. the end hangs unloaded (its cap only) at its start length (CE-PAM and EPAM: 15 cm, the EPAM
+   bladder's length; CPAM: its 19.5 cm rest length);
+2. the extensor's regulator ramps to ``Pe`` in ``ramp_s`` and holds for ``settle_s`` ("the pressure
+   was first applied to the extensor muscle until it reaches a length of 17.5 cm");
+3. then the contractor's ramps to ``Pc`` and holds the same way ("then the pressure was increased
+   for the contraction muscle");
+4. the unloaded length ``L0`` is read; from that state each weight of ``loads_g`` is hung alone
+   for ``hang_s`` (copies of the plant, so every weight starts from the same unloaded state, as
+   "from the unloaded state" reads) and its length ``L_m`` read at the end;
+   stiffness = ``mean(m g / (L_m - L0))`` (the paper's average of force over displacement).
+
+A single muscle runs on the same kernel with the other muscle removed from its parameter row:
+the coupling factors and the other bladder's wall are zeroed as in the static validation, and an
+absent CPAM (the EPAM alone) gets a vanishing braid (``1e6`` turns: no air, no force), so the EPAM
+can pass the CPAM's braid length. Every experiment of a table runs in one batch.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import plant as pl
+from ..physics import layout as ix
+from ..plant.params import PlantParams, fill_derived
+from ..units import from_si, to_si
+from .equilibrium import _row, device_range, experiment_params
+from .experiments import Experiment
+
+RIG_SUPPLY = 600e3  # Pa gauge: the rig's regulators are fed above every pressure the paper used
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """Timing of a rig experiment [s] and the plant's integration step."""
+
+    ramp_s: float = 1.0  # each regulator ramps to its set-point over this time
+    settle_s: float = 3.0  # then holds it this long before the next action
+    hang_s: float = 3.0  # each weight hangs this long before its length is read (the issue's 3 s)
+    dt: float = 5e-4  # plant sub-step [s]
+    chunk_s: float = 0.02  # set-points are updated at this period (50 Hz)
+
+    def __post_init__(self):
+        for name in ("ramp_s", "settle_s", "hang_s", "dt", "chunk_s"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"protocol {name} must be > 0, got {getattr(self, name)}")
+
+
+@dataclass
+class ProtocolResult:
+    """What the rig read for one experiment: lengths in m, stiffness in N/m (nan if not measured)."""
+
+    length0: float
+    lengths: np.ndarray  # loaded lengths, one per weight
+    stiffness: float
+    value: float  # in the experiment's unit
+    note: str = ""
+
+
+def device_row(params: PlantParams, exp: Experiment) -> np.ndarray:
+    """Kernel parameter row of the experiment's device with the rig's supply and its end stops."""
+    p = experiment_params(exp, params)
+    row = _row(p, exp.device)
+    if exp.device == "epam":
+        # the EPAM alone: a vanishing CPAM (no air, no force) whose braid the EPAM never reaches
+        row[ix.BC] = 4.0 * row[ix.BE]
+        row[ix.NC] = 1e6
+        fill_derived(row[None, :])
+        row[ix.EL_C] = 0.0
+    _start, lo, hi = device_range(p, exp.device)
+    row[ix.L_MIN], row[ix.L_MAX] = lo, hi
+    row[ix.P_SUP] = row[ix.P_ATM] + RIG_SUPPLY
+    row[ix.P_BURST] = math.inf
+    return row
+
+
+def _targets(exp: Experiment) -> tuple[float, float]:
+    pc = to_si(exp.pc_kpa, "kpa") if exp.device != "epam" else 0.0
+    pe = to_si(exp.pe_kpa, "kpa") if exp.device != "cpam" else 0.0
+    return pc, pe
+
+
+def _advance(state, inputs, rows, proto: Protocol, seconds: float, ramps=None):
+    """Run ``seconds`` in chunks; ``ramps`` = (column, start, end values, ramp time) moves one
+    set-point column linearly from ``start`` to ``end`` over the ramp time."""
+    n_sub = max(1, round(proto.chunk_s / proto.dt))
+    chunks = max(1, round(seconds / (n_sub * proto.dt)))
+    aux = np.empty((state.shape[0], pl.N_AUX))
+    for k in range(chunks):
+        if ramps is not None:
+            col, a, b, tr = ramps
+            frac = min(1.0, (k + 1) * n_sub * proto.dt / tr)
+            inputs[:, col] = a + frac * (b - a)
+        pl.step(state, inputs, rows, pl.PRESSURE, proto.dt, n_sub, out=state, aux=aux)
+    return aux
+
+
+def run(experiments: list[Experiment], params: PlantParams, proto: Protocol | None = None) -> list:
+    """Run every experiment through the protocol in one batch; one :class:`ProtocolResult` each
+    (``None`` for a non-computable one)."""
+    proto = proto or Protocol()
+    todo = [e for e in experiments if e.computable]
+    out: dict[str, ProtocolResult] = {}
+    if todo:
+        out = dict(zip((e.id for e in todo), _run_batch(todo, params, proto)))
+    return [out.get(e.id) if e.computable else None for e in experiments]
+
+
+def _run_batch(exps: list[Experiment], params: PlantParams, proto: Protocol) -> list[ProtocolResult]:
+    n = len(exps)
+    rows = np.stack([device_row(params, e) for e in exps])
+    starts = np.array([device_range(experiment_params(e, params), e.device)[0] for e in exps])
+    targets = np.array([_targets(e) for e in exps])
+    state = pl.initial_state(rows, starts, 0.0, 0.0)
+    inputs = np.zeros((n, pl.N_INPUT))
+    # 2. extensor first, 3. then the contractor
+    _advance(
+        state,
+        inputs,
+        rows,
+        proto,
+        proto.ramp_s + proto.settle_s,
+        (pl.I_CMD_E, 0.0, targets[:, 1], proto.ramp_s),
+    )
+    _advance(
+        state,
+        inputs,
+        rows,
+        proto,
+        proto.ramp_s + proto.settle_s,
+        (pl.I_CMD_C, 0.0, targets[:, 0], proto.ramp_s),
+    )
+    L0 = state[:, pl.S_L].copy()
+    # 4. the weights, each alone from the unloaded state: copies of every plant, one per weight
+    loads = [np.asarray(e.loads_g if e.measured == "stiffness" else (), float) for e in exps]
+    idx = np.array([i for i, ld in enumerate(loads) for _ in ld], dtype=int)
+    lengths = [np.empty(0) for _ in exps]
+    if idx.size:
+        s2 = state[idx].copy()
+        in2 = inputs[idx].copy()
+        in2[:, pl.I_LOAD] = np.concatenate(loads) * to_si(1.0, "g")
+        _advance(s2, in2, rows[idx], proto, proto.hang_s)
+        k = 0
+        for i, ld in enumerate(loads):
+            lengths[i] = s2[k : k + ld.size, pl.S_L].copy()
+            k += ld.size
+    results = []
+    for i, e in enumerate(exps):
+        results.append(_reading(e, params, L0[i], lengths[i], rows[i]))
+    return results
+
+
+def _reading(e: Experiment, params: PlantParams, L0: float, Lm: np.ndarray, row) -> ProtocolResult:
+    note = []
+    lo, hi = row[ix.L_MIN], row[ix.L_MAX]
+    if L0 <= lo + 1e-9 or L0 >= hi - 1e-9:
+        note.append(f"unloaded on the {'lower' if L0 <= lo + 1e-9 else 'upper'} stop")
+    k = math.nan
+    if e.measured == "stiffness":
+        w = np.asarray(e.loads_g, float) * to_si(1.0, "g") * params.gravity
+        dl = Lm - L0
+        ok = (dl > 0.0) & (Lm < hi - 1e-9)
+        if np.any(~ok):
+            note.append(f"{int((~ok).sum())} weight(s) on a stop or not moving, left out")
+        k = float(np.mean(w[ok] / dl[ok])) if np.any(ok) else math.nan
+    if e.measured == "length":
+        value = from_si(L0, "cm")
+    elif e.measured == "contraction":
+        value = 100.0 * (params.cpam_rest_length - L0) / params.cpam_rest_length
+    elif e.measured == "extension":
+        value = 100.0 * (L0 - params.min_length) / params.min_length
+    elif e.measured == "stiffness":
+        value = k
+    else:
+        value = math.nan
+        note.append(f"a {e.measured} is not measured by this protocol")
+    return ProtocolResult(L0, Lm, k, value, "; ".join(note))
+
+
+def protocol_values(experiments: list[Experiment], params: PlantParams, proto: Protocol | None = None):
+    """The protocol's value of each experiment in its unit (nan where none): the model function
+    of the plant v2 calibration (:func:`cepam_gym.validation.fit.fit` ``model_fn``)."""
+    try:
+        results = run(experiments, params, proto)
+    except ValueError:
+        return np.full(len(experiments), math.nan)
+    return np.array([math.nan if r is None else r.value for r in results])
