@@ -161,9 +161,9 @@ class PlantParams:
     collapse_seal_diameter: float = _f(
         0.0,
         "mm",
-        "v2: diameter of the CPAM's seal on the end cap: while the CPAM is slack and squeezed (Pe > Pc) "
-        "its collapsed bladder carries no axial load and (Pe - Pc) pulls on this area; at most the "
-        "CPAM bladder's 5 mm. 0 = v1",
+        "v2: diameter of the CPAM's seal on the end cap: while the CPAM is slack (buckled, or collapsed "
+        "when Pe > Pc) it carries no axial load and (Pc - Pe) acts on this area; at most the CPAM "
+        "bladder's 5 mm. 0 = v1",
         calibrate=True,
     )
     onoff_open_delay: float = _f(
@@ -398,7 +398,8 @@ class PlantParams:
         p[ix.H_WALL] = self.heat_transfer_coefficient
         p[ix.D_ON] = self.onoff_open_delay
         p[ix.D_OFF] = self.onoff_close_delay
-        p[ix.FR_C] = self.friction_coefficient
+        # the contact-area law (v2) replaces the v1 coefficient: fill_derived sets FR_C = mu S_e
+        p[ix.FR_C] = self.friction_coefficient if self.friction_law == "pressure_sum" else 0.0
         p[ix.FR_D] = self.friction_presliding
         p[ix.COL_A] = 0.25 * math.pi * self.collapse_seal_diameter**2
         p[ix.FR_MU] = self.friction_mu if self.friction_law == "contact_area" else 0.0

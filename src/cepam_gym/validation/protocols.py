@@ -196,3 +196,30 @@ def protocol_values(experiments: list[Experiment], params: PlantParams, proto: P
     except ValueError:
         return np.full(len(experiments), math.nan)
     return np.array([math.nan if r is None else r.value for r in results])
+
+
+def stiffness_notions(params: PlantParams, pairs_kpa, loads_g=(50, 100, 150, 200, 250, 300)) -> list[dict]:
+    """Both stiffnesses at the unloaded static equilibrium of each ``(Pe, Pc)`` pair [kPa]: the
+    tangent ``-dF/dL`` (what the envs regulate and their targets are stated in) and the protocol
+    (secant) stiffness a rig reads, quasi-statically (:func:`cepam_gym.physics.secant.secant_stiffness`).
+    Pairs whose unloaded end rests on a stop are skipped."""
+    from ..physics import api, secant
+    from .equilibrium import NetForce, settle
+
+    row = params.to_array()
+    weights = np.asarray(loads_g, float) * to_si(1.0, "g") * params.gravity
+    out = []
+    for pe_kpa, pc_kpa in pairs_kpa:
+        pc, pe = to_si(pc_kpa, "kpa"), to_si(pe_kpa, "kpa")
+        w_end = params.end_mass * params.gravity
+        L0, where = settle(
+            NetForce(pc, pe, row, w_end), params.min_length, params.min_length, params.max_length
+        )
+        if where != "free":
+            continue
+        kt = float(api.stiffness(L0, pc, pe, row))
+        ks = float(secant.secant_stiffness(L0, pc, pe, row, weights))
+        out.append(
+            {"pe_kpa": pe_kpa, "pc_kpa": pc_kpa, "length_cm": from_si(L0, "cm"), "tangent": kt, "secant": ks}
+        )
+    return out
