@@ -175,3 +175,26 @@ def test_v2_ids_run_on_the_v2_plant():
     obs, r, *_ = env.step(env.action_space.sample())
     assert np.all(np.isfinite(obs)) and math.isfinite(r)
     assert env.unwrapped.core.nominal == preset("balloon_v2")
+
+
+def test_protocol_stiffness_info_is_the_secant_at_the_steps_state():
+    from cepam_gym.envs.protocol_info import ProtocolStiffnessInfo
+
+    env = ProtocolStiffnessInfo(gym.make("cepam_gym/CEPAMStiffness-v2"))
+    _, info = env.reset(seed=3)
+    for _ in range(5):
+        *_, info = env.step(env.action_space.sample())
+    row = env.unwrapped.core.params[0]
+    weights = np.array([50.0, 100, 150, 200, 250, 300]) * 1e-3 * row[ix.GRAV]
+    expect = secant.secant_stiffness(info["length"], info["pressure_c"], info["pressure_e"], row, weights)
+    assert info["stiffness_protocol"] == pytest.approx(expect, rel=1e-12)
+    assert math.isfinite(info["stiffness"])  # the tangent stays beside it
+    with pytest.raises(ValueError, match="loads_g"):
+        ProtocolStiffnessInfo(gym.make("cepam_gym/CEPAM-v2"), loads_g=[])
+
+
+def test_joint_v2_runs_on_the_v2_plant():
+    env = gym.make("cepam_gym/CEPAMJoint-v2")
+    obs, _ = env.reset(seed=0)
+    obs, r, *_ = env.step(env.action_space.sample())
+    assert np.all(np.isfinite(obs)) and math.isfinite(r)

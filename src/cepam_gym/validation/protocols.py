@@ -79,6 +79,11 @@ def device_row(params: PlantParams, exp: Experiment) -> np.ndarray:
         fill_derived(row[None, :])
         row[ix.EL_C] = 0.0
     _start, lo, hi = device_range(p, exp.device)
+    if exp.device == "cpam":
+        # unpressurised, a lone CPAM hangs from its bladder glued at its rest length; without that
+        # stop a plant with no wall energy (v0) would fall to the braid's limit, where its air
+        # diameter (Eq. 34) vanishes, before the pressure is applied
+        hi = min(hi, p.cpam_rest_length)
     row[ix.L_MIN], row[ix.L_MAX] = lo, hi
     row[ix.P_SUP] = row[ix.P_ATM] + RIG_SUPPLY
     row[ix.P_BURST] = math.inf
