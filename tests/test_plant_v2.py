@@ -198,3 +198,24 @@ def test_joint_v2_runs_on_the_v2_plant():
     obs, _ = env.reset(seed=0)
     obs, r, *_ = env.step(env.action_space.sample())
     assert np.all(np.isfinite(obs)) and math.isfinite(r)
+
+
+def test_v2_preset_is_the_protocol_fits_optimum_along_its_interior_parameters(v2):
+    """The shipped balloon_v2 is what `calibrate --v2` found: moving any interior fitted parameter
+    by 2 % or 5 % of its range raises the sum of squared relative errors through the protocols."""
+    from cepam_gym.validation.calibrate_v2 import V2_BOUNDS
+    from cepam_gym.validation.fit import FIT_PARAMS, apply, relative_errors
+
+    exps = v2_experiments()
+
+    def cost(p):
+        r = relative_errors(protocols.protocol_values(exps, p), exps)
+        return float(r @ r)
+
+    c0 = cost(v2)
+    assert np.sqrt(c0 / len(exps)) < 0.1
+    for name in ("cpam_rest_angle", "epam_sleeve_free_angle", "bladder_thickness", "friction_mu"):
+        lo, hi = V2_BOUNDS[name]
+        x = FIT_PARAMS[name].get(v2)
+        for step in (-0.05, -0.02, 0.02, 0.05):
+            assert cost(apply(v2, (name,), np.array([x + step * (hi - lo)]))) > c0, (name, step)
