@@ -151,6 +151,8 @@ def test_protocol_refuses_bad_timing():
 
 
 def test_v2_groups_are_the_papers_experiments():
+    fig26 = {e.id for e in v2_experiments() if protocols.is_fixed_stiffness_sequence(e)}
+    assert fig26 == {"cepam_length_pe125_pc200", "cepam_stiffness_pe125_pc200"}
     groups = {experiment_group_v2(e) for e in v2_experiments()}
     assert groups == {
         "cpam_balloon",

@@ -17,7 +17,7 @@ import numpy as np
 from ..plant.params import PlantParams, preset
 from .experiments import Experiment, load_experiments
 from .fit import V1_BOUNDS, V1_FIT, cross_validate, fit, fitted_yaml, format_cross_validation, format_report
-from .protocols import protocol_values
+from .protocols import is_fixed_stiffness_sequence, protocol_values
 
 V2_FIT = V1_FIT + ("friction_mu", "friction_presliding", "collapse_seal_diameter")
 V2_BOUNDS = {
@@ -39,7 +39,7 @@ def experiment_group_v2(exp: Experiment) -> str:
         return f"{exp.device}_{exp.bladder}"
     if exp.pc_kpa == 0.0:
         return "cepam_extension" if exp.pe_kpa >= 250.0 else "cepam_extensor_only"
-    if exp.figure and "Fig. 26" in exp.figure and "Fig. 25" not in exp.figure:
+    if is_fixed_stiffness_sequence(exp):
         return "cepam_fixed_stiffness"
     return "cepam_fixed_length"
 

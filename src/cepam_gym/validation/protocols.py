@@ -12,7 +12,9 @@ plant's valves, air, friction and free end), in the paper's order (sections II, 
 2. the extensor's regulator ramps to ``Pe`` in ``ramp_s`` and holds for ``settle_s`` ("the pressure
    was first applied to the extensor muscle until it reaches a length of 17.5 cm");
 3. then the contractor's ramps to ``Pc`` and holds the same way ("then the pressure was increased
-   for the contraction muscle");
+   for the contraction muscle"); the fixed-stiffness point of Fig. 26 has its own sequence: the
+   extensor to 75 kPa first (18.5 cm), then both chambers together, gradually (three ramp times),
+   to the pair;
 4. the unloaded length ``L0`` is read; from that state each weight of ``loads_g`` is hung alone
    for ``hang_s`` (copies of the plant, so every weight starts from the same unloaded state, as
    "from the unloaded state" reads) and its length ``L_m`` read at the end;
@@ -96,17 +98,30 @@ def _targets(exp: Experiment) -> tuple[float, float]:
     return pc, pe
 
 
-def _advance(state, inputs, rows, proto: Protocol, seconds: float, ramps=None):
-    """Run ``seconds`` in chunks; ``ramps`` = (column, start, end values, ramp time) moves one
-    set-point column linearly from ``start`` to ``end`` over the ramp time."""
+def is_fixed_stiffness_sequence(exp: Experiment) -> bool:
+    """The CE-PAM experiment of Fig. 26 (section XII): reached by its own sequence, not the
+    extensor-then-contractor order of Fig. 25."""
+    return (
+        exp.device == "cepam" and exp.pc_kpa > 0.0 and "Fig. 26" in exp.figure and "Fig. 25" not in exp.figure
+    )
+
+
+# Fig. 26: "increasing the pressure on the extensor muscle to 75 kPa, to reach its length of 18.5 cm
+# ... With a gradual increasing in pressure on both muscles (maintaining a length of 18.5 cm)"
+FIG26_START_PE = 75e3  # Pa
+FIG26_RAMPS = 3.0  # the gradual joint ramp takes this many ramp times
+
+
+def _advance(state, inputs, rows, proto: Protocol, seconds: float, ramps=()):
+    """Run ``seconds`` in chunks; each of ``ramps`` = (column, start, end, ramp time), values or
+    per-plant arrays, moves a set-point column linearly from ``start`` to ``end`` over its time."""
     n_sub = max(1, round(proto.chunk_s / proto.dt))
     chunks = max(1, round(seconds / (n_sub * proto.dt)))
     aux = np.empty((state.shape[0], pl.N_AUX))
     for k in range(chunks):
-        if ramps is not None:
-            col, a, b, tr = ramps
-            frac = min(1.0, (k + 1) * n_sub * proto.dt / tr)
-            inputs[:, col] = a + frac * (b - a)
+        t = (k + 1) * n_sub * proto.dt
+        for col, a, b, tr in ramps:
+            inputs[:, col] = a + np.minimum(1.0, t / tr) * (b - a)
         pl.step(state, inputs, rows, pl.PRESSURE, proto.dt, n_sub, out=state, aux=aux)
     return aux
 
@@ -126,25 +141,22 @@ def _run_batch(exps: list[Experiment], params: PlantParams, proto: Protocol) -> 
     n = len(exps)
     rows = np.stack([device_row(params, e) for e in exps])
     starts = np.array([device_range(experiment_params(e, params), e.device)[0] for e in exps])
-    targets = np.array([_targets(e) for e in exps])
+    pc, pe = np.array([_targets(e) for e in exps]).T
+    fig26 = np.array([is_fixed_stiffness_sequence(e) for e in exps])
     state = pl.initial_state(rows, starts, 0.0, 0.0)
     inputs = np.zeros((n, pl.N_INPUT))
-    # 2. extensor first, 3. then the contractor
+    # 2. the extensor first (Fig. 26: to 75 kPa), 3. then the contractor (Fig. 26: both, gradually)
+    pe1 = np.where(fig26, FIG26_START_PE, pe)
+    ramp = proto.ramp_s
+    _advance(state, inputs, rows, proto, ramp + proto.settle_s, [(pl.I_CMD_E, 0.0, pe1, ramp)])
+    ramp2 = np.where(fig26, FIG26_RAMPS * ramp, ramp)
     _advance(
         state,
         inputs,
         rows,
         proto,
-        proto.ramp_s + proto.settle_s,
-        (pl.I_CMD_E, 0.0, targets[:, 1], proto.ramp_s),
-    )
-    _advance(
-        state,
-        inputs,
-        rows,
-        proto,
-        proto.ramp_s + proto.settle_s,
-        (pl.I_CMD_C, 0.0, targets[:, 0], proto.ramp_s),
+        float(ramp2.max()) + proto.settle_s,
+        [(pl.I_CMD_E, pe1, pe, ramp2), (pl.I_CMD_C, 0.0, pc, ramp2)],
     )
     L0 = state[:, pl.S_L].copy()
     # 4. the weights, each alone from the unloaded state: copies of every plant, one per weight
