@@ -221,3 +221,12 @@ def test_v2_preset_is_the_protocol_fits_optimum_along_its_interior_parameters(v2
         x = FIT_PARAMS[name].get(v2)
         for step in (-0.05, -0.02, 0.02, 0.05):
             assert cost(apply(v2, (name,), np.array([x + step * (hi - lo)]))) > c0, (name, step)
+
+
+def test_calibrate_v2_refuses_incomplete_commands(capsys):
+    from cepam_gym.validation.cli import calibrate_main
+
+    for argv, msg in ((["--v2"], "--out is required"), (["--v1", "--v2", "--out", "x.yaml"], "one of --v1")):
+        with pytest.raises(SystemExit):
+            calibrate_main(argv)
+        assert msg in capsys.readouterr().err

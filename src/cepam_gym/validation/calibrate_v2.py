@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..plant.params import PlantParams, preset
+from ..plant.params import PlantParams
 from .experiments import Experiment, load_experiments
 from .fit import V1_BOUNDS, V1_FIT, cross_validate, fit, fitted_yaml, format_cross_validation, format_report
 from .protocols import is_fixed_stiffness_sequence, protocol_values
@@ -100,6 +100,3 @@ def _shift(x: list[float], k: int) -> list[float]:
         out.append(float(np.clip(x[j] + sign * 0.25 * (hi - lo), lo, hi)))
     return out
 
-
-def default_base() -> PlantParams:
-    return preset("balloon_v2")
