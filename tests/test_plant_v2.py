@@ -230,3 +230,12 @@ def test_calibrate_v2_refuses_incomplete_commands(capsys):
         with pytest.raises(SystemExit):
             calibrate_main(argv)
         assert msg in capsys.readouterr().err
+
+
+def test_protocol_readings_are_converged_in_time_and_step(v2):
+    """The 3 s settles and hangs are long enough and the 0.5 ms sub-step small enough: doubling the
+    times or halving the step moves no reading by more than 1 %."""
+    exps = v2_experiments()
+    ref = protocols.protocol_values(exps, v2)
+    for proto in (protocols.Protocol(settle_s=6.0, hang_s=6.0), protocols.Protocol(dt=2.5e-4)):
+        np.testing.assert_allclose(protocols.protocol_values(exps, v2, proto), ref, rtol=0.01)
