@@ -239,3 +239,15 @@ def test_protocol_readings_are_converged_in_time_and_step(v2):
     ref = protocols.protocol_values(exps, v2)
     for proto in (protocols.Protocol(settle_s=6.0, hang_s=6.0), protocols.Protocol(dt=2.5e-4)):
         np.testing.assert_allclose(protocols.protocol_values(exps, v2, proto), ref, rtol=0.01)
+
+
+def test_cumulative_loading_shares_the_first_weight_and_then_reads_differently(v2):
+    """Hung on top of each other, the first weight sees exactly the history it sees alone (same
+    state, same load, same time: the same length bit for bit); the later ones do not."""
+    exps = [e for e in v2_experiments() if e.measured == "stiffness"]
+    alone = protocols.run(exps, v2)
+    stacked = protocols.run(exps, v2, protocols.Protocol(cumulative=True))
+    for a, b in zip(alone, stacked):
+        assert a.lengths[0] == b.lengths[0]
+        assert a.length0 == b.length0
+    assert any(abs(a.stiffness - b.stiffness) > 0.01 * a.stiffness for a, b in zip(alone, stacked))

@@ -52,6 +52,9 @@ class Protocol:
     hang_s: float = 3.0  # each weight hangs this long before its length is read (the issue's 3 s)
     dt: float = 5e-4  # plant sub-step [s]
     chunk_s: float = 0.02  # set-points are updated at this period (50 Hz)
+    # the paper does not say whether each weight hung alone or on top of the previous ones: False
+    # (default) hangs each alone from the unloaded state, True adds them one after another
+    cumulative: bool = False
 
     def __post_init__(self):
         for name in ("ramp_s", "settle_s", "hang_s", "dt", "chunk_s"):
@@ -159,10 +162,18 @@ def _run_batch(exps: list[Experiment], params: PlantParams, proto: Protocol) -> 
         [(pl.I_CMD_E, pe1, pe, ramp2), (pl.I_CMD_C, 0.0, pc, ramp2)],
     )
     L0 = state[:, pl.S_L].copy()
-    # 4. the weights, each alone from the unloaded state: copies of every plant, one per weight
     loads = [np.asarray(e.loads_g if e.measured == "stiffness" else (), float) for e in exps]
+    if proto.cumulative:
+        lengths = _hang_cumulative(state, inputs, rows, proto, loads)
+    else:
+        lengths = _hang_alone(state, inputs, rows, proto, loads)
+    return [_reading(e, params, L0[i], lengths[i], rows[i]) for i, e in enumerate(exps)]
+
+
+def _hang_alone(state, inputs, rows, proto: Protocol, loads: list) -> list:
+    """4. the weights, each alone from the unloaded state: copies of every plant, one per weight."""
     idx = np.array([i for i, ld in enumerate(loads) for _ in ld], dtype=int)
-    lengths = [np.empty(0) for _ in exps]
+    lengths = [np.empty(0) for _ in loads]
     if idx.size:
         s2 = state[idx].copy()
         in2 = inputs[idx].copy()
@@ -172,10 +183,21 @@ def _run_batch(exps: list[Experiment], params: PlantParams, proto: Protocol) -> 
         for i, ld in enumerate(loads):
             lengths[i] = s2[k : k + ld.size, pl.S_L].copy()
             k += ld.size
-    results = []
-    for i, e in enumerate(exps):
-        results.append(_reading(e, params, L0[i], lengths[i], rows[i]))
-    return results
+    return lengths
+
+
+def _hang_cumulative(state, inputs, rows, proto: Protocol, loads: list) -> list:
+    """4'. the weights in turn on the same plant, each replacing the previous (a heavier one)."""
+    n_max = max((ld.size for ld in loads), default=0)
+    lengths = [np.empty(ld.size) for ld in loads]
+    for k in range(n_max):
+        for i, ld in enumerate(loads):
+            inputs[i, pl.I_LOAD] = ld[min(k, ld.size - 1)] * to_si(1.0, "g") if ld.size else 0.0
+        _advance(state, inputs, rows, proto, proto.hang_s)
+        for i, ld in enumerate(loads):
+            if k < ld.size:
+                lengths[i][k] = state[i, pl.S_L]
+    return lengths
 
 
 def _reading(e: Experiment, params: PlantParams, L0: float, Lm: np.ndarray, row) -> ProtocolResult:
