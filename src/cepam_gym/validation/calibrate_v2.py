@@ -99,4 +99,3 @@ def _shift(x: list[float], k: int) -> list[float]:
         sign = 1.0 if (j + k) % 2 == 0 else -1.0
         out.append(float(np.clip(x[j] + sign * 0.25 * (hi - lo), lo, hi)))
     return out
-
