@@ -17,8 +17,9 @@ per-core figures.
 On small VMs the OpenMP layer's thread wake-up alone can cost several ms per call; compare with
 ``NUMBA_THREADING_LAYER=workqueue``.
 
-``--versions`` times plant v1 (preset ``balloon``) against the v0 plant (``balloon_v0``) in
-the same run, interleaved in rounds (median per-call time each), and prints the ratio.
+``--versions`` times plant v1 (preset ``balloon``) against the v0 plant (``balloon_v0``) and
+plant v2 (``balloon_v2``) against v1 in the same run, interleaved in rounds (median per-call time
+each), and prints the ratios.
 
 Run: ``.venv/bin/python benchmarks/plant_throughput.py`` (options: ``--seconds``, ``--sizes``,
 ``--versions``).
@@ -82,9 +83,9 @@ def measure(n: int, seconds: float = 1.0) -> dict:
 
 
 def versions(n: int, rounds: int = 15, seconds: float = 0.05) -> dict:
-    """Median us per ``plant.step`` call of plant v1 and of the v0 plant, ``n`` plants each,
+    """Median us per ``plant.step`` call of the v0, v1 and v2 plants, ``n`` plants each,
     interleaved in ``rounds`` rounds of about ``seconds`` each (the same run, the same load)."""
-    setups = {name: _setup(n, params=preset(name)) for name in ("balloon_v0", "balloon")}
+    setups = {name: _setup(n, params=preset(name)) for name in ("balloon_v0", "balloon", "balloon_v2")}
     times: dict[str, list[float]] = {name: [] for name in setups}
     for state, inputs, params, aux in setups.values():
         plant.step(state, inputs, params, plant.PROPORTIONAL, DT, N_SUB, out=state, aux=aux)  # warm-up
@@ -100,7 +101,9 @@ def versions(n: int, rounds: int = 15, seconds: float = 0.05) -> dict:
         "n": n,
         "v0_us": med["balloon_v0"],
         "v1_us": med["balloon"],
+        "v2_us": med["balloon_v2"],
         "ratio": med["balloon"] / med["balloon_v0"],
+        "ratio_v2": med["balloon_v2"] / med["balloon"],
     }
 
 
@@ -109,16 +112,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=1.0, help="timed duration per batch size")
     ap.add_argument("--sizes", type=int, nargs="+", default=[1, 64, 1024, 4096])
     ap.add_argument("--threads", type=int, default=None, help="numba threads for the parallel kernel")
-    ap.add_argument("--versions", action="store_true", help="plant v1 against the v0 plant, same run")
+    ap.add_argument("--versions", action="store_true", help="plants v0, v1, v2 in the same run")
     args = ap.parse_args(argv)
     if args.threads:
         numba.set_num_threads(args.threads)
     if args.versions:
-        print("# plant v1 (preset balloon) vs the v0 plant (balloon_v0): median us per plant.step call")
-        print(f"{'N':>6} {'v0 us':>10} {'v1 us':>10} {'v1 / v0':>8}")
+        print("# plants v0, v1, v2 (presets balloon_v0, balloon, balloon_v2): median us per plant.step call")
+        print(f"{'N':>6} {'v0 us':>10} {'v1 us':>10} {'v2 us':>10} {'v1 / v0':>8} {'v2 / v1':>8}")
         for n in args.sizes:
             r = versions(n)
-            print(f"{n:>6} {r['v0_us']:>10.1f} {r['v1_us']:>10.1f} {r['ratio']:>8.3f}")
+            print(
+                f"{n:>6} {r['v0_us']:>10.1f} {r['v1_us']:>10.1f} {r['v2_us']:>10.1f} "
+                f"{r['ratio']:>8.3f} {r['ratio_v2']:>8.3f}"
+            )
         print(f"# 1-min load average: {os.getloadavg()[0]:.2f}")
         return 0
     load_before = os.getloadavg()[0]

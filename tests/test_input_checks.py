@@ -61,7 +61,8 @@ def test_supply_above_burst_warns():
         gym.make("cepam_gym/CEPAM-v1", plant={"supply_pressure_kpa": 400})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        gym.make("cepam_gym/CEPAM-v1")  # the default plant: no warning (a v0 id warns that v1 exists)
+        # the newest id's plant: no warning (an older id warns that a newer version exists)
+        gym.make("cepam_gym/CEPAM-v2")
 
 
 def test_joint_env_zero_stiffness_target_refused():

@@ -96,7 +96,7 @@ def test_every_reported_row_present_at_every_level(experiments, rows):
     for e in experiments:
         mine = [r for r in rows if r["id"] == e.id]
         if e.computable:
-            assert sorted(r["model_level"] for r in mine) == sorted(v.LEVELS + ("plant",)), e.id
+            assert sorted(r["model_level"] for r in mine) == sorted(v.LEVELS + ("plant", "protocol")), e.id
             assert all(r["model"] is not None and math.isfinite(r["model"]) for r in mine), e.id
         else:
             assert len(mine) == 1 and mine[0]["model"] is None and mine[0]["rel_error"] is None

@@ -8,6 +8,11 @@ import gymnasium as gym
 # user's own ``plant=`` still wins. The default plant of ``PlantParams()`` (and of the v1 ids) is
 # plant v1.
 V0_PLANT = "balloon_v0"
+# The v2 ids: the v1 tasks on plant v2 (preset balloon_v2: a slack CPAM acts through its seal,
+# contact-area friction; calibrated through the paper's protocols on the dynamic plant,
+# docs/calibration.md "Plant v2"). The tasks' stiffness targets stay tangent stiffnesses -dF/dL
+# (docs/physics.md "Plant v2": the protocol's secant stiffness is reported beside them).
+V2_PLANT = "balloon_v2"
 # rig ids -> their default kwargs (a user's own kwargs win). v1: planned references announced
 # PREVIEW_STEPS control steps ahead (0.2 s at 50 Hz) in the observation.
 PREVIEW_STEPS = 10
@@ -18,6 +23,13 @@ ENV_IDS: dict[str, dict] = {
     "cepam_gym/CEPAM-v1": {"task": "cepam_v1", "preview_steps": PREVIEW_STEPS},
     "cepam_gym/CEPAMLength-v1": {"task": "length_v1", "preview_steps": PREVIEW_STEPS},
     "cepam_gym/CEPAMStiffness-v1": {"task": "stiffness_v1", "preview_steps": PREVIEW_STEPS},
+    "cepam_gym/CEPAM-v2": {"task": "cepam_v1", "preview_steps": PREVIEW_STEPS, "plant": V2_PLANT},
+    "cepam_gym/CEPAMLength-v2": {"task": "length_v1", "preview_steps": PREVIEW_STEPS, "plant": V2_PLANT},
+    "cepam_gym/CEPAMStiffness-v2": {
+        "task": "stiffness_v1",
+        "preview_steps": PREVIEW_STEPS,
+        "plant": V2_PLANT,
+    },
 }
 MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
 # ids that need the [mujoco] extra (imported only by gym.make): not in ENV_IDS, which lists the
@@ -30,6 +42,11 @@ JOINT_ENV_IDS: dict[str, tuple[str, str, dict]] = {
         "cepam_gym.envs.joint:CEPAMJointV1Env",
         "cepam_gym.envs.joint:CEPAMJointVectorEnv",
         {"task": "joint_v1", "preview_steps": PREVIEW_STEPS},
+    ),
+    "cepam_gym/CEPAMJoint-v2": (
+        "cepam_gym.envs.joint:CEPAMJointV1Env",
+        "cepam_gym.envs.joint:CEPAMJointVectorEnv",
+        {"task": "joint_v1", "preview_steps": PREVIEW_STEPS, "plant": V2_PLANT},
     ),
 }
 

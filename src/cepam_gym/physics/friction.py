@@ -24,7 +24,13 @@ DELTA_FRACTIONS = (0.1, 0.4, 1.0)  # presliding displacement per element, times 
 
 @jit_inline
 def breakaway_force(p, pc, pe):
-    """Total break-away force ``F_b = c (Pc+ + Pe+)`` [N] at gauge pressures ``pc, pe`` [Pa]."""
+    """Total break-away force [N] at gauge pressures ``pc, pe`` [Pa]: ``F_b = c (Pc+ + Pe+)``
+    (plant v1), or with the contact-area law of plant v2 (``p[FR_MU] > 0``)
+    ``F_b = mu (Pc+ S_c + Pe+ S_e)``: each bladder is pressed onto its braid by its own chamber's
+    pressure over the braid's inner surface ``S = pi D L`` (Tondu and Lopez 2000), taken at
+    mid-stroke (``FR_CC = mu S_c``, ``FR_C = mu S_e``, filled by ``fill_derived``)."""
+    if p[ix.FR_MU] > 0.0:
+        return p[ix.FR_CC] * fmax(pc, 0.0) + p[ix.FR_C] * fmax(pe, 0.0)
     return p[ix.FR_C] * (fmax(pc, 0.0) + fmax(pe, 0.0))
 
 

@@ -92,8 +92,12 @@ HA_E = 72  # hA of the annulus [W/K] (derived)
 # --- plant v1 braid-bladder friction (Maxwell-slip); zero in a v0 row ---
 FR_C = 73  # break-away force per Pa of (Pc+ + Pe+) [N/Pa]; 0 = no friction (v0)
 FR_D = 74  # presliding displacement of the slowest element [m]
+# --- plant v2 (docs/physics.md "Plant v2"); zero in a v0 or v1 row, which leaves those unchanged ---
+COL_A = 75  # seal area of a slack, collapsed CPAM on the end cap [m^2]: (Pe - Pc)+ pulls on it; 0 = v1
+FR_MU = 76  # friction coefficient of the contact-area law [-]; 0 = the v1 law FR_C (Pc+ + Pe+)
+FR_CC = 77  # derived (contact-area law): break-away force per Pa of Pc+ [N/Pa]; FR_C is then per Pa of Pe+
 
-N_PARAMS = 75
+N_PARAMS = 78
 
 NAMES = tuple(
     name

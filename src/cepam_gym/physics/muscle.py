@@ -305,6 +305,18 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
         dforce_dl += (g - 1.0) * dc + dg * dx * c - d2uc
         df_dpc += (g - 1.0) * dc_dpc - dg * dc_dpc * inv_wa * c
         df_dpe += (g - 1.0) * dc_dpe - dg * dc_dpe * inv_wa * c
+        a_col = p[ix.COL_A]
+        if a_col > 0.0:
+            # plant v2: a slack CPAM (buckled, or collapsed when squeezed by the annulus) carries
+            # no axial load through its braid or its bladder, which is longer than L; the cap's
+            # face then sees Pc over the CPAM's seal and Pe outside it: (Pc - Pe) A_col, a pull
+            # while Pe > Pc, faded in as the braid goes slack (1 - g) so it joins the taut braid
+            # term continuously
+            fcol = a_col * (pc - pe)
+            force += (1.0 - g) * fcol
+            dforce_dl -= dg * dx * fcol
+            df_dpc += dg * dc_dpc * inv_wa * fcol + (1.0 - g) * a_col
+            df_dpe += dg * dc_dpe * inv_wa * fcol - (1.0 - g) * a_col
     else:
         force -= duc
         dforce_dl -= d2uc

@@ -32,6 +32,7 @@ FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
 FORCE_FORMS = ("paper", "virtual_work")
 BRAID_TENSIONS = ("bidirectional", "tension_only")  # v0 | v1 (docs/physics.md, plant v1)
 BLADDER_MODELS = ("spring", "neo_hookean")  # v0 | v1
+FRICTION_LAWS = ("pressure_sum", "contact_area")  # v1 | v2
 
 
 def _f(default, unit: str, doc: str, calibrate: bool = False):
@@ -146,6 +147,27 @@ class PlantParams:
         "mm",
         "v1: presliding displacement of the slowest Maxwell-slip element (the others: 0.1 and 0.4 of it)",
     )
+    friction_law: str = _f(
+        "pressure_sum",
+        "",
+        "pressure_sum (v1: friction_coefficient times Pc+ + Pe+) | contact_area (v2: friction_mu times "
+        "each chamber's pressure times its braid's inner surface pi D L at mid-stroke, Tondu and Lopez 2000)",
+    )
+    friction_mu: float = _f(
+        0.0,
+        "",
+        "v2 (friction_law contact_area): effective braid-bladder friction coefficient, identified by "
+        "the hanging-weight protocols (docs/calibration.md, 'Plant v2')",
+        calibrate=True,
+    )
+    collapse_seal_diameter: float = _f(
+        0.0,
+        "mm",
+        "v2: diameter of the CPAM's seal on the end cap: while the CPAM is slack (buckled, or collapsed "
+        "when Pe > Pc) it carries no axial load and (Pc - Pe) acts on this area; at most the CPAM "
+        "bladder's 5 mm. 0 = v1",
+        calibrate=True,
+    )
     onoff_open_delay: float = _f(
         0.004,
         "ms",
@@ -198,6 +220,13 @@ class PlantParams:
             raise InputError(f"braid_tension must be one of {BRAID_TENSIONS}, got {self.braid_tension!r}")
         if self.bladder_model not in BLADDER_MODELS:
             raise InputError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
+        if self.friction_law not in FRICTION_LAWS:
+            raise InputError(f"friction_law must be one of {FRICTION_LAWS}, got {self.friction_law!r}")
+        if not 0.0 <= self.collapse_seal_diameter <= self.cpam_bladder_diameter:
+            raise InputError(
+                "collapse_seal_diameter must lie between 0 and the CPAM bladder's diameter "
+                f"({self.cpam_bladder_diameter * 1e3:.3g} mm), got {self.collapse_seal_diameter * 1e3:.3g} mm"
+            )
         if self.spool_order not in (1, 2):
             raise InputError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
         positive = (
@@ -242,6 +271,7 @@ class PlantParams:
             "onoff_open_delay",
             "onoff_close_delay",
             "friction_coefficient",
+            "friction_mu",
         )
         for name in positive:
             if not getattr(self, name) > 0.0:
@@ -370,8 +400,11 @@ class PlantParams:
         p[ix.H_WALL] = self.heat_transfer_coefficient
         p[ix.D_ON] = self.onoff_open_delay
         p[ix.D_OFF] = self.onoff_close_delay
-        p[ix.FR_C] = self.friction_coefficient
+        # the contact-area law (v2) replaces the v1 coefficient: fill_derived sets FR_C = mu S_e
+        p[ix.FR_C] = self.friction_coefficient if self.friction_law == "pressure_sum" else 0.0
         p[ix.FR_D] = self.friction_presliding
+        p[ix.COL_A] = 0.25 * math.pi * self.collapse_seal_diameter**2
+        p[ix.FR_MU] = self.friction_mu if self.friction_law == "contact_area" else 0.0
         fill_derived(p)
         return p
 
@@ -486,6 +519,11 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
     lm = 0.5 * (q[ix.L_MIN] + q[ix.L_MAX])
     d_c = q[ix.DK_C] * np.sqrt(1.0 - (lm / q[ix.BC]) ** 2)
     d_e = q[ix.DK_E] * np.sqrt(1.0 - (lm / q[ix.BE]) ** 2)
+    # plant v2 contact-area friction: mu times each braid's inner surface pi D L at mid-stroke
+    mu = q[ix.FR_MU]
+    v2 = mu > 0.0
+    q[ix.FR_CC] = np.where(v2, mu * math.pi * d_c * lm, 0.0)
+    q[ix.FR_C] = np.where(v2, mu * math.pi * d_e * lm, q[ix.FR_C])
     h = q[ix.H_WALL]
     q[ix.HA_C] = np.where(h > 0.0, h * math.pi * (d_c - 2.0 * ta) * lm, q[ix.HA])
     q[ix.HA_E] = np.where(h > 0.0, h * math.pi * (d_e - 2.0 * ta + d_c) * lm, q[ix.HA])

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..plant.params import PlantParams, preset
+from .calibrate_v2 import calibrate_v2
 from .crossval import cross_validate, format_cross_validation
 from .experiments import load_experiments
 from .fit import fit, fitted_yaml, format_report, minimax
@@ -75,7 +76,11 @@ def calibrate_main(argv: list[str] | None = None) -> int:
         "cepam_gym/data/paper_cepam.csv and paper_single_muscles.csv)",
     )
     ap.add_argument("--out", help="fitted parameter YAML to write (loadable by PlantParams.from_yaml)")
-    ap.add_argument("--preset", default="balloon", help="base preset: the start and every unfitted value")
+    ap.add_argument(
+        "--preset",
+        default=None,
+        help="base preset: the start and every unfitted value (default balloon; with --v2 balloon_v2)",
+    )
     ap.add_argument(
         "--fit",
         default=",".join(DEFAULT_FIT),
@@ -102,10 +107,17 @@ def calibrate_main(argv: list[str] | None = None) -> int:
         "--data, --fit and --starts are then not used (about a minute)",
     )
     ap.add_argument(
+        "--v2",
+        action="store_true",
+        help="plant v2's calibration: every computable reported number through the paper's "
+        "protocols on the dynamic plant (docs/calibration.md, 'Plant v2'); --data, --fit and "
+        "--starts are then not used (about a minute)",
+    )
+    ap.add_argument(
         "--cv",
         action="store_true",
-        help="with --v1: also the leave-one-experiment-group-out cross-validation "
-        "(five more fits, several minutes)",
+        help="with --v1 or --v2: also the leave-one-experiment-group-out cross-validation "
+        "(one more fit per group, several minutes)",
     )
     ap.add_argument(
         "--write-paper-csv",
@@ -119,6 +131,14 @@ def calibrate_main(argv: list[str] | None = None) -> int:
         for path in write_paper_csvs(args.write_paper_csv):
             print(f"wrote {path}")
         return 0
+    if args.v1 and args.v2:
+        ap.error("choose one of --v1 and --v2")
+    if args.v2:
+        if not args.out:
+            ap.error("--out is required")
+        name = args.preset or "balloon_v2"
+        return calibrate_v2(preset(name), args.out, cv=args.cv, preset_name=name)
+    args.preset = args.preset or "balloon"
     if args.v1:
         return _calibrate_v1(args)
     if not args.data or not args.out:

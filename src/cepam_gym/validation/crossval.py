@@ -30,19 +30,24 @@ def cross_validate(
     max_nfev: int | None = None,
     tol: float = 1e-7,
     full: FitResult | None = None,
+    model_fn=None,
+    diff_step: float = 1e-4,
+    group_fn=None,
 ) -> CrossValidation:
-    """Fit without each experiment group in turn (:func:`experiment_group`) and predict it."""
-    groups = list(dict.fromkeys(experiment_group(e) for e in experiments))
-    full = full or fit(experiments, base, names, bounds=bounds, x0s=x0s, max_nfev=max_nfev, tol=tol)
+    """Fit without each experiment group in turn (``group_fn``, default :func:`experiment_group`)
+    and predict it (``model_fn``, ``diff_step``: as :func:`~cepam_gym.validation.fit.fit`)."""
+    group_fn = group_fn or experiment_group
+    model_fn = model_fn or model_values
+    kw = dict(bounds=bounds, max_nfev=max_nfev, tol=tol, model_fn=model_fn, diff_step=diff_step)
+    groups = list(dict.fromkeys(group_fn(e) for e in experiments))
+    full = full or fit(experiments, base, names, x0s=x0s, **kw)
     pred, ins, vals = {}, {}, {}
     for g in groups:
-        keep = [e for e in experiments if experiment_group(e) != g]
-        out = [e for e in experiments if experiment_group(e) == g]
-        res = fit(
-            keep, base, names, bounds=bounds, x0s=[full.values] + list(x0s or []), max_nfev=max_nfev, tol=tol
-        )
-        pred[g] = relative_errors(model_values(out, res.params), out)
-        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if experiment_group(e) == g])
+        keep = [e for e in experiments if group_fn(e) != g]
+        out = [e for e in experiments if group_fn(e) == g]
+        res = fit(keep, base, names, x0s=[full.values] + list(x0s or []), **kw)
+        pred[g] = relative_errors(model_fn(out, res.params), out)
+        ins[g] = np.array([r for e, r in zip(experiments, full.residuals) if group_fn(e) == g])
         vals[g] = res.values
     return CrossValidation(groups, pred, ins, vals)
 

@@ -126,6 +126,7 @@ def _row(params: PlantParams, device: str) -> np.ndarray:
         row[ix.KAPPA] = 0.0
         row[ix.LAMBDA] = 0.0
         row[ix.K_EL] = 0.0
+        row[ix.COL_A] = 0.0  # plant v2: no CPAM to collapse
         # plant v1: only the muscle's own bladder wall stores energy
         row[ix.EL_E if device == "cpam" else ix.EL_C] = 0.0
     return row

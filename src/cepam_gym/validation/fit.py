@@ -18,6 +18,7 @@ each scaled to ``[0, 1]`` inside its physical bounds; uncertainty from the Jacob
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -88,36 +89,43 @@ def fit(
     max_nfev: int | None = None,
     tol: float = 1e-10,
     x0s: list[np.ndarray] | None = None,
+    model_fn: Callable[[list[Experiment], PlantParams], np.ndarray] | None = None,
+    diff_step: float = 1e-4,
 ) -> FitResult:
     """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
 
     ``starts > 1`` adds ``starts - 1`` random starting points inside the bounds (seeded); the
     lowest cost wins. ``bounds`` overrides :data:`FIT_PARAMS` bounds (edge units). ``x0s`` adds
     given starting points (edge units); ``max_nfev`` (default ``200 * len(names)``) and ``tol``
-    (xtol, ftol, gtol) bound the work of each start.
+    (xtol, ftol, gtol) bound the work of each start. ``model_fn(experiments, params)`` computes
+    the model's values (default :func:`model_values`, the static simulation; plant v2: the
+    protocols, :func:`cepam_gym.validation.protocols.protocol_values`); ``diff_step`` is the
+    finite-difference step in the scaled variables (larger for a protocol with dry friction,
+    whose results are piecewise smooth).
     """
+    model_fn = model_fn or model_values
     names = tuple(names)
     fitcore.check_names(FIT_PARAMS, names)
     scale = fitcore.Scaling([FIT_PARAMS[n] for n in names], bounds)
     x_start = np.array([FIT_PARAMS[n].get(base) for n in names])
-    model_start = model_values(experiments, base)
+    model_start = model_fn(experiments, base)
 
     def residuals(z: np.ndarray) -> np.ndarray:
         try:
             p = apply(base, names, scale.to_edge(z))
         except ValueError:
             return np.full(len(experiments), 1.0)  # impossible geometry: 100 % off everywhere
-        return relative_errors(model_values(experiments, p), experiments)
+        return relative_errors(model_fn(experiments, p), experiments)
 
     rng = np.random.default_rng(seed)
     z0s = [scale.to_z(x_start)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
     z0s += [scale.to_z(x) for x in (x0s or [])]
-    best = fitcore.solve(residuals, z0s, max_nfev=max_nfev or 200 * len(names), tol=tol)
+    best = fitcore.solve(residuals, z0s, max_nfev=max_nfev or 200 * len(names), tol=tol, diff_step=diff_step)
     values = scale.to_edge(best.x)
     params = apply(base, names, values)
-    model = model_values(experiments, params)
+    model = model_fn(experiments, params)
     r = relative_errors(model, experiments)
-    Jz = fitcore.fd_jacobian(residuals, best.x, r)  # own differences: one-sided at a bound
+    Jz = fitcore.fd_jacobian(residuals, best.x, r, h=diff_step)  # own differences: one-sided at a bound
     unc = fitcore.uncertainty(Jz, r, scale.dx_dz(best.x), names)
     at_bound = fitcore.at_bounds(best)
     notes = unc.notes[:1] if len(experiments) <= len(names) else []

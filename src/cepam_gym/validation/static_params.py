@@ -128,6 +128,36 @@ FIT_PARAMS: dict[str, FitParam] = {
             ("tube_shear_modulus",),
         ),
         FitParam(
+            "friction_mu",
+            "",
+            0.0,
+            1e-3,
+            "plant v2 contact-area friction coefficient (F_b = mu (Pc+ S_c + Pe+ S_e)); up to 1e-3 "
+            "lets friction hold up to about 2 N at the paper's highest pair, more than half the "
+            "heaviest weight",
+            *field_accessors("friction_mu"),
+            ("friction_mu",),
+        ),
+        FitParam(
+            "collapse_seal_diameter",
+            "mm",
+            0.0,
+            5.0,
+            "plant v2: seal of the collapsed CPAM on the end cap, at most its 5 mm bladder",
+            *field_accessors("collapse_seal_diameter"),
+            ("collapse_seal_diameter",),
+        ),
+        FitParam(
+            "friction_presliding",
+            "mm",
+            0.1,
+            2.0,
+            "presliding displacement of the slowest Maxwell-slip element: PAM hysteresis loops "
+            "show stick over a few tenths of a mm to about a mm",
+            *field_accessors("friction_presliding"),
+            ("friction_presliding",),
+        ),
+        FitParam(
             "end_mass",
             "g",
             5.0,

@@ -10,15 +10,19 @@ from pathlib import Path
 import numpy as np
 
 from ..plant.params import FORCE_FORMS, FORCE_MODELS, PlantParams, preset
-from .equilibrium import simulate
+from .equilibrium import Outcome, simulate
 from .experiments import Experiment, load_experiments
+from .protocols import run
 
 LEVELS = tuple(f"{fm}/{ff}" for fm in FORCE_MODELS for ff in FORCE_FORMS)
 # the plant as configured (plant v1: tension-only braids, bladder walls); the paper's levels above
 # evaluate its geometry with the paper's force model as written (braids that also push, no wall
 # energy: the v0 options), so they are the same for a v0 and a v1 plant of equal geometry
 PLANT_LEVEL = "plant"
-DEFAULT_LEVELS = (PLANT_LEVEL,) + LEVELS
+# the same plant through the paper's protocols on the dynamic plant (validation/protocols.py):
+# pressurising order, settle times, weights hung one at a time, friction. The headline uses it.
+PROTOCOL_LEVEL = "protocol"
+DEFAULT_LEVELS = (PROTOCOL_LEVEL, PLANT_LEVEL) + LEVELS
 
 
 def base_params(preset_name: str | None = None, params_file: str | Path | None = None) -> PlantParams:
@@ -35,7 +39,7 @@ def level_params(params: PlantParams, level: str) -> PlantParams:
     """The plant of one table column: ``plant`` as given, else the paper's ``force_model/force_form``
     with the paper's braids and no wall energy (``braid_tension = bidirectional``, ``bladder_model =
     spring``; a v0 plant keeps its spring)."""
-    if level == PLANT_LEVEL:
+    if level in (PLANT_LEVEL, PROTOCOL_LEVEL):
         return params
     fm, ff = level.split("/")
     return params.replace(
@@ -56,6 +60,9 @@ def validation_rows(
     """
     params = params if params is not None else PlantParams()
     experiments = experiments if experiments is not None else load_experiments()
+    by_protocol = (
+        dict(zip((e.id for e in experiments), run(experiments, params))) if PROTOCOL_LEVEL in levels else {}
+    )
     rows = []
     for exp in experiments:
         if not exp.computable:
@@ -80,7 +87,11 @@ def validation_rows(
         for level in levels:
             p = level_params(params, level)
             fm, ff = p.force_model, p.force_form
-            out = simulate(exp, p)
+            if level == PROTOCOL_LEVEL:
+                pr = by_protocol[exp.id]
+                out = Outcome(pr.value, "protocol on the dynamic plant", pr.note)
+            else:
+                out = simulate(exp, p)
             model = _finite(out.value)
             rows.append(
                 {
@@ -124,8 +135,8 @@ _SHORT = {"basic": "bas", "radial": "rad", "enhanced": "enh", "paper": "pap", "v
 
 
 def _short(level: str) -> str:
-    if level == PLANT_LEVEL:
-        return "plant"
+    if level in (PLANT_LEVEL, PROTOCOL_LEVEL):
+        return level
     fm, ff = level.split("/")
     return f"{_SHORT[fm]}/{_SHORT[ff]}"
 
@@ -156,8 +167,10 @@ def format_table(rows: list[dict], title: str = "") -> str:
         lines.append(line)
     lines.append("")
     lines.append(
-        "columns: model value (relative error); plant = the plant as configured (v1: tension-only "
-        "braids, bladder walls); then the paper's model as written per force_model/force_form: "
+        "columns: model value (relative error); protocol = the plant as configured run through the "
+        "paper's protocols on the dynamic plant (extensor first, then contractor, weights hung one at a "
+        "time, friction; the headline uses it); plant = the same plant solved statically (v1: "
+        "tension-only braids, bladder walls); then the paper's model as written per force_model/force_form: "
         "bas = basic (Eq. 20-25), "
         "rad = +P_r (Eq. 26-33), enh = +t_a (Eq. 34-45); pap = paper form (Eq. 22, 15), "
         "vw = virtual work. * = no free equilibrium to hang weights from: local -dF/dL. "
@@ -216,8 +229,9 @@ def device_headline(rows: list[dict], level: str | None = None) -> dict[str, dic
 
 def format_headline(rows: list[dict], level: str | None = None) -> str:
     head = device_headline(rows, level)
+    level = level or next(r["model_level"] for r in rows if r["model_level"] != "n/a")
     names = {"cepam": "CE-PAM", "cpam": "CPAM", "epam": "EPAM"}
-    return "\n".join(
+    return f"headline from the {level!r} column:\n" + "\n".join(
         f"headline {names[d]:<6}: mean {100 * h['mean']:.1f}%, worst {100 * h['worst']:.1f}%, "
         f"{h['within_5pct']}/{h['rows']} within 5%"
         for d, h in head.items()
