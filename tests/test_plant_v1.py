@@ -446,3 +446,7 @@ def test_a_layout_change_drops_the_numba_caches(tmp_path, monkeypatch):
         fh.write("\nS_NEW = 99\n")
     _jit._drop_stale_caches()
     assert not cached.exists()  # a new state layout: dropped too
+    cached.write_text("x")
+    (pkg / "physics" / "muscle.py").write_text("# an edit of an inlined physics kernel\n")
+    _jit._drop_stale_caches()
+    assert not cached.exists()  # inlined physics changed: dropped too

@@ -16,14 +16,17 @@ _PKG = Path(__file__).parent
 
 
 def _drop_stale_caches() -> None:
-    """Numba's on-disk cache is keyed by each function's own source file, not by the module
-    constants it inlined. The column layouts (``physics/layout.py``, ``plant/layout.py``) are such
-    constants, used by kernels in other files (``tasks/kernel.py``...): after a layout change those
-    would load machine code with the old indices. So the layouts' text is stamped, and every cached
+    """Numba's on-disk cache is keyed by each function's own source file, not by what it inlined
+    from other files. The kernels inline the column layouts and the physics (``physics/*.py``,
+    ``plant/*.py``: constants and ``forceinline`` functions) into kernels of other files
+    (``plant/kernel.py``, ``tasks/kernel.py``...): after an edit there, those would load machine
+    code built from the old text. So the text of those two folders is stamped, and every cached
     kernel of the package is dropped when it changes (best effort: a read-only install keeps its
-    caches, which were built with its own layouts)."""
+    caches, which were built with its own sources)."""
     try:
-        text = (_PKG / "physics" / "layout.py").read_text() + (_PKG / "plant" / "layout.py").read_text()
+        text = "".join(
+            p.read_text() for folder in ("physics", "plant") for p in sorted((_PKG / folder).glob("*.py"))
+        )
         stamp = hashlib.sha1(text.encode()).hexdigest()
         path = _PKG / "__pycache__" / "numba_layout.stamp"
         if path.exists() and path.read_text() == stamp:
