@@ -28,82 +28,23 @@ within 2 deg, overshoot on steps of at least 5 deg, ``angle_rmse_deg / 10 deg`` 
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass, field
-
 import numpy as np
 
-LENGTH_BAND = 1e-3  # m: "settled" means within 1 mm ...
-STIFFNESS_BAND = 0.05  # ... and within 5 % of the stiffness target
-MIN_STEP = 2e-3  # m: overshoot is measured on target changes of at least 2 mm
-
-_TRACE_COLUMNS = (
-    "length",
-    "target_length",
-    "stiffness",
-    "target_stiffness",
-    "pressure_c",
-    "pressure_e",
-    "load_mass",
-    "air_used",
+# the objective is defined once, beside the planner that optimises it (control.objective)
+from ..control.objective import (  # noqa: F401  (re-exported: the bench's names)
+    FAILURE_WEIGHT,
+    JOINT,
+    JOINT_V1,
+    LENGTH_BAND,
+    MIN_STEP,
+    RIG,
+    RIG_V1,
+    STIFFNESS_BAND,
+    TraceSpec,
+    combined_score,
+    scored_steps,
 )
-
-
-@dataclass(frozen=True)
-class TraceSpec:
-    """What a suite's trace columns hold and how the tracked quantity is scored and plotted.
-
-    ``info_keys`` maps each trace column to the env's ``info`` key; ``scale`` converts the SI
-    ``length`` column to ``unit``, and the metric is named ``f"{quantity}_rmse_{unit}"``;
-    ``band`` and ``min_step`` are SI; ``score_norm`` (in ``unit``) is the error that scores 1."""
-
-    quantity: str = "length"
-    unit: str = "mm"
-    scale: float = 1000.0
-    band: float = LENGTH_BAND
-    min_step: float = MIN_STEP
-    score_norm: float = 5.0
-    info_keys: dict[str, str] = field(default_factory=lambda: {k: k for k in _TRACE_COLUMNS})
-    # plots: (label, unit, scale from SI) of the tracked quantity, the stiffness and the load
-    plot_quantity: tuple[str, str, float] = ("length", "cm", 100.0)
-    plot_stiffness: tuple[str, str, float] = ("stiffness", "N/m", 1.0)
-    plot_load: tuple[str, str, float] = ("load", "g", 1000.0)
-    # tracking with preview (v1): seconds left out after each jump of the target, and what a jump is
-    allowance_s: float = 0.0
-    jump_length: float = 1e-3  # SI (m, or rad for the joint): more than this in one control step
-    jump_stiffness: float = 0.05  # relative: more than 5 % in one control step
-
-    @property
-    def rmse_key(self) -> str:
-        return f"{self.quantity}_rmse_{self.unit}"
-
-
-RIG = TraceSpec()
-# the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
-RIG_V1 = TraceSpec(allowance_s=0.5)
-JOINT = TraceSpec(
-    quantity="angle",
-    unit="deg",
-    scale=180.0 / np.pi,
-    band=np.deg2rad(2.0),
-    min_step=np.deg2rad(5.0),
-    score_norm=10.0,
-    info_keys={
-        "length": "angle",
-        "target_length": "target_angle",
-        "stiffness": "joint_stiffness",
-        "target_stiffness": "target_stiffness",
-        "pressure_c": "pressure_c",
-        "pressure_e": "pressure_e",
-        "load_mass": "external_torque",
-        "air_used": "air_used",
-    },
-    plot_quantity=("angle", "deg", 180.0 / np.pi),
-    plot_stiffness=("joint stiffness", "N m/rad", 1.0),
-    plot_load=("external torque", "mN m", 1000.0),
-)
-# the v1 joint: tracking with preview, the same allowance as the rig's v1 suites
-JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
+from ..control.objective import jumps as _jumps
 
 
 def _rms(x, mask):
@@ -112,29 +53,14 @@ def _rms(x, mask):
 
 def jumps(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> np.ndarray:
     """(T, N) bool: the target jumps at this step (a change larger than the spec's jump sizes)."""
-    tl, tk = tr["target_length"], tr["target_stiffness"]
-    out = np.zeros(tl.shape, dtype=bool)
-    out[1:] = np.abs(np.diff(tl, axis=0)) > spec.jump_length
-    if track_stiffness:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.abs(np.diff(tk, axis=0)) / np.abs(tk[:-1])
-        out[1:] |= rel > spec.jump_stiffness
-    return out
+    return _jumps(tr["target_length"], tr["target_stiffness"], track_stiffness, spec)
 
 
 def tracking_mask(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> np.ndarray:
     """(T, N) bool: the steps the headline error counts: alive, and not within
     ``spec.allowance_s`` after a jump of the target (all alive steps when the allowance is 0)."""
-    alive = tr["alive"]
-    n_allow = int(round(spec.allowance_s / tr["dt"]))
-    if n_allow <= 0:
-        return alive
-    j = jumps(tr, track_stiffness, spec)
-    # steps since the last jump (a large number before the first one)
-    T = j.shape[0]
-    idx = np.where(j, np.arange(T)[:, None], -10 * (n_allow + T))
-    last = np.maximum.accumulate(idx, axis=0)
-    return alive & (np.arange(T)[:, None] - last >= n_allow)
+    steps = scored_steps(tr["target_length"], tr["target_stiffness"], track_stiffness, spec, tr["dt"])
+    return tr["alive"] & steps
 
 
 def rise_time(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> float:
@@ -222,8 +148,10 @@ def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) 
     out["cvar10_return"] = float(np.sort(returns)[:k].mean())
     out["failure_rate"] = float(np.mean(tr["failed"]))
     out["air_g_per_episode"] = float(1000.0 * np.where(alive, tr["air_used"], 0.0).sum(axis=0).mean())
-    score = out[spec.rmse_key] / spec.score_norm + 2.0 * out["failure_rate"]
-    if track_stiffness:
-        score += out["stiffness_rmse_pct"] / 20.0
-    out["score"] = float(score)
+    out["score"] = combined_score(
+        out[spec.rmse_key] / spec.scale,
+        out["stiffness_rmse_pct"] / 100.0 if track_stiffness else None,
+        out["failure_rate"],
+        spec,
+    )
     return out
