@@ -126,6 +126,29 @@ def settling_and_overshoot(tr: dict, track_stiffness: bool, spec: TraceSpec = RI
     return (float(np.mean(settle)) if settle else float("nan"), float(np.mean(over)) if over else 0.0)
 
 
+def score_interval(
+    tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG, n_boot: int = 2000, seed: int = 0
+) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of the combined score over episodes: episodes are
+    resampled with replacement and the score recomputed from their pooled squared errors (the
+    score pools steps across episodes, so the episodes' sums are what resampling moves)."""
+    tracked = tracking_mask(tr, track_stiffness, spec)
+    n = tracked.shape[1]
+    count = tracked.sum(axis=0)
+    sq_l = np.where(tracked, (tr["length"] - tr["target_length"]) ** 2, 0.0).sum(axis=0)
+    if track_stiffness:
+        rel = (tr["stiffness"] - tr["target_stiffness"]) / tr["target_stiffness"]
+        sq_k = np.where(tracked, rel**2, 0.0).sum(axis=0)
+    idx = np.random.default_rng(seed).integers(0, n, size=(n_boot, n))
+    cnt = np.maximum(count[idx].sum(axis=1), 1)
+    k_rmse = np.sqrt(sq_k[idx].sum(axis=1) / cnt) if track_stiffness else None
+    boot = combined_score(
+        np.sqrt(sq_l[idx].sum(axis=1) / cnt), k_rmse, np.asarray(tr["failed"], float)[idx].mean(axis=1), spec
+    )
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    return float(lo), float(hi)
+
+
 def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) -> dict:
     alive = tr["alive"]
     tracked = tracking_mask(tr, track_stiffness, spec)
@@ -154,4 +177,5 @@ def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) 
         out["failure_rate"],
         spec,
     )
+    out["score_ci95"] = list(score_interval(tr, track_stiffness, spec))
     return out

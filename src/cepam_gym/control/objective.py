@@ -111,15 +111,13 @@ def spec_of_core(core) -> TraceSpec:
     return JOINT if joint else RIG
 
 
-def combined_score(
-    position_rmse_si: float, stiffness_rmse_rel: float | None, failure_rate: float, spec: TraceSpec
-) -> float:
+def combined_score(position_rmse_si, stiffness_rmse_rel, failure_rate, spec: TraceSpec):
     """The combined score from the position RMSE [SI], the relative stiffness RMSE (None where
-    the task does not track stiffness) and the failure rate."""
-    score = position_rmse_si / spec.position_norm + FAILURE_WEIGHT * failure_rate
+    the task does not track stiffness) and the failure rate (floats or arrays alike)."""
+    score = np.asarray(position_rmse_si) / spec.position_norm + FAILURE_WEIGHT * np.asarray(failure_rate)
     if stiffness_rmse_rel is not None:
-        score += stiffness_rmse_rel / STIFFNESS_NORM
-    return float(score)
+        score = score + np.asarray(stiffness_rmse_rel) / STIFFNESS_NORM
+    return float(score) if np.ndim(score) == 0 else score
 
 
 def jumps(target_l: np.ndarray, target_k: np.ndarray, track_stiffness: bool, spec: TraceSpec) -> np.ndarray:

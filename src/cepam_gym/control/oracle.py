@@ -27,7 +27,7 @@ import numpy as np
 from .. import plant as pl
 from ..physics import layout as ix
 from ..tasks import kernel as tk
-from .baseline import find_core
+from .baseline import UnsupportedEnvError, find_core
 from .objective import scored_steps, spec_of_core
 from .planner import CEMConfig, planner_for
 
@@ -60,7 +60,12 @@ class OracleController:
     ``overrides`` replace some of their fields."""
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
-        self.core = core = find_core(env)
+        try:
+            self.core = core = find_core(env)
+        except TypeError as e:  # the MuJoCo joint (v0): no batched kernel to plan through
+            raise UnsupportedEnvError(
+                f"the oracle plans through the batched kernel; this env has none ({e})"
+            ) from None
         self.spec = spec_of_core(core)
         self.planner = planner_for(core, config or oracle_config(core), self.spec, **overrides)
         self.cfg = self.planner.cfg

@@ -138,6 +138,7 @@ class CEMPlanner:
         self.rng = np.random.default_rng(cfg.seed)
         self.mean: np.ndarray | None = None  # (N, H, 2) warm start: the last best plan, shifted
         self.kept: np.ndarray | None = None  # (N, k, H, 2) the last elites kept, shifted
+        self.last_cost: np.ndarray | None = None
 
     def reset(self, indices=None) -> None:
         """Forget the warm start of all envs, or of ``indices``."""
@@ -218,6 +219,7 @@ class CEMPlanner:
         # simulated); it and the elites warm-start the next step, one step on
         self.mean = _shift(best)
         self.kept = _shift(kept) if n_keep else None
+        self.last_cost = best_cost  # (N,) the cost of the plans just chosen
         return best[:, 0].copy()
 
 
