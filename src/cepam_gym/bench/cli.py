@@ -112,13 +112,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.update_references:
         if args.episodes is not None:
             ap.error("--update-references measures at each suite's default episodes: drop --episodes")
+        import time
+
         from .harness import measure_references
         from .references import store
 
         for s in suites:
             if _oracle_drives(s):
+                t = time.perf_counter()
                 store({s: (entry := measure_references(s))})
-                print(f"{s}: zero {entry['zero']:.6g}, oracle {entry['oracle']:.6g}", flush=True)
+                print(
+                    f"{s}: zero {entry['zero']:.6g}, oracle {entry['oracle']:.6g} "
+                    f"({time.perf_counter() - t:.0f} s)",
+                    flush=True,
+                )
         return 0
     for c in controllers:
         check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
