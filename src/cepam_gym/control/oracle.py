@@ -44,8 +44,9 @@ ORACLE_CONFIG = CEMConfig(
     effort_weight=1e-3,
     allowance_weight=0.0,
 )
-# the hinge's link adds inertia and a slower mode: 0.2 s of look-ahead
-JOINT_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10)
+# the hinge's link adds inertia and a slower mode: 0.2 s of look-ahead, refined twice as long
+# (the convergence study: 0.2 s with 20 iterations scored 3 times the error of 40 iterations)
+JOINT_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10, iterations=40)
 
 
 def oracle_config(core) -> CEMConfig:
