@@ -108,7 +108,11 @@ def test_shipped_settings_differ_by_mechanism():
     rig = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=1).unwrapped.core
     joint = gym.make_vec("cepam_gym/CEPAMJoint-v1", num_envs=1).unwrapped.core
     assert spec_of_core(rig) == RIG_V1 and spec_of_core(joint) == JOINT_V1
+    v0 = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=1).unwrapped.core
     assert oracle_config(joint).horizon_steps * joint.control_dt == pytest.approx(0.2)
+    # v1 scores leave the transient after a jump out: 0.1 s; v0 scores it: 0.2 s to anticipate
+    assert oracle_config(rig).horizon_steps * rig.control_dt == pytest.approx(0.1)
+    assert oracle_config(v0).horizon_steps * v0.control_dt == pytest.approx(0.2)
     assert isinstance(OracleController(gym.make("cepam_gym/CEPAM-v1")).planner, CEMPlanner)
 
 
