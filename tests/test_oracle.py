@@ -144,4 +144,8 @@ def test_no_shipped_controller_beats_the_oracle(name):
             challengers["adaptive_mpc"] = lambda v: make_controller("adaptive_mpc", v)
         for label, make in challengers.items():
             s = _score(make, name, 2, seed)
+            points = 100 * (oracle - s) / (zero - oracle)  # > 0: the challenger is better
+            print(
+                f"firmness {name} seed {seed}: {label} {s:.4f} vs oracle {oracle:.4f} ({points:+.2f} points)"
+            )
             assert oracle - s < 0.02 * (zero - oracle), (name, seed, label, s, oracle, zero)
