@@ -87,7 +87,9 @@ def test_hyperparams_files_have_all_ids(algo):
         hp = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 loads them
     from cepam_gym.registration import JOINT_ENV_IDS
 
-    ids = [i for i in ENV_IDS if i.endswith("-v1") or algo in ("ppo", "sac")] + list(JOINT_ENV_IDS)
+    # v2 ids have no suites and no training config yet: no zoo entry to check against
+    ids = [i for i in ENV_IDS if i.endswith("-v1") or (i.endswith("-v0") and algo in ("ppo", "sac"))]
+    ids += [i for i in JOINT_ENV_IDS if i.endswith("-v1")]
     assert set(ids) <= set(hp)
     for env_id in ids:
         kw = hp[env_id]["env_kwargs"]

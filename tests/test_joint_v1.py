@@ -260,7 +260,7 @@ def test_a_randomize_range_outside_the_joint_is_refused_at_build():
         gym.make(ID, randomize={"cpam_rest_length_cm": [18.0, 19.5]})
 
 
-@pytest.mark.parametrize("name", ["mpc", "oracle"])
+@pytest.mark.parametrize("name", ["mpc"])
 def test_rig_only_controllers_refuse_the_joint_clearly(name):
     from cepam_gym.control import make_controller
 

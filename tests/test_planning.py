@@ -100,7 +100,9 @@ def test_mpc_acts_on_observations_only():
     assert mpc.act(obs[0]).shape == (2,)
 
 
-@pytest.mark.parametrize("bad", [{"horizon_steps": 0}, {"elites": 99}, {"min_std": 0.0}, {"hold_steps": 1.5}])
+@pytest.mark.parametrize(
+    "bad", [{"horizon_steps": 0}, {"elites": 99}, {"min_std": 0.0}, {"iterations": 1.5}, {"noise_beta": -1.0}]
+)
 def test_cem_config_rejects_bad_settings_by_name(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
         CEMConfig(**bad)

@@ -10,25 +10,62 @@ from pathlib import Path
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
 from .metrics import normalized_score
+from .references import stored_ends
 from .suites import SUITES, available
 
 
 def add_normalized(rows: list[dict]) -> None:
     """``normalized`` (0 = zero controller, 100 = oracle) in each row: from the zero controller's
     and the oracle's scores of the same run on that suite when both ran, else from the suite's
-    stored reference scores (``normalized_from`` says which); absent for a suite without either."""
+    stored reference scores when they were measured on the same episodes (``normalized_from``
+    says which); absent otherwise (:func:`missing_ends` says what to run)."""
     for suite in dict.fromkeys(r["suite"] for r in rows):
         ran = {r["controller"]: r["score"] for r in rows if r["suite"] == suite}
+        episodes = next(r["episodes"] for r in rows if r["suite"] == suite)
         if "zero" in ran and "oracle" in ran:
             ends, source = (ran["zero"], ran["oracle"]), "this run"
-        elif SUITES[suite].reference is not None:
-            ends, source = SUITES[suite].reference, "reference scores"
+        elif (stored := _stored(suite, episodes)) is not None:
+            ends, source = stored, "reference scores"
         else:
             continue
         for r in rows:
             if r["suite"] == suite:
                 r["normalized"] = normalized_score(r["score"], *ends)
                 r["normalized_from"] = source
+
+
+def _stored(suite: str, episodes: int):
+    """The stored ends of ``suite`` if measured on these episodes (from the suite's seed)."""
+    return stored_ends(suite, episodes, SUITES[suite].seed)
+
+
+def missing_ends(rows: list[dict]) -> list[tuple[str, str]]:
+    """``(suite, controller)`` pairs of the ends (zero, oracle) a run must measure itself to
+    normalize: its suites whose stored references were measured on other episodes (or never)."""
+    out = []
+    for suite in dict.fromkeys(r["suite"] for r in rows):
+        ran = {r["controller"] for r in rows if r["suite"] == suite}
+        episodes = next(r["episodes"] for r in rows if r["suite"] == suite)
+        if _stored(suite, episodes) is None:
+            out += [(suite, c) for c in ("zero", "oracle") if c not in ran]
+    return out
+
+
+def _oracle_drives(suite: str) -> bool:
+    """Whether the oracle drives the suite's env (every batched env; not the MuJoCo joint)."""
+    return "CEPAMJoint-v0" not in SUITES[suite].env_id
+
+
+def _run_into(rows: list, traces: dict, controller: str, suite: str, episodes: int | None) -> None:
+    from ..control.baseline import UnsupportedEnvError
+
+    try:
+        metrics, tr = run_suite(controller, suite, episodes=episodes)
+    except UnsupportedEnvError as e:  # e.g. the rig's MPC on the joint: not a failure
+        print(f"cepam-gym bench: skipped {controller} on {suite}: {e}", file=sys.stderr, flush=True)
+        return
+    rows.append(metrics)
+    traces[(suite, controller)] = tr
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -50,6 +87,18 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object per suite and controller")
     ap.add_argument("--out-dir", default="runs/bench", help="where the table and plots go (without --json)")
+    ap.add_argument(
+        "--measure-references",
+        action="store_true",
+        help="run the zero controller and the oracle too where the stored references do not fit the "
+        "episodes, so every row gets a normalized score",
+    )
+    ap.add_argument(
+        "--update-references",
+        action="store_true",
+        help="re-measure the zero controller and the oracle on the suites (default episodes) and store "
+        "them as the ends of the normalized score",
+    )
     args = ap.parse_args(argv)
     controllers = args.controller or ["baseline"]
     suites = args.suite or ["all"]
@@ -60,20 +109,46 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
     if args.episodes is not None and args.episodes < 1:
         ap.error("--episodes must be >= 1")
+    if args.update_references:
+        if args.episodes is not None:
+            ap.error("--update-references measures at each suite's default episodes: drop --episodes")
+        import time
+
+        from .harness import measure_references
+        from .references import store
+
+        for s in suites:
+            if _oracle_drives(s):
+                t = time.perf_counter()
+                store({s: (entry := measure_references(s))})
+                print(
+                    f"{s}: zero {entry['zero']:.6g}, oracle {entry['oracle']:.6g} "
+                    f"({time.perf_counter() - t:.0f} s)",
+                    flush=True,
+                )
+        return 0
     for c in controllers:
         check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
-    from ..control.baseline import UnsupportedEnvError
 
     rows, traces = [], {}
     for s in suites:
         for c in controllers:
-            try:
-                metrics, tr = run_suite(c, s, episodes=args.episodes)
-            except UnsupportedEnvError as e:  # e.g. the rig's MPC on the joint: not a failure
-                print(f"cepam-gym bench: skipped {c} on {s}: {e}", file=sys.stderr, flush=True)
-                continue
-            rows.append(metrics)
-            traces[(s, c)] = tr
+            _run_into(rows, traces, c, s, args.episodes)
+    # a normalized score needs both ends measured on these episodes: run the missing ones, or say so
+    missing = missing_ends(rows)
+    for s in dict.fromkeys(s for s, _ in missing):
+        ends = [c for t, c in missing if t == s]
+        if args.measure_references and _oracle_drives(s):
+            for c in ends:
+                _run_into(rows, traces, c, s, args.episodes)
+        else:
+            print(
+                f"cepam-gym bench: no normalized score on {s}: its stored references were measured on "
+                f"other episodes (or never); add {' '.join('--controller ' + c for c in ends)} or "
+                "--measure-references",
+                file=sys.stderr,
+                flush=True,
+            )
     add_normalized(rows)
     if args.json:
         for metrics in rows:

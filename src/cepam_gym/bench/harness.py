@@ -81,3 +81,17 @@ def run_suite(
     )
     metrics = {"suite": suite.name, "controller": controller_spec, **score_traces(tr, track_k, suite.traces)}
     return metrics, tr
+
+
+def measure_references(name: str, episodes: int | None = None) -> dict:
+    """The zero controller's and the oracle's scores on suite ``name``: an entry of the stored
+    references (:mod:`cepam_gym.bench.references`) with the episodes it was measured on."""
+    suite = SUITES[name]
+    zero, _ = run_suite("zero", suite, episodes)
+    oracle, _ = run_suite("oracle", suite, episodes)
+    return {
+        "seed": suite.seed,
+        "episodes": zero["episodes"],
+        "zero": zero["score"],
+        "oracle": oracle["score"],
+    }

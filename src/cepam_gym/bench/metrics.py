@@ -28,82 +28,25 @@ within 2 deg, overshoot on steps of at least 5 deg, ``angle_rmse_deg / 10 deg`` 
 
 from __future__ import annotations
 
-import dataclasses
-from dataclasses import dataclass, field
-
 import numpy as np
 
-LENGTH_BAND = 1e-3  # m: "settled" means within 1 mm ...
-STIFFNESS_BAND = 0.05  # ... and within 5 % of the stiffness target
-MIN_STEP = 2e-3  # m: overshoot is measured on target changes of at least 2 mm
-
-_TRACE_COLUMNS = (
-    "length",
-    "target_length",
-    "stiffness",
-    "target_stiffness",
-    "pressure_c",
-    "pressure_e",
-    "load_mass",
-    "air_used",
+from ..control.objective import (  # noqa: F401  (re-exported: the bench's names)
+    FAILURE_WEIGHT,
+    JOINT,
+    JOINT_V1,
+    LENGTH_BAND,
+    MIN_STEP,
+    RIG,
+    RIG_V1,
+    STIFFNESS_BAND,
+    TraceSpec,
+    combined_score,
+    scored_steps,
 )
+from ..control.objective import jumps as _jumps
 
-
-@dataclass(frozen=True)
-class TraceSpec:
-    """What a suite's trace columns hold and how the tracked quantity is scored and plotted.
-
-    ``info_keys`` maps each trace column to the env's ``info`` key; ``scale`` converts the SI
-    ``length`` column to ``unit``, and the metric is named ``f"{quantity}_rmse_{unit}"``;
-    ``band`` and ``min_step`` are SI; ``score_norm`` (in ``unit``) is the error that scores 1."""
-
-    quantity: str = "length"
-    unit: str = "mm"
-    scale: float = 1000.0
-    band: float = LENGTH_BAND
-    min_step: float = MIN_STEP
-    score_norm: float = 5.0
-    info_keys: dict[str, str] = field(default_factory=lambda: {k: k for k in _TRACE_COLUMNS})
-    # plots: (label, unit, scale from SI) of the tracked quantity, the stiffness and the load
-    plot_quantity: tuple[str, str, float] = ("length", "cm", 100.0)
-    plot_stiffness: tuple[str, str, float] = ("stiffness", "N/m", 1.0)
-    plot_load: tuple[str, str, float] = ("load", "g", 1000.0)
-    # tracking with preview (v1): seconds left out after each jump of the target, and what a jump is
-    allowance_s: float = 0.0
-    jump_length: float = 1e-3  # SI (m, or rad for the joint): more than this in one control step
-    jump_stiffness: float = 0.05  # relative: more than 5 % in one control step
-
-    @property
-    def rmse_key(self) -> str:
-        return f"{self.quantity}_rmse_{self.unit}"
-
-
-RIG = TraceSpec()
-# the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
-RIG_V1 = TraceSpec(allowance_s=0.5)
-JOINT = TraceSpec(
-    quantity="angle",
-    unit="deg",
-    scale=180.0 / np.pi,
-    band=np.deg2rad(2.0),
-    min_step=np.deg2rad(5.0),
-    score_norm=10.0,
-    info_keys={
-        "length": "angle",
-        "target_length": "target_angle",
-        "stiffness": "joint_stiffness",
-        "target_stiffness": "target_stiffness",
-        "pressure_c": "pressure_c",
-        "pressure_e": "pressure_e",
-        "load_mass": "external_torque",
-        "air_used": "air_used",
-    },
-    plot_quantity=("angle", "deg", 180.0 / np.pi),
-    plot_stiffness=("joint stiffness", "N m/rad", 1.0),
-    plot_load=("external torque", "mN m", 1000.0),
-)
-# the v1 joint: tracking with preview, the same allowance as the rig's v1 suites
-JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
+# the objective is defined once, beside the planner that optimises it (control.objective)
+from ..errors import InputError
 
 
 def _rms(x, mask):
@@ -112,29 +55,14 @@ def _rms(x, mask):
 
 def jumps(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> np.ndarray:
     """(T, N) bool: the target jumps at this step (a change larger than the spec's jump sizes)."""
-    tl, tk = tr["target_length"], tr["target_stiffness"]
-    out = np.zeros(tl.shape, dtype=bool)
-    out[1:] = np.abs(np.diff(tl, axis=0)) > spec.jump_length
-    if track_stiffness:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.abs(np.diff(tk, axis=0)) / np.abs(tk[:-1])
-        out[1:] |= rel > spec.jump_stiffness
-    return out
+    return _jumps(tr["target_length"], tr["target_stiffness"], track_stiffness, spec)
 
 
 def tracking_mask(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> np.ndarray:
     """(T, N) bool: the steps the headline error counts: alive, and not within
     ``spec.allowance_s`` after a jump of the target (all alive steps when the allowance is 0)."""
-    alive = tr["alive"]
-    n_allow = int(round(spec.allowance_s / tr["dt"]))
-    if n_allow <= 0:
-        return alive
-    j = jumps(tr, track_stiffness, spec)
-    # steps since the last jump (a large number before the first one)
-    T = j.shape[0]
-    idx = np.where(j, np.arange(T)[:, None], -10 * (n_allow + T))
-    last = np.maximum.accumulate(idx, axis=0)
-    return alive & (np.arange(T)[:, None] - last >= n_allow)
+    steps = scored_steps(tr["target_length"], tr["target_stiffness"], track_stiffness, spec, tr["dt"])
+    return tr["alive"] & steps
 
 
 def rise_time(tr: dict, track_stiffness: bool, spec: TraceSpec = RIG) -> float:
@@ -164,7 +92,7 @@ def normalized_score(score: float, zero_score: float, oracle_score: float) -> fl
     raw scores are better; a controller better than the oracle scores above 100)."""
     span = zero_score - oracle_score
     if not (np.isfinite(span) and span > 0):
-        raise ValueError(
+        raise InputError(
             f"normalization needs the zero controller ({zero_score}) to score worse "
             f"(higher) than the oracle ({oracle_score})"
         )
@@ -200,6 +128,29 @@ def settling_and_overshoot(tr: dict, track_stiffness: bool, spec: TraceSpec = RI
     return (float(np.mean(settle)) if settle else float("nan"), float(np.mean(over)) if over else 0.0)
 
 
+def score_interval(
+    tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG, n_boot: int = 2000, seed: int = 0
+) -> tuple[float, float]:
+    """95 % percentile-bootstrap interval of the combined score over episodes: episodes are
+    resampled with replacement and the score recomputed from their pooled squared errors (the
+    score pools steps across episodes, so the episodes' sums are what resampling moves)."""
+    tracked = tracking_mask(tr, track_stiffness, spec)
+    n = tracked.shape[1]
+    count = tracked.sum(axis=0)
+    sq_l = np.where(tracked, (tr["length"] - tr["target_length"]) ** 2, 0.0).sum(axis=0)
+    if track_stiffness:
+        rel = (tr["stiffness"] - tr["target_stiffness"]) / tr["target_stiffness"]
+        sq_k = np.where(tracked, rel**2, 0.0).sum(axis=0)
+    idx = np.random.default_rng(seed).integers(0, n, size=(n_boot, n))
+    cnt = np.maximum(count[idx].sum(axis=1), 1)
+    k_rmse = np.sqrt(sq_k[idx].sum(axis=1) / cnt) if track_stiffness else None
+    boot = combined_score(
+        np.sqrt(sq_l[idx].sum(axis=1) / cnt), k_rmse, np.asarray(tr["failed"], float)[idx].mean(axis=1), spec
+    )
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    return float(lo), float(hi)
+
+
 def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) -> dict:
     alive = tr["alive"]
     tracked = tracking_mask(tr, track_stiffness, spec)
@@ -222,8 +173,11 @@ def score_traces(tr: dict, track_stiffness: bool = True, spec: TraceSpec = RIG) 
     out["cvar10_return"] = float(np.sort(returns)[:k].mean())
     out["failure_rate"] = float(np.mean(tr["failed"]))
     out["air_g_per_episode"] = float(1000.0 * np.where(alive, tr["air_used"], 0.0).sum(axis=0).mean())
-    score = out[spec.rmse_key] / spec.score_norm + 2.0 * out["failure_rate"]
-    if track_stiffness:
-        score += out["stiffness_rmse_pct"] / 20.0
-    out["score"] = float(score)
+    out["score"] = combined_score(
+        out[spec.rmse_key] / spec.scale,
+        out["stiffness_rmse_pct"] / 100.0 if track_stiffness else None,
+        out["failure_rate"],
+        spec,
+    )
+    out["score_ci95"] = list(score_interval(tr, track_stiffness, spec))
     return out

@@ -27,10 +27,14 @@ def table(rows: list[dict]) -> str:
         for k, t in COLUMNS
         if k not in ("length_rmse_mm", "angle_rmse_deg", "normalized") or any(k in r for r in rows)
     ]
-    head = f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in cols)
+    head = (
+        f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in cols) + f"{'score 95% CI':>18s}"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
         cells = "".join(f"{'-':>12s}" if r.get(k) is None else f"{r[k]:12.3f}" for k, _ in cols)
+        ci = r.get("score_ci95")  # over episodes (bench.metrics.score_interval)
+        cells += f"{'-':>18s}" if ci is None else f"{f'{ci[0]:.3f}-{ci[1]:.3f}':>18s}"
         lines.append(f"{r['suite']:27s} {str(r['controller'])[:14]:14s}{cells}")
     return "\n".join(lines)
 

@@ -63,8 +63,10 @@ class Suite:
     @property
     def reference(self) -> tuple[float, float] | None:
         """``(zero controller's score, oracle's score)`` on this suite at its default episodes, the
-        ends of the normalized score (:data:`REFERENCE_SCORES`), or None where not measured."""
-        return REFERENCE_SCORES.get(self.name)
+        ends of the normalized score (:mod:`cepam_gym.bench.references`), or None where not measured."""
+        from .references import stored_ends
+
+        return stored_ends(self.name, self.episodes, self.seed)
 
 
 SUITES: dict[str, Suite] = {
@@ -201,20 +203,12 @@ def available(name: str) -> bool:
     return not extra or importlib.util.find_spec(extra) is not None
 
 
-# Scores of the zero controller and of the oracle on each suite at its default episodes and seed,
-# measured with `cepam-gym bench --controller zero --controller oracle --suite NAME` (the ends of
-# the normalized score: 0 and 100). Re-measure when a suite, the plant or the oracle changes; a
-# test recomputes the zero controller's on every suite and the oracle's on nominal-v1. The joint
-# suite has none (the oracle drives the rig envs only).
-REFERENCE_SCORES: dict[str, tuple[float, float]] = {
-    "nominal": (6.352369911164807, 0.7725460389209269),
-    "randomized": (8.268265337055006, 1.029894329769431),
-    "stiffness-at-fixed-length": (3.2713801450659874, 0.3385640921275005),
-    "stress": (7.339901964928277, 1.246702653979769),
-    "nominal-v1": (2.7093365921304455, 0.08639324211712698),
-    "randomized-v1": (2.6361358691058925, 0.08925899867811121),
-    "tracking-v1": (3.27682877151217, 0.1022569260021737),
-    "stiffness-at-fixed-length-v1": (1.4797215692059955, 0.05156563475731839),
-    "stress-v1": (2.4613520171923344, 0.08839917603295552),
-    "length-v1": (2.0380401861186312, 0.028053882361500904),
-}
+def __getattr__(name: str):
+    """``REFERENCE_SCORES``: ``{suite: (zero controller's score, oracle's score)}`` at each suite's
+    default episodes and seed, read from the stored file (:mod:`cepam_gym.bench.references`, which
+    regenerates it), so it is never a stale copy in the source."""
+    if name == "REFERENCE_SCORES":
+        from .references import load
+
+        return {k: (v["zero"], v["oracle"]) for k, v in load().items()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -47,11 +47,12 @@ class ModelPredictiveController(InverseStaticController):
         if hasattr(self, "planner"):
             self.planner.reset(indices)
 
-    def estimate_state(self, obs: np.ndarray, L, pc, pe) -> np.ndarray:
-        """Plant states (N, N_STATE) of the nominal model from measured quantities."""
+    def estimate_state(self, obs: np.ndarray, L, pc, pe, params=None) -> np.ndarray:
+        """Plant states (N, N_STATE) of the model (the nominal one, or ``params`` rows (N,
+        N_PARAMS)) from measured quantities."""
         p = self.params
         x = pl.initial_state(
-            p[None],
+            p[None] if params is None else params,
             np.clip(L, p[ix.L_MIN], p[ix.L_MAX]),
             np.maximum(pc, -0.9 * p[ix.P_ATM]),
             np.maximum(pe, -0.9 * p[ix.P_ATM]),

@@ -38,6 +38,8 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     "joint_baseline": "cepam_gym.control.joint_baseline:JointInverseStaticController",
     # model-predictive: the nominal model on observations only, and the privileged headroom yardstick
     "mpc": "cepam_gym.control.mpc:ModelPredictiveController",
+    # the MPC with an online estimate (EKF) of the load and of the static map's parameters
+    "adaptive_mpc": "cepam_gym.control.adaptive_mpc:AdaptiveMPC",
     "oracle": "cepam_gym.control.oracle:OracleController",
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env

@@ -1,0 +1,147 @@
+"""The benchmark's objective, defined once: what the score counts and how it trades errors.
+
+The combined score of a suite (lower is better, :func:`cepam_gym.bench.metrics.score_traces`) is
+``RMSE(position) / position_norm + RMSE(stiffness / target - 1) / STIFFNESS_NORM
++ FAILURE_WEIGHT * failure rate``, the stiffness term only where the task tracks stiffness, the
+RMSEs over the steps :func:`tracking_mask` keeps (alive, and, on the v1 suites, not within the
+settling allowance after a jump of the target). The planner of the model-based controllers
+(:mod:`cepam_gym.control.planner`) minimises the squared form of the same trade on the same steps,
+from this module, so the two cannot drift apart.
+
+This module sits in ``control`` (below ``bench`` in the import layers) because both use it;
+:mod:`cepam_gym.bench.metrics` re-exports its names.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+STIFFNESS_NORM = 0.2  # a relative stiffness error of 20 % scores 1 ...
+FAILURE_WEIGHT = 2.0  # ... and a failed (burst) episode scores 2
+LENGTH_BAND = 1e-3  # m: "settled" means within 1 mm ...
+STIFFNESS_BAND = 0.05  # ... and within 5 % of the stiffness target
+MIN_STEP = 2e-3  # m: overshoot is measured on target changes of at least 2 mm
+
+_TRACE_COLUMNS = (
+    "length",
+    "target_length",
+    "stiffness",
+    "target_stiffness",
+    "pressure_c",
+    "pressure_e",
+    "load_mass",
+    "air_used",
+)
+
+
+@dataclass(frozen=True)
+class TraceSpec:
+    """What a suite's trace columns hold and how the tracked quantity is scored and plotted.
+
+    ``info_keys`` maps each trace column to the env's ``info`` key; ``scale`` converts the SI
+    ``length`` column to ``unit``, and the metric is named ``f"{quantity}_rmse_{unit}"``;
+    ``band`` and ``min_step`` are SI; ``score_norm`` (in ``unit``) is the error that scores 1."""
+
+    quantity: str = "length"
+    unit: str = "mm"
+    scale: float = 1000.0
+    band: float = LENGTH_BAND
+    min_step: float = MIN_STEP
+    score_norm: float = 5.0
+    info_keys: dict[str, str] = field(default_factory=lambda: {k: k for k in _TRACE_COLUMNS})
+    # plots: (label, unit, scale from SI) of the tracked quantity, the stiffness and the load
+    plot_quantity: tuple[str, str, float] = ("length", "cm", 100.0)
+    plot_stiffness: tuple[str, str, float] = ("stiffness", "N/m", 1.0)
+    plot_load: tuple[str, str, float] = ("load", "g", 1000.0)
+    # tracking with preview (v1): seconds left out after each jump of the target, and what a jump is
+    allowance_s: float = 0.0
+    jump_length: float = 1e-3  # SI (m, or rad for the joint): more than this in one control step
+    jump_stiffness: float = 0.05  # relative: more than 5 % in one control step
+
+    @property
+    def rmse_key(self) -> str:
+        return f"{self.quantity}_rmse_{self.unit}"
+
+    @property
+    def position_norm(self) -> float:
+        """The position error [SI: m or rad] that scores 1 (``score_norm`` in SI)."""
+        return self.score_norm / self.scale
+
+
+RIG = TraceSpec()
+# the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
+RIG_V1 = TraceSpec(allowance_s=0.5)
+JOINT = TraceSpec(
+    quantity="angle",
+    unit="deg",
+    scale=180.0 / np.pi,
+    band=np.deg2rad(2.0),
+    min_step=np.deg2rad(5.0),
+    score_norm=10.0,
+    info_keys={
+        "length": "angle",
+        "target_length": "target_angle",
+        "stiffness": "joint_stiffness",
+        "target_stiffness": "target_stiffness",
+        "pressure_c": "pressure_c",
+        "pressure_e": "pressure_e",
+        "load_mass": "external_torque",
+        "air_used": "air_used",
+    },
+    plot_quantity=("angle", "deg", 180.0 / np.pi),
+    plot_stiffness=("joint stiffness", "N m/rad", 1.0),
+    plot_load=("external torque", "mN m", 1000.0),
+)
+# the v1 joint: tracking with preview, the same allowance as the rig's v1 suites
+JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
+
+
+def spec_of_core(core) -> TraceSpec:
+    """How the benchmark scores the envs of ``core`` (a ``CEPAMBatch``): the joint's spec on a
+    hinge, the rig's otherwise; with the v1 settling allowance where the env announces its
+    reference (``preview_steps > 0``: every v1 id), as the suites of :mod:`cepam_gym.bench.suites`."""
+    from .. import plant as pl
+
+    joint = getattr(core, "mech", pl.RIG) == pl.HINGE
+    if getattr(core, "preview_steps", 0) > 0:
+        return JOINT_V1 if joint else RIG_V1
+    return JOINT if joint else RIG
+
+
+def combined_score(position_rmse_si, stiffness_rmse_rel, failure_rate, spec: TraceSpec):
+    """The combined score from the position RMSE [SI], the relative stiffness RMSE (None where
+    the task does not track stiffness) and the failure rate (floats or arrays alike)."""
+    score = np.asarray(position_rmse_si) / spec.position_norm + FAILURE_WEIGHT * np.asarray(failure_rate)
+    if stiffness_rmse_rel is not None:
+        score = score + np.asarray(stiffness_rmse_rel) / STIFFNESS_NORM
+    return float(score) if np.ndim(score) == 0 else score
+
+
+def jumps(target_l: np.ndarray, target_k: np.ndarray, track_stiffness: bool, spec: TraceSpec) -> np.ndarray:
+    """(T, ...) bool: the target jumps at this step (a change larger than the spec's jump sizes);
+    time runs along axis 0."""
+    out = np.zeros(target_l.shape, dtype=bool)
+    out[1:] = np.abs(np.diff(target_l, axis=0)) > spec.jump_length
+    if track_stiffness:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.abs(np.diff(target_k, axis=0)) / np.abs(target_k[:-1])
+        out[1:] |= rel > spec.jump_stiffness
+    return out
+
+
+def scored_steps(target_l, target_k, track_stiffness: bool, spec: TraceSpec, dt: float) -> np.ndarray:
+    """(T, ...) bool: the steps whose errors the score counts (before failures): all of them,
+    except the ``spec.allowance_s`` seconds after each jump of the target. A function of the
+    target schedule only, so a planner that knows the schedule weighs its errors as the score will."""
+    n_allow = int(round(spec.allowance_s / dt))
+    if n_allow <= 0:
+        return np.ones(np.shape(target_l), dtype=bool)
+    j = jumps(target_l, target_k, track_stiffness, spec)
+    T = j.shape[0]
+    steps = np.arange(T).reshape((T,) + (1,) * (j.ndim - 1))
+    # steps since the last jump (a large number before the first one)
+    last = np.maximum.accumulate(np.where(j, steps, -10 * (n_allow + T)), axis=0)
+    return steps - last >= n_allow
