@@ -6,9 +6,11 @@ They are stored with the episodes they were measured on (the suite's seed and ep
     cepam-gym bench --update-references [--suite NAME ...]
 
 (the zero controller and the oracle on every suite the oracle drives, at the suite's default
-episodes; about a minute per suite on 2 cores). A normalized score uses them only for a run on
-the same episodes (:func:`stored_ends`); any other run measures the ends itself or reports no
-normalized score (:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry.
+episodes; measured on one core of a busy machine: about 1 minute per v1 rig suite, 1.6 on a v0
+suite, 5.6 on joint-v1, 18 for all). A normalized score uses them only for a run on the same
+episodes (:func:`stored_ends`); any other run uses the ends it measured itself, measures them on
+request (``--measure-references``) or says it cannot normalize (:mod:`cepam_gym.bench.cli`). A slow
+test recomputes every entry (``tests/test_scores.py``).
 """
 
 from __future__ import annotations
