@@ -268,15 +268,6 @@ def test_reference_scores_are_what_the_zero_controller_scores_now():
         assert m["score"] == pytest.approx(zero, rel=1e-9), name
 
 
-@pytest.mark.slow
-def test_reference_oracle_score_is_current_on_nominal_v1():
-    from cepam_gym.bench.harness import run_suite
-    from cepam_gym.bench.suites import REFERENCE_SCORES
-
-    m, _ = run_suite("oracle", "nominal-v1")
-    assert m["score"] == pytest.approx(REFERENCE_SCORES["nominal-v1"][1], rel=1e-9)
-
-
 def test_bench_skips_a_controller_the_env_does_not_take_and_says_so(capsys):
     """The rig's MPC cannot drive the joint: the pair is skipped with a note, the rest runs."""
     import json
