@@ -35,10 +35,8 @@ $(RAY_VENV)/.installed: pyproject.toml
 run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run
 
-# every test on both cores (pytest-xdist, the [test] extra): the slow ones (the references check
-# recomputes every suite's zero and oracle scores) would take twice as long on one
 test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray
-	$(PY) -m pytest -q -n 2
+	$(PY) -m pytest -q
 	$(RAY_PY) -m pytest -q tests/test_rllib.py
 
 # the inner loop: everything but the tests marked slow (training, wheel builds, videos, golden
