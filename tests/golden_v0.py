@@ -15,21 +15,17 @@ MODES = ("valve", "pwm", "pressure")
 N_STEPS = 120
 
 
-def plant_trajectories() -> dict[str, np.ndarray]:
-    """The plant kernel alone, fixed inputs: every v0 preset and valve mode, 18 plants in 2 blocks.
-    The keys keep the names the presets had when recorded ("balloon" is now ``balloon_v0``,
-    "rubber_tube" ``rubber_tube_v0``; plant v1 took the old names)."""
+def record_plant(presets, seed: int, n_state: int) -> dict[str, np.ndarray]:
+    """The plant kernel alone, fixed inputs: each ``(key name, preset)`` and valve mode, 18 plants
+    in 2 blocks, the first ``n_state`` state columns and ``aux`` per step (shared by the v0 and v1
+    records)."""
     from cepam_gym import plant as pl
     from cepam_gym.plant.params import preset
 
     out = {}
-    rng = np.random.default_rng(1234)
-    for name, v0_preset in (
-        ("balloon", "balloon_v0"),
-        ("balloon_uncalibrated", "balloon_uncalibrated"),
-        ("rubber_tube", "rubber_tube_v0"),
-    ):
-        p = preset(v0_preset).to_array()[None]
+    rng = np.random.default_rng(seed)
+    for name, preset_name in presets:
+        p = preset(preset_name).to_array()[None]
         for mode_name, mode in pl.MODES.items():
             n = 18  # two plant blocks of 16
             x = pl.initial_state(p, np.linspace(0.152, 0.19, n), 60e3, 40e3)
@@ -40,10 +36,23 @@ def plant_trajectories() -> dict[str, np.ndarray]:
                 inp[:, :2] = (u + 1) * 120e3 if mode == pl.PRESSURE else u
                 inp[:, pl.I_LOAD] = 0.1 + 0.05 * np.sin(0.1 * k + np.arange(n))
                 x, aux = pl.step(x, inp, p, mode)
-                # the v0 state columns (plant v1 appended friction deflections, 0 without friction)
-                rows.append(np.concatenate([x[:, : pl.N_STATE_V0], aux], axis=1))
+                rows.append(np.concatenate([x[:, :n_state], aux], axis=1))
             out[f"plant/{name}/{mode_name}"] = np.stack(rows)
     return out
+
+
+def plant_trajectories() -> dict[str, np.ndarray]:
+    """Every v0 preset. The keys keep the names the presets had when recorded ("balloon" is now
+    ``balloon_v0``, "rubber_tube" ``rubber_tube_v0``; plant v1 took the old names); the v0 state
+    columns only (plant v1 appended friction deflections, 0 without friction)."""
+    from cepam_gym import plant as pl
+
+    presets = (
+        ("balloon", "balloon_v0"),
+        ("balloon_uncalibrated", "balloon_uncalibrated"),
+        ("rubber_tube", "rubber_tube_v0"),
+    )
+    return record_plant(presets, 1234, pl.N_STATE_V0)
 
 
 def env_trajectories() -> dict[str, np.ndarray]:

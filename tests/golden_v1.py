@@ -29,27 +29,13 @@ INFO_KEYS = ("length", "pressure_c", "pressure_e", "stiffness", "target_length",
 
 
 def plant_trajectories() -> dict[str, np.ndarray]:
-    """The plant kernel alone, fixed inputs: each v1 preset and valve mode, 18 plants in 2 blocks."""
-    from cepam_gym import plant as pl
-    from cepam_gym import preset
+    """The plant kernel alone (:func:`golden_v0.record_plant`): each v1 preset and valve mode,
+    every state column."""
+    from golden_v0 import record_plant
 
-    out = {}
-    rng = np.random.default_rng(4321)
-    for name in ("balloon", "rubber_tube"):
-        p = preset(name).to_array()[None]
-        for mode_name, mode in pl.MODES.items():
-            n = 18
-            x = pl.initial_state(p, np.linspace(0.152, 0.19, n), 60e3, 40e3)
-            rows = []
-            for k in range(N_STEPS // 2):
-                inp = np.zeros((n, pl.N_INPUT))
-                u = rng.uniform(-1, 1, (n, 2))
-                inp[:, :2] = (u + 1) * 120e3 if mode == pl.PRESSURE else u
-                inp[:, pl.I_LOAD] = 0.1 + 0.05 * np.sin(0.1 * k + np.arange(n))
-                x, aux = pl.step(x, inp, p, mode)
-                rows.append(np.concatenate([x, aux], axis=1))
-            out[f"plant/{name}/{mode_name}"] = np.stack(rows)
-    return out
+    from cepam_gym import plant as pl
+
+    return record_plant((("balloon", "balloon"), ("rubber_tube", "rubber_tube")), 4321, pl.N_STATE)
 
 
 def _info_row(info: dict) -> list[float]:

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import plant as pl
-from ..tasks.kernel import valve_commands
+from ..plant.actions import valve_commands
 
 # parallel over blocks of plants (the envs' kernels do the same; NUMBA_NUM_THREADS caps it)
 _pjit = njit(cache=True, error_model="numpy", parallel=True)

@@ -24,6 +24,7 @@ from .shared import (
     expose,
     mujoco_frames,
     restore_episode,
+    seed_core,
 )
 
 
@@ -84,10 +85,7 @@ class CEPAMEnv(gym.Env, EzPickle):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        if seed is not None or not hasattr(self, "_seeded"):
-            # the core draws from its own generator, derived from the env's so that seeding works
-            self.core.seed(int(self.np_random.integers(2**63)) if seed is None else seed)
-            self._seeded = True
+        seed_core(self, seed)
         self.core.reset()
         self.core.apply_options(options)
         info = self._info(scored=False)

@@ -56,6 +56,15 @@ def check_kwargs(kwargs: dict, env_kwargs: tuple[str, ...]) -> None:
         raise InputError(f"unknown env kwarg(s) {bad}; valid: {valid}")
 
 
+def seed_core(env, seed: int | None) -> None:
+    """At ``reset(seed=...)`` (and at the first reset): the core draws from its own streams,
+    derived from the env's generator, so that Gymnasium's seeding works for single and vector envs
+    alike."""
+    if seed is not None or not hasattr(env, "_seeded"):
+        env.core.seed(int(env.np_random.integers(2**63)) if seed is None else seed)
+        env._seeded = True
+
+
 def episode_of(env) -> dict[str, Any]:
     return {
         "episode": env.core.episode_state(),

@@ -27,6 +27,7 @@ from .shared import (
     expose,
     mujoco_frames,
     restore_episode,
+    seed_core,
 )
 
 _AUTORESET_MODES = {"next_step": AutoresetMode.NEXT_STEP, "same_step": AutoresetMode.SAME_STEP}
@@ -161,9 +162,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        if seed is not None or not hasattr(self, "_seeded"):
-            self.core.seed(int(self.np_random.integers(2**63)) if seed is None else seed)
-            self._seeded = True
+        seed_core(self, seed)
         self.core.reset()
         self.core.apply_options(options)
         self._elapsed[:] = 0

@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import plant as pl
+from ..plant.actions import valve_commands
 
 CHANNELS = ("pressure_c", "pressure_e", "length")  # what a rig measures, SI (Pa gauge, Pa gauge, m)
 N_CHANNELS = 3
@@ -103,12 +104,12 @@ def sensed(y: np.ndarray, h: float, delay, gain, bias) -> np.ndarray:
 
 
 def plant_commands(commands: np.ndarray, mode: int, pressure_cap: float) -> np.ndarray:
-    """The plant's valve inputs of log commands in [-1, 1], as the env maps its action
-    (:func:`cepam_gym.tasks.kernel.valve_commands`): in pressure mode a gauge set-point in
+    """The plant's valve inputs of log commands (..., 2) in [-1, 1], mapped as the env maps its
+    action (:func:`cepam_gym.plant.actions.valve_commands`): in pressure mode a gauge set-point in
     ``[0, pressure_cap]`` [Pa], otherwise the command itself."""
-    if mode == pl.PRESSURE:
-        return 0.5 * pressure_cap * (np.asarray(commands, float) + 1.0)
-    return np.asarray(commands, float)
+    cmd = np.asarray(commands, float)
+    c, e = valve_commands(mode, cmd[..., 0], cmd[..., 1], float(pressure_cap))
+    return np.stack([c, e], axis=-1)
 
 
 def refinement(params: np.ndarray, sub_dt: float, limit: float = 1.0) -> int:

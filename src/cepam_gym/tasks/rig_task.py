@@ -117,8 +117,9 @@ class RigTask(Task):
         core.t_idx[idx] = 0
 
     def apply_options(self, core, options: dict) -> None:
-        """Pin any of target_length [m], target_stiffness [N/m], load_mass [kg] for the episode."""
-        core.pin_targets(**options)
+        """Pin any of target_length [m], target_stiffness [N/m], load_mass [kg] for the episode
+        (the core observes once afterwards)."""
+        self.pin(core, options, np.arange(core.num_envs))
 
     def pin(self, core, values: dict, idx: np.ndarray) -> None:
         """Hold ``values`` (pin key -> scalars or per-env arrays) for the episode of ``idx``."""
