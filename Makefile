@@ -23,7 +23,7 @@ define venv
 	touch $(1)/.installed
 endef
 
-MAIN_EXTRAS := train,test,mujoco,zoo
+MAIN_EXTRAS := train,test,mujoco,zoo,offline
 RAY_EXTRAS := train,test,distributed
 
 $(VENV)/.installed: pyproject.toml

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import pickle
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from cepam_gym.errors import InputError
 
 from .config import TrainConfig, algorithm_class
 from .features import Features
+
+if TYPE_CHECKING:
+    from .bc_policy import BCPolicy
 
 MODEL_CHOICES = ("best", "final", "latest")
 
@@ -121,13 +125,18 @@ def load_normalizer(path: Path | None):
     return vn if vn.norm_obs else None
 
 
-def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy:
+def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCPolicy:
     """The agent of a run directory (or ``run_dir/<file>.zip``), ready to act on ``env`` (a
     Gymnasium single or vector CE-PAM env, or the SB3 adapter). ``which``: ``auto`` (best model,
-    else final, else the latest checkpoint), ``best``, ``final`` or ``latest``."""
+    else final, else the latest checkpoint), ``best``, ``final`` or ``latest``. A behaviour-cloning
+    run directory (:mod:`cepam_gym_agents.bc`) gives its :class:`~cepam_gym_agents.bc_policy.BCPolicy`."""
     import torch
 
+    from .bc_policy import is_bc_run, load_bc_policy
+
     spec = Path(spec)
+    if is_bc_run(spec):  # a behaviour-cloning run (python -m cepam_gym_agents.bc): its own files
+        return load_bc_policy(spec, env)
     if spec.suffix == ".zip":
         run, model_path = spec.parent, spec
         norm = spec.with_name(spec.name.replace("model", "vecnormalize").replace(".zip", ".pkl"))

@@ -187,6 +187,7 @@ FOLDER_LAYERS = (
     "envs",  # the Gymnasium API, single and batched: the rig's and both joints'
     "control",  # every controller behind one protocol and a registry
     "bench",  # suites, metrics, the harness
+    "offline",  # offline-RL datasets (Minari) of the benchmark's rollouts
     "validation",  # the paper's experiments, calibration, the fitting core
     "identify",  # fitting the plant's dynamics to a rig's logs (on the fitting core)
     "integrations",  # adapters to SB3 and RLlib

@@ -219,6 +219,7 @@ def _dispatch(argv: list[str]) -> int:
         "demo": "cepam_gym.demo",
         "validate": "cepam_gym.validation.cli:validate_main",
         "bench": "cepam_gym.bench.cli",
+        "dataset": "cepam_gym.offline.cli",
         "video": "cepam_gym.video",
         "calibrate": "cepam_gym.validation.cli:calibrate_main",
         "identify": "cepam_gym.identify.cli:identify_main",
@@ -227,9 +228,10 @@ def _dispatch(argv: list[str]) -> int:
     plugins = ("train", "eval")
     if not argv or argv[0] in ("-h", "--help"):
         print(
-            "usage: cepam-gym [--version] {run,bench,train,eval,demo,validate,calibrate,identify,excite,"
-            "rollout,video} [options] [--debug]\n"
+            "usage: cepam-gym [--version] {run,bench,dataset,train,eval,demo,validate,calibrate,identify,"
+            "excite,rollout,video} [options] [--debug]\n"
             "  bench     score controllers on the benchmark suites\n"
+            "  dataset   record a Minari offline-RL dataset of a controller on a suite ([offline] extra)\n"
             "  train     train an agent from a YAML config (--config quick, or a file)\n"
             "  eval      score a trained agent beside the baseline (--run DIR)\n"
             "  run       the main job on the default config\n"

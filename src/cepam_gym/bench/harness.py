@@ -30,12 +30,15 @@ def record(
     seed: int,
     max_steps: int | None = None,
     spec: TraceSpec = RIG,
+    observer=None,
 ) -> tuple[dict, bool]:
     """Run the policy ``make_policy(venv)`` builds (an object with ``reset``/``act``) on
     ``episodes`` seeded episodes in one batched env; return ``(traces, tracks_stiffness)`` with
     the traces :func:`~cepam_gym.bench.metrics.score_traces` scores; ``spec.info_keys`` says which
-    ``info`` key fills each trace column. The one rollout loop of the harness and of the agents'
-    periodic evaluation."""
+    ``info`` key fills each trace column. The one rollout loop of the harness, of the agents'
+    periodic evaluation and of the offline datasets: ``observer`` (optional) is told
+    ``start(obs, info)`` after the reset and ``step(actions, obs, rewards, terminated, truncated,
+    info)`` after every step (:mod:`cepam_gym.offline.episodes` keeps the transitions)."""
     import gymnasium as gym
 
     venv = gym.make_vec(env_id, num_envs=episodes, **env_kwargs)
@@ -44,12 +47,17 @@ def record(
     policy = make_policy(venv)
     obs, info = venv.reset(seed=seed)
     policy.reset()
+    if observer is not None:
+        observer.start(obs, info)
     tr = {k: np.zeros((steps, episodes)) for k in TRACE_KEYS}
     tr["reward"] = np.zeros((steps, episodes))
     tr["alive"] = np.ones((steps, episodes), dtype=bool)
     alive = np.ones(episodes, dtype=bool)
     for t in range(steps):
-        obs, reward, term, trunc, info = venv.step(policy.act(obs, info))
+        actions = policy.act(obs, info)
+        obs, reward, term, trunc, info = venv.step(actions)
+        if observer is not None:
+            observer.step(actions, obs, reward, term, trunc, info)
         src = info.get("final_info", info) if (term | trunc).any() else info
         for k in TRACE_KEYS:
             tr[k][t] = src[spec.info_keys[k]]
