@@ -26,4 +26,5 @@ heavy; the modules do:
 | ``policy`` | ``load_policy(run_dir, env)``: a trained agent as a benchmark controller |
 | ``evaluate`` | ``cepam-gym eval --run DIR``: the agent beside the baseline |
 | ``curves`` | the reference learning curves (``python -m cepam_gym_agents.curves``) |
+| ``bc``, ``bc_policy`` | behaviour cloning (``python -m cepam_gym_agents.bc``); a BC run as a controller |
 """

@@ -46,6 +46,13 @@ def main(argv: list[str] | None = None) -> int:
         dataset_version=args.dataset_version,
         overwrite=args.overwrite,
     )
+    if out["normalized"] is None:
+        print(
+            f"cepam-gym dataset: no reference scores stored for {out['suite']}: the dataset has no "
+            "ref_min_score / ref_max_score (minari.get_normalized_score refuses it)",
+            file=sys.stderr,
+            flush=True,
+        )
     if args.json:
         import json
 
