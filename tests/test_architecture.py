@@ -165,10 +165,11 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
         "import sys\n"
         "import cepam_gym, cepam_gym.control, cepam_gym.bench, cepam_gym.envs, cepam_gym.cli\n"
         "import cepam_gym.integrations, cepam_gym.integrations.rllib, cepam_gym.rllib\n"
+        "import cepam_gym.offline, cepam_gym.offline.cli, cepam_gym.offline.store\n"
         "from cepam_gym.control import controller_names\n"
         "controller_names()\n"
         "bad = [m for m in sys.modules if m.split('.')[0] in "
-        "('torch', 'stable_baselines3', 'agents', 'cepam_gym_agents', 'mujoco', 'ray')]\n"
+        "('torch', 'stable_baselines3', 'agents', 'cepam_gym_agents', 'mujoco', 'ray', 'minari', 'h5py')]\n"
         "assert not bad, bad\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -174,13 +174,27 @@ def test_minaris_normalized_score_is_the_benchmarks(minari_home, capsys):
         (["--suite", NOMINAL, "--controller", "zero", "--episodes", "-3"], "--episodes must be >= 1, got -3"),
         (["--suite", NOMINAL, "--controller", "zero", "--max-steps", "501"], "--max-steps must be in 1..500"),
         (["--suite", NOMINAL, "--controller", "zero", "--name", "a.b"], "dataset name must be"),
+        (
+            ["--suite", NOMINAL, "--controller", "zero", "--dataset-version", "-1"],
+            "dataset version must be >= 0",
+        ),
     ],
 )
-def test_bad_input_is_one_line(minari_home, capsys, args, message):
+def test_bad_input_is_one_line(tmp_path, monkeypatch, capsys, args, message):
+    """Checked before anything runs, Minari installed or not."""
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "datasets"))
     assert cli_main(["dataset", *args]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and message in captured.err and len(captured.err.strip().splitlines()) == 1
-    assert not minari_home.exists() or not any(minari_home.rglob("*.hdf5"))
+    assert not (tmp_path / "datasets").exists()
+
+
+def test_a_controller_for_another_env_is_bad_input(minari_home, capsys):
+    """The rig's MPC cannot drive the joint: the benchmark skips the pair, the command refuses it."""
+    assert cli_main(["dataset", "--suite", "joint-v1", "--controller", "mpc", "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "controller 'mpc' cannot drive suite joint-v1" in err and len(err.strip().splitlines()) == 1
+    assert not any(minari_home.rglob("*.hdf5"))
 
 
 def test_an_existing_id_needs_overwrite(minari_home, capsys):

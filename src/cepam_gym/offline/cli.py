@@ -28,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     from .record import check_inputs, record_dataset
 
-    check_inputs(args.suite, args.controller, args.episodes, args.max_steps)
+    check_inputs(args.suite, args.controller, args.episodes, args.max_steps, args.name, args.dataset_version)
     try:
         from .store import require_minari
 

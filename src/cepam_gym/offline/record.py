@@ -10,13 +10,22 @@ from ..bench.harness import record
 from ..bench.metrics import normalized_score, score_traces
 from ..bench.suites import SUITES, Suite
 from ..control import check_controller_spec, make_controller
+from ..control.baseline import UnsupportedEnvError
 from ..errors import InputError
 from . import naming, store
 from .episodes import EpisodeRecorder
 
 
-def check_inputs(suite: str, controller: str, episodes: int | None, max_steps: int | None) -> Suite:
-    """The suite named ``suite``; ``InputError`` naming the first bad input, before any work."""
+def check_inputs(
+    suite: str,
+    controller: str,
+    episodes: int | None = None,
+    max_steps: int | None = None,
+    name: str | None = None,
+    dataset_version: int = 0,
+) -> tuple[Suite, str]:
+    """``(suite, dataset id)``; ``InputError`` naming the first bad input, before any work (and
+    before Minari is needed)."""
     if suite not in SUITES:
         raise InputError(f"unknown suite {suite!r}: choose from {', '.join(SUITES)}")
     check_controller_spec(controller)
@@ -25,7 +34,20 @@ def check_inputs(suite: str, controller: str, episodes: int | None, max_steps: i
     full = _full_steps(SUITES[suite])
     if max_steps is not None and not 1 <= max_steps <= full:
         raise InputError(f"--max-steps must be in 1..{full} (the episode's length), got {max_steps}")
-    return SUITES[suite]
+    return SUITES[suite], naming.dataset_id(SUITES[suite], controller, name, dataset_version)
+
+
+def _controller(spec: str, suite: Suite):
+    """``make_policy(venv)`` for the harness; a controller built for another kind of env (the rig's
+    MPC on the joint) is bad input here, where the benchmark would skip the pair."""
+
+    def make(venv):
+        try:
+            return make_controller(spec, venv)
+        except UnsupportedEnvError as e:
+            raise InputError(f"controller {spec!r} cannot drive suite {suite.name}: {e}") from e
+
+    return make
 
 
 def record_dataset(
@@ -45,8 +67,7 @@ def record_dataset(
     ``path``, the benchmark ``score`` of the recorded episodes and its ``normalized`` score
     (against the suite's references: the benchmark's own when the episodes are the suite's),
     ``steps``, ``seconds`` (recording), ``size_mb``."""
-    s = check_inputs(suite, controller, episodes, max_steps)
-    dataset_id = naming.dataset_id(s, controller, name, dataset_version)
+    s, dataset_id = check_inputs(suite, controller, episodes, max_steps, name, dataset_version)
     store.require_minari()
     store.check_free(dataset_id, overwrite)  # fail before the rollout, which can take minutes
     n = episodes or s.episodes
@@ -54,7 +75,7 @@ def record_dataset(
     recorder = EpisodeRecorder(n)
     t0 = time.perf_counter()
     tr, track_k = record(
-        lambda venv: make_controller(controller, venv),
+        _controller(controller, s),
         s.env_id,
         s.env_kwargs,
         n,
