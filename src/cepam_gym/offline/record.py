@@ -66,7 +66,7 @@ def record_dataset(
     dataset :func:`~cepam_gym.offline.naming.dataset_id` names. Returns a summary: ``dataset_id``,
     ``path``, the benchmark ``score`` of the recorded episodes and its ``normalized`` score
     (against the suite's references: the benchmark's own when the episodes are the suite's),
-    ``steps``, ``seconds`` (recording), ``size_mb``."""
+    ``steps``, ``record_seconds``, ``size_mb``."""
     s, dataset_id = check_inputs(suite, controller, episodes, max_steps, name, dataset_version)
     store.require_minari()
     store.check_free(dataset_id, overwrite)  # fail before the rollout, which can take minutes
