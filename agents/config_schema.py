@@ -221,6 +221,69 @@ class CheckpointConfig:
         )
 
 
+@dataclass(frozen=True)
+class StudentConfig:
+    """A student distilled from a privileged teacher by DAgger (Ross et al. 2011), the RMA recipe's
+    first phase (Kumar et al. 2021): the teacher (default the oracle, which reads the true state,
+    plant, load and reference horizon) labels every state the student visits; the student sees
+    only what the agent's features give it (``agent``: observation history, filters).
+
+    * ``suites``: suite name -> number of envs: the plants trained on (a mix of the nominal and the
+      randomized plant, so robustness is not bought with nominal accuracy); episodes are drawn
+      from the training seed, never the suites' own.
+    * ``iterations``: rounds of collect-then-fit; round 0 is driven by the teacher, later rounds by
+      the student, the teacher taking over a step with probability ``beta``.
+    * ``gradient_steps``, ``batch_size``, ``learning_rate``: the supervised fit per round (Adam,
+      cosine-decayed, on all data so far; actions scaled by their standard deviation).
+    * ``net_arch``: the actor's hidden layers (tanh), saved as an SB3 PPO policy so that every tool
+      that loads a run loads the student."""
+
+    teacher: str = "oracle"
+    suites: dict = field(default_factory=lambda: {"nominal-v1": 32, "randomized-v1": 32})
+    iterations: int = 4
+    beta: float = 0.2
+    gradient_steps: int = 2500
+    batch_size: int = 512
+    learning_rate: float = 1e-3
+    net_arch: list = field(default_factory=lambda: [256, 256])
+
+    @classmethod
+    def parse(cls, data: Any) -> StudentConfig | None:
+        if data is None:
+            return None
+        d = as_mapping(data, "student")
+        check_keys(d, cls, "student")
+        teacher = d.get("teacher", cls.teacher)
+        if not isinstance(teacher, str) or not teacher:
+            raise ConfigError(f"student.teacher must be a controller name, got {teacher!r}")
+        suites = as_mapping(d.get("suites", cls().suites), "student.suites")
+        from cepam_gym.bench.suites import SUITES
+
+        if not suites:
+            raise ConfigError("student.suites must name at least one suite (suite: number of envs)")
+        for name in suites:
+            if name not in SUITES:
+                raise ConfigError(f"student.suites: unknown suite {name!r}; choose from {list(SUITES)}")
+        counts = {str(k): as_int(v, f"student.suites.{k}", 1) for k, v in suites.items()}
+        arch = d.get("net_arch", cls().net_arch)
+        if not isinstance(arch, (list, tuple)) or not arch:
+            raise ConfigError(f"student.net_arch must be a list of layer widths, got {arch!r}")
+        arch = [as_int(w, f"student.net_arch[{i}]", 1) for i, w in enumerate(arch)]
+        beta = as_float(d.get("beta", cls.beta), "student.beta", 0.0)
+        if beta > 1:
+            raise ConfigError(f"student.beta is a probability in [0, 1], got {beta!r}")
+        return cls(
+            teacher,
+            counts,
+            as_int(d.get("iterations", cls.iterations), "student.iterations", 1),
+            beta,
+            as_int(d.get("gradient_steps", cls.gradient_steps), "student.gradient_steps", 1),
+            as_int(d.get("batch_size", cls.batch_size), "student.batch_size", 1),
+            as_float(d.get("learning_rate", cls.learning_rate), "student.learning_rate", 0.0),
+            arch,
+        )
+
+
 # --------------------------------------------------------------------------- the config
 @dataclass(frozen=True)
 class TrainConfig:
@@ -237,6 +300,7 @@ class TrainConfig:
     checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
     log_every_steps: int = 5000
     time_limit_minutes: float | None = None
+    student: StudentConfig | None = None
 
     @classmethod
     def from_dict(cls, data: Any) -> TrainConfig:
@@ -260,6 +324,8 @@ class TrainConfig:
             raise ConfigError(
                 f"agent.privileged_critic is built for PPO (an asymmetric actor-critic), not {algo}"
             )
+        if d.get("student") is not None and algo != "PPO":
+            raise ConfigError(f"a student is saved as a PPO policy: algorithm must be PPO, not {algo}")
         return cls(
             algorithm=algo,
             total_timesteps=as_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
@@ -276,6 +342,7 @@ class TrainConfig:
             time_limit_minutes=None
             if d.get("time_limit_minutes") is None
             else as_float(d["time_limit_minutes"], "time_limit_minutes", 0.0),
+            student=StudentConfig.parse(d.get("student")),
         )
 
     def to_dict(self) -> dict:

@@ -303,6 +303,12 @@ def train(
             dump_config(cfg, run / "config.yaml")
         else:
             dump_config(cfg, run / "config.yaml")  # total_timesteps may have been raised
+        if cfg.student is not None:  # distilled from a teacher (DAgger), no RL loop to resume
+            from .student import train_student
+
+            if resume:
+                raise ConfigError(f"{run}: a student run cannot be resumed; train it again with --out")
+            return train_student(cfg, run, quiet=quiet, argv=argv)
         t = Trainer(cfg, run, resume=resume, quiet=quiet, argv=argv)
         t.setup()
         try:

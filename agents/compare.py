@@ -1,0 +1,152 @@
+"""Agents against the model-based controllers, over training seeds: the README's "Agents that adapt"
+table.
+
+    python -m cepam_gym_agents.compare --config student --seeds 5 --jobs 2
+    python -m cepam_gym_agents.compare --config student --config quick --seeds 5 --report-only
+
+Each config is trained once per seed (``cepam-gym train --config C --seed S``, its own process, one
+numba thread; ``--jobs 2`` runs two at a time) into ``--out/<config>-s<seed>``, then its final model
+is scored on each suite's own 20 episodes and on 20 episodes of an unseen seed (``--unseen-seed``),
+beside the baseline and the oracle on the same episodes (and the MPCs on the suites' episodes).
+Per config and suite: the interquartile mean over seeds with a 95 % stratified-bootstrap interval
+(Agarwal et al. 2021, :mod:`cepam_gym.bench.stats`), and the share of the baseline-to-oracle gap it
+closes, ``(baseline - score) / (baseline - oracle)``. Written to ``--out/compare.json`` and
+``compare.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+SUITES = ("nominal-v1", "randomized-v1")
+CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")
+UNSEEN_CONTROLLERS = ("baseline", "oracle")  # what the gap on an unseen seed needs
+
+
+def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int) -> None:
+    """Every (config, seed) not yet trained, ``jobs`` processes at a time, one numba thread each."""
+    todo = [
+        (c, s) for c in configs for s in seeds if not (out / f"{Path(c).stem}-s{s}" / "model.zip").is_file()
+    ]
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    running: list = []
+    while todo or running:
+        while todo and len(running) < jobs:
+            c, s = todo.pop(0)
+            run = out / f"{Path(c).stem}-s{s}"
+            cmd = [sys.executable, "-m", "cepam_gym.cli", "train", "--config", c, "--seed", str(s)]
+            cmd += ["--out", str(run), "--quiet"]
+            log = open(out / f"{run.name}.log", "w")  # noqa: SIM115  (closed when the job ends)
+            running.append((subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT), log, run))
+        time.sleep(2)
+        for job in list(running):
+            proc, log, run = job
+            if proc.poll() is not None:
+                log.close()
+                running.remove(job)
+                if proc.returncode != 0:
+                    raise RuntimeError(f"training {run} failed (exit {proc.returncode}): see {log.name}")
+
+
+def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
+    """The benchmark score of controller ``spec`` on ``episodes`` episodes of ``suite`` from
+    ``seed`` (None: the suite's own)."""
+    from cepam_gym.bench.harness import record
+    from cepam_gym.bench.metrics import score_traces
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.control import make_controller
+
+    s = SUITES[suite]
+    tr, track_k = record(
+        lambda venv: make_controller(spec, venv),
+        s.env_id,
+        s.env_kwargs,
+        episodes,
+        s.seed if seed is None else seed,
+        spec=s.traces,
+    )
+    return float(score_traces(tr, track_k, s.traces)["score"])
+
+
+def measure(configs, seeds, out: Path, unseen: int, cache: dict) -> dict:
+    """Scores of every run and controller (``cache``: what an earlier call measured, kept)."""
+    for suite in SUITES:
+        for where, seed, names in (("suite", None, CONTROLLERS), ("unseen", unseen, UNSEEN_CONTROLLERS)):
+            for name in names:
+                key = f"{suite}|{where}|{name}"
+                if key not in cache:
+                    cache[key] = score(name, suite, seed)
+            for c in configs:
+                for s in seeds:
+                    key = f"{suite}|{where}|{Path(c).stem}-s{s}"
+                    if key not in cache:
+                        cache[key] = score(str(out / f"{Path(c).stem}-s{s}"), suite, seed)
+        (out / "compare.json").write_text(json.dumps(cache, indent=1))
+    return cache
+
+
+def table(configs, seeds, cache: dict) -> str:
+    from cepam_gym.bench.stats import iqm_interval
+
+    lines = [
+        "| suite | episodes | controller | score (IQM over seeds, 95 % CI) | gap closed |",
+        "|---|---|---|---|---|",
+    ]
+    for suite in SUITES:
+        for where in ("suite", "unseen"):
+            base, orc = cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"]
+
+            def gap(v, base=base, orc=orc):
+                return f"{100 * (base - v) / (base - orc):.0f} %"
+
+            names = CONTROLLERS if where == "suite" else UNSEEN_CONTROLLERS
+            for name in names:
+                v = cache[f"{suite}|{where}|{name}"]
+                lines.append(f"| {suite} | {where} | {name} | {v:.4f} | {gap(v)} |")
+            for c in configs:
+                vals = [cache[f"{suite}|{where}|{Path(c).stem}-s{s}"] for s in seeds]
+                iqm, lo, hi = iqm_interval({"x": vals})["x"]
+                lines.append(
+                    f"| {suite} | {where} | **{Path(c).stem}** ({len(seeds)} seeds) | "
+                    f"**{iqm:.4f}** ({lo:.4f}-{hi:.4f}) | {gap(iqm)} |"
+                )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m cepam_gym_agents.compare", description=__doc__.split("\n\n")[0]
+    )
+    ap.add_argument(
+        "--config", action="append", required=True, help="a shipped config name or a file (repeatable)"
+    )
+    ap.add_argument("--seeds", type=int, default=5, help="training seeds 0..N-1 (at least 5 for the IQM)")
+    ap.add_argument("--jobs", type=int, default=2, help="trainings at a time")
+    ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
+    ap.add_argument("--out", default="runs/compare", help="run directories and the results")
+    ap.add_argument("--report-only", action="store_true", help="score and report the runs already trained")
+    args = ap.parse_args(argv)
+    if args.seeds < 1 or args.jobs < 1:
+        ap.error("--seeds and --jobs must be >= 1")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    seeds = list(range(args.seeds))
+    if not args.report_only:
+        train_runs(args.config, seeds, out, args.jobs)
+    path = out / "compare.json"
+    cache = json.loads(path.read_text()) if path.is_file() else {}
+    cache = measure(args.config, seeds, out, args.unseen_seed, cache)
+    md = table(args.config, seeds, cache)
+    (out / "compare.md").write_text(md)
+    print(md)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

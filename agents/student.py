@@ -1,0 +1,238 @@
+"""A student distilled from a privileged teacher: ``cepam-gym train --config student``.
+
+The teacher (the oracle by default, :class:`cepam_gym.control.oracle.OracleController`) reads what
+no rig has: the true plant state, parameters, load and the reference horizon. The student sees only
+the agent's features of the observation (:mod:`agents.features`: an observation history, low-passed
+copies). DAgger (Ross et al. 2011) trains it: round 0 records the teacher driving the envs; every
+later round lets the student drive (the teacher taking over a step with probability ``beta``) and
+asks the teacher what it would have sent in each state the student reached; the student is fitted
+to all labels so far. This is the first phase of RMA (Kumar et al. 2021), with the history doing the
+work of its adaptation module: the student cannot know the plant, it must infer what matters from
+how the plant moved.
+
+The envs are a mix of suites' plants (``student.suites``: nominal and randomized by default), with
+episodes drawn from the run's seed (never the suites' own). The oracle's commands are small and
+precise (standard deviation 0.03-0.06 of the valve range), so the fit regresses actions scaled by
+their standard deviation. The student is saved as an SB3 PPO policy with its observation statistics
+(``model.zip``, ``vecnormalize.pkl``), so ``eval``, ``bench``, ``video`` and the datasets load it as
+any trained run; its value head is untrained (no RL fine-tuning here).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .config import ConfigError, TrainConfig
+from .features import Features
+from .provenance import RunRecord, write_json
+
+# VecNormalize's clip of normalized observations: the fit sees what the deployed policy will see
+_CLIP_OBS = 10.0
+# SB3's VecNormalize adds this to the variance
+_VAR_EPS = 1e-8
+
+
+def check_student(cfg: TrainConfig) -> None:
+    """What a student needs of the rest of the config."""
+    a = cfg.agent
+    if a.residual or a.target_shift or a.privileged_critic:
+        raise ConfigError(
+            "a student drives the valves from its features: agent.residual, agent.target_shift and "
+            "agent.privileged_critic do not apply"
+        )
+    if not cfg.normalize.obs:
+        raise ConfigError("a student normalizes its inputs: set normalize.obs: true")
+
+
+class _Actor:
+    """The student's MLP (tanh hidden layers, linear head on actions scaled by ``scale``)."""
+
+    def __init__(self, in_dim: int, arch: list, seed: int):
+        import torch
+
+        torch.manual_seed(seed)
+        layers, k = [], in_dim
+        for w in arch:
+            layers += [torch.nn.Linear(k, w), torch.nn.Tanh()]
+            k = w
+        self.body = torch.nn.Sequential(*layers)
+        self.head = torch.nn.Linear(k, 2)
+        self.params = list(self.body.parameters()) + list(self.head.parameters())
+
+    def __call__(self, x):
+        return self.head(self.body(x))
+
+
+class Student:
+    """The student acting during collection: features -> normalized -> MLP -> valve commands."""
+
+    def __init__(self, actor: _Actor, mean, std, scale):
+        self.actor, self.mean, self.std, self.scale = actor, mean, std, scale
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        import torch
+
+        z = np.clip((x - self.mean) / self.std, -_CLIP_OBS, _CLIP_OBS)
+        with torch.no_grad():
+            a = self.actor(torch.as_tensor(z, dtype=torch.float32)).numpy()
+        return np.clip(a * self.scale, -1.0, 1.0).astype(np.float32)
+
+
+def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None, beta: float = 1.0):
+    """One episode in each of ``num_envs`` envs of ``suite``'s plant: the features the student saw
+    (T*N, dim) and the teacher's actions (T*N, 2). ``student``: a callable of features that drives
+    (the teacher every step with probability ``beta``); None: the teacher drives."""
+    import gymnasium as gym
+
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.control import make_controller
+
+    s = SUITES[suite]
+    venv = gym.make_vec(s.env_id, num_envs=num_envs, **s.env_kwargs)
+    try:
+        teacher = make_controller(cfg.student.teacher, venv)
+        features = Features(venv, cfg.agent, venv.unwrapped.core.obs_dim)
+        rng = np.random.default_rng(seed)
+        obs, info = venv.reset(seed=seed)
+        teacher.reset()
+        n_steps = venv.unwrapped.core.n_steps
+        xs, ys = [], []
+        for _ in range(n_steps):
+            x, _base = features(obs)
+            label = np.asarray(teacher.act(obs, info), dtype=np.float32)
+            xs.append(x)
+            ys.append(label)
+            act = label
+            if student is not None:
+                act = np.where((rng.random(num_envs) < beta)[:, None], label, student(x))
+            obs, _r, term, trunc, info = venv.step(act)
+            if (term | trunc).any():  # a burst bladder ends an episode early: its rows stop here
+                break
+        return np.concatenate(xs), np.concatenate(ys)
+    finally:
+        venv.close()
+
+
+def fit(actor: _Actor, x, y, mean, std, scale, steps: int, batch: int, lr: float, seed: int) -> float:
+    """``steps`` Adam steps (cosine-decayed) of the mean squared error on actions / ``scale``;
+    returns the last 100 steps' mean loss."""
+    import torch
+
+    g = torch.Generator().manual_seed(seed)
+    z = torch.as_tensor(np.clip((x - mean) / std, -_CLIP_OBS, _CLIP_OBS), dtype=torch.float32)
+    t = torch.as_tensor(y / scale, dtype=torch.float32)
+    opt = torch.optim.Adam(actor.params, lr=lr)
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, steps)
+    losses = []
+    for _ in range(steps):
+        idx = torch.randint(len(z), (min(batch, len(z)),), generator=g)
+        loss = ((actor(z[idx]) - t[idx]) ** 2).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sched.step()
+        losses.append(loss.item())
+    return float(np.mean(losses[-100:]))
+
+
+def as_ppo(cfg: TrainConfig, actor: _Actor, mean, std, scale, seed: int):
+    """The student as an SB3 PPO model and its VecNormalize (the format every run loader reads):
+    the actor's layers copied into the policy network, the action scale folded into its head."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from .envs import make_train_env
+
+    env = VecNormalize(make_train_env(cfg, seed), norm_obs=True, norm_reward=False, clip_obs=_CLIP_OBS)
+    env.obs_rms.mean = mean.astype(np.float64)
+    env.obs_rms.var = np.maximum(std.astype(np.float64) ** 2 - _VAR_EPS, 0.0)
+    env.training = False
+    arch = list(cfg.student.net_arch)
+    model = PPO(
+        "MlpPolicy",
+        env,
+        seed=seed,
+        device="cpu",
+        policy_kwargs={"net_arch": {"pi": arch, "vf": [64, 64]}, "activation_fn": torch.nn.Tanh},
+    )
+    pi = [m for m in model.policy.mlp_extractor.policy_net if isinstance(m, torch.nn.Linear)]
+    mine = [m for m in actor.body if isinstance(m, torch.nn.Linear)]
+    s = torch.as_tensor(scale, dtype=torch.float32)
+    with torch.no_grad():
+        for dst, src in zip(pi, mine, strict=True):
+            dst.weight.copy_(src.weight)
+            dst.bias.copy_(src.bias)
+        model.policy.action_net.weight.copy_(actor.head.weight * s[:, None])
+        model.policy.action_net.bias.copy_(actor.head.bias * s)
+    return model, env
+
+
+def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -> int:
+    """DAgger rounds, then save and score the student (the run directory's usual files)."""
+    import torch
+
+    from .checkpoints import save_model
+    from .envs import eval_env_spec
+    from .policy import evaluate, load_policy
+
+    check_student(cfg)
+    torch.set_num_threads(cfg.torch_threads)
+    st, t0 = cfg.student, time.perf_counter()
+    record = RunRecord(run, cfg.seed, argv)
+    record.write("running", 0)
+
+    def say(msg: str) -> None:
+        if not quiet:
+            print(f"student {run.name}: {msg}", flush=True)
+
+    xs: list = []
+    ys: list = []
+    actor = mean = std = scale = None
+    rounds, stopped = [], False
+    for it in range(st.iterations):
+        tr = time.perf_counter()
+        student = None if actor is None else Student(actor, mean, std, scale)
+        for k, (suite, n) in enumerate(sorted(st.suites.items())):
+            # episodes of the run's own seed, a new one per round and suite (never the suites')
+            seed = 1_000_003 * (cfg.seed + 1) + 101 * it + k
+            x, y = collect(cfg, suite, n, seed, student, st.beta)
+            xs.append(x)
+            ys.append(y)
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        if actor is None:  # statistics of the teacher's states, frozen like a deployed normalizer
+            mean, std = x.mean(0), x.std(0) + 1e-3
+            scale = y.std(0) + 1e-6
+            actor = _Actor(x.shape[1], st.net_arch, cfg.seed)
+        loss = fit(
+            actor, x, y, mean, std, scale, st.gradient_steps, st.batch_size, st.learning_rate, cfg.seed + it
+        )
+        rounds.append(
+            {"round": it, "labels": len(x), "loss": loss, "seconds": round(time.perf_counter() - tr, 1)}
+        )
+        say(f"round {it}: {len(x)} labels, scaled loss {loss:.3f}, {rounds[-1]['seconds']} s")
+        record.write("running", 0, rounds=rounds)
+        limit = cfg.time_limit_minutes
+        if limit is not None and it + 1 < st.iterations and time.perf_counter() - t0 > 60 * limit:
+            stopped = True
+            say(f"stopped by the time limit ({limit} min) after {it + 1} of {st.iterations} rounds")
+            break
+    model, vecnorm = as_ppo(cfg, actor, mean, std, scale, cfg.seed)
+    save_model(run, "final", model, vecnorm)
+    vecnorm.close()
+    env_id, kwargs, spec = eval_env_spec(cfg)
+    metrics = evaluate(
+        lambda venv: load_policy(run, venv, "final"), env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec
+    )
+    wall = round(time.perf_counter() - t0, 1)
+    summary = {"labels": int(sum(len(v) for v in xs)), "rounds": rounds, "wall_s": wall, "eval": metrics}
+    write_json(run / "evaluations.json", [{"step": summary["labels"], **metrics}])
+    write_json(run / "summary.json", {"steps": summary["labels"], **summary})
+    status = "stopped_by_time_limit" if stopped else "finished"
+    record.write(status, 0, steps=summary["labels"], wall_s=wall)
+    say(f"{status} in {wall} s; eval score {metrics['score']:.4f} ({json.dumps(cfg.eval.suite)})")
+    return 0
