@@ -123,6 +123,9 @@ class AgentConfig:
       ``clip(baseline + residual_scale * a, -1, 1)``.
     * ``baseline_in_obs``: the baseline's action is appended to the observation (not with
       ``target_shift``: the baseline acts only after the policy has chosen the shift).
+    * ``setpoint_gaps_in_obs``: the gaps between the baseline's set-point pressures (the nominal
+      inverse static model at its load estimate) and the measured ones are appended, in units of
+      100 kPa: what the model says each chamber still needs (same restriction).
     * ``history``: the last ``history`` observations are stacked.
     * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
       restarted with each episode) are appended: a cheap memory over seconds.
@@ -136,6 +139,7 @@ class AgentConfig:
     residual: bool = False
     residual_scale: float = 0.5
     baseline_in_obs: bool = False
+    setpoint_gaps_in_obs: bool = False
     history: int = 1
     target_shift: bool = False
     target_shift_length_mm: float = 5.0
@@ -148,7 +152,7 @@ class AgentConfig:
 
     @property
     def uses_baseline(self) -> bool:
-        return self.residual or self.baseline_in_obs or self.target_shift
+        return self.residual or self.baseline_in_obs or self.setpoint_gaps_in_obs or self.target_shift
 
     @classmethod
     def parse(cls, data: Any) -> AgentConfig:
@@ -158,6 +162,7 @@ class AgentConfig:
             as_bool(d.get("residual", False), "agent.residual"),
             as_float(d.get("residual_scale", 0.5), "agent.residual_scale", 0.0),
             as_bool(d.get("baseline_in_obs", False), "agent.baseline_in_obs"),
+            as_bool(d.get("setpoint_gaps_in_obs", False), "agent.setpoint_gaps_in_obs"),
             as_int(d.get("history", 1), "agent.history", 1),
             as_bool(d.get("target_shift", False), "agent.target_shift"),
             as_float(d.get("target_shift_length_mm", 5.0), "agent.target_shift_length_mm", 0.0),
@@ -166,10 +171,10 @@ class AgentConfig:
             _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),
             as_bool(d.get("privileged_critic", False), "agent.privileged_critic"),
         )
-        if out.target_shift and out.baseline_in_obs:
+        if out.target_shift and (out.baseline_in_obs or out.setpoint_gaps_in_obs):
             raise ConfigError(
-                "agent.baseline_in_obs cannot be used with agent.target_shift (the baseline "
-                "acts after the policy has chosen the shift); drop one of them"
+                "agent.baseline_in_obs and agent.setpoint_gaps_in_obs cannot be used with "
+                "agent.target_shift (the baseline acts after the policy has chosen the shift); drop one"
             )
         return out
 

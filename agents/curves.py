@@ -108,9 +108,43 @@ def train_all(runs: list[tuple], out: Path, minutes: float, jobs: int) -> None:
 
 
 # --------------------------------------------------------------------------- the report
+def eval_references(out: Path, suite: str, episodes: int, seed: int) -> tuple[float, float]:
+    """The zero controller's and the oracle's scores on the periodic evaluation's own episodes
+    (``episodes`` from ``seed`` on the suite's env): the ends its scores are normalized between.
+    The suite's stored references are measured on other episodes (its own seed and count), so
+    they cannot normalize these. Measured once, cached in ``out/eval_references.json``."""
+    from cepam_gym.bench.harness import record
+    from cepam_gym.bench.metrics import score_traces
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.control import make_controller
+
+    path = out / "eval_references.json"
+    cache = json.loads(path.read_text()) if path.is_file() else {}
+    key = f"{suite}|{episodes}|{seed}"
+    if key not in cache:
+        s = SUITES[suite]
+        ends = []
+        for name in ("zero", "oracle"):
+            tr, track_k = record(
+                lambda venv, name=name: make_controller(name, venv),
+                s.env_id,
+                s.env_kwargs,
+                episodes,
+                seed,
+                spec=s.traces,
+            )
+            ends.append(float(score_traces(tr, track_k, s.traces)["score"]))
+        cache[key] = ends
+        path.write_text(json.dumps(cache, indent=1))
+    return tuple(cache[key])
+
+
 def read_curves(out: Path) -> list[dict]:
-    """Every periodic evaluation of every run under ``out``, normalized with the suite's stored
-    reference scores (None for a suite without: the joint)."""
+    """Every periodic evaluation of every run under ``out``, normalized between the zero
+    controller and the oracle on the same episodes (:func:`eval_references`; None for a suite
+    without an oracle: the MuJoCo joint)."""
+    import yaml
+
     from cepam_gym.bench.metrics import normalized_score
     from cepam_gym.bench.suites import REFERENCE_SCORES
 
@@ -121,6 +155,10 @@ def read_curves(out: Path) -> list[dict]:
                 ev = d / "evaluations.json"
                 if not d.is_dir() or not ev.is_file():
                     continue
+                ends = None
+                if suite in REFERENCE_SCORES:
+                    cfg = yaml.safe_load((d / "config.yaml").read_text())["eval"]
+                    ends = eval_references(out, suite, int(cfg["episodes"]), int(cfg["seed"]))
                 for e in json.loads(ev.read_text()):
                     rows.append(
                         {
@@ -130,9 +168,7 @@ def read_curves(out: Path) -> list[dict]:
                             "steps": int(e["step"]),
                             "wall_s": float(e["wall_s"]),
                             "score": float(e["score"]),
-                            "normalized": normalized_score(e["score"], *REFERENCE_SCORES[suite])
-                            if suite in REFERENCE_SCORES
-                            else None,
+                            "normalized": None if ends is None else normalized_score(e["score"], *ends),
                         }
                     )
     return rows

@@ -5,6 +5,8 @@
   inverse-model baseline is given; the baseline's valve commands for them go to the env.
 * ``residual``: the policy's (last) two actions are added: ``clip(baseline + residual_scale * a, -1, 1)``.
 * ``baseline_in_obs``: the baseline's action is appended to the env observation.
+* ``setpoint_gaps_in_obs``: the baseline's set-point pressure gaps (model minus measured, per
+  chamber, in units of 100 kPa) are appended.
 * ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
 * ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
   starts with copies of its first one.
@@ -21,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from .config import AgentConfig
+
+_GAP_UNIT_PA = 1e5  # the set-point gaps' unit: 100 kPa, the order of the chambers' working range
 
 
 class Features:
@@ -51,6 +55,7 @@ class Features:
         self.frame_dim = (
             self.raw_dim
             + (2 if cfg.baseline_in_obs else 0)
+            + (2 if cfg.setpoint_gaps_in_obs else 0)
             + self._shift_obs
             + self.raw_dim * len(cfg.obs_filters_s)
         )
@@ -121,6 +126,9 @@ class Features:
         self._obs = obs
         base = self.baseline.act(obs) if (self.baseline is not None and not self.acts_late) else None
         frame = np.concatenate([obs, base], axis=1) if self.cfg.baseline_in_obs else obs
+        if self.cfg.setpoint_gaps_in_obs:
+            gap = (self.baseline.last_gap / _GAP_UNIT_PA).astype(np.float32)
+            frame = np.concatenate([frame, gap], axis=1)
         if self._shift_obs:
             state = (
                 np.zeros((obs.shape[0], self.n_shift))

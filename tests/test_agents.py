@@ -445,7 +445,7 @@ def test_target_shift_moves_the_baselines_targets(env_id, residual, n_act):
 
 
 def test_target_shift_excludes_baseline_in_obs():
-    with pytest.raises(ConfigError, match="baseline_in_obs cannot be used with agent.target_shift"):
+    with pytest.raises(ConfigError, match="cannot be used with agent.target_shift"):
         _cfg(agent={"target_shift": True, "baseline_in_obs": True})
 
 

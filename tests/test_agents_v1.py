@@ -196,23 +196,43 @@ def test_v1_configs_are_shipped_and_the_curve_runner_sets_id_suite_seed():
         run_config("PPO", "cepam_gym/CEPAM-v0", 0, 1.0)
 
 
-def test_curves_are_normalized_with_the_reference_scores_and_plotted(tmp_path):
-    from cepam_gym.bench.suites import REFERENCE_SCORES
+def test_curves_are_normalized_on_the_evaluations_own_episodes_and_plotted(tmp_path):
+    """A periodic evaluation (16 episodes from seed 12345, say) is normalized between the zero
+    controller and the oracle on those same episodes, not the suite's stored 20-episode ends."""
     from cepam_gym_agents.curves import plot_curves, read_curves, write_csv
 
-    zero, oracle = REFERENCE_SCORES["nominal-v1"]
+    zero, oracle = 2.0, 0.01  # the ends on the evaluation's episodes (cached, as a run measures)
+    runs = tmp_path / "runs"
     for seed, scores in ((0, [zero, oracle]), (1, [zero, (zero + oracle) / 2])):
-        d = tmp_path / "runs" / "PPO" / "CEPAM-v1" / f"seed{seed}"
+        d = runs / "PPO" / "CEPAM-v1" / f"seed{seed}"
         d.mkdir(parents=True)
         ev = [{"step": 1000 * (i + 1), "wall_s": 10.0 * (i + 1), "score": s} for i, s in enumerate(scores)]
         (d / "evaluations.json").write_text(json.dumps(ev))
-    rows = read_curves(tmp_path / "runs")
+        (d / "config.yaml").write_text("eval: {episodes: 16, seed: 12345}\n")
+    (runs / "eval_references.json").write_text(json.dumps({"nominal-v1|16|12345": [zero, oracle]}))
+    rows = read_curves(runs)
     assert [round(r["normalized"], 6) for r in rows] == [0.0, 100.0, 0.0, 50.0]
     write_csv(rows, tmp_path / "curves.csv")
     lines = (tmp_path / "curves.csv").read_text().splitlines()
     assert lines[0].startswith("algorithm,env_id,seed,steps") and len(lines) == 5
     (png,) = plot_curves(rows, tmp_path)
     assert png.name == "CEPAM-v1.png" and png.stat().st_size > 10_000
+
+
+@pytest.mark.slow  # runs the oracle on an episode
+def test_eval_references_are_measured_on_the_evaluation_episodes(tmp_path):
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.suites import REFERENCE_SCORES, SUITES, Suite
+    from cepam_gym_agents.curves import eval_references
+
+    zero, oracle = eval_references(tmp_path, "nominal-v1", 1, 777)
+    s = SUITES["nominal-v1"]
+    other = Suite(s.name, s.env_id, s.env_kwargs, seed=777, traces=s.traces)
+    want, _ = run_suite("zero", other, episodes=1)
+    assert zero == pytest.approx(want["score"], rel=1e-12)
+    assert 0 < oracle < 0.1 * zero
+    assert (zero, oracle) != REFERENCE_SCORES["nominal-v1"]
+    assert json.loads((tmp_path / "eval_references.json").read_text())["nominal-v1|1|777"] == [zero, oracle]
 
 
 def test_comparison_goals_of_the_v1_suites():

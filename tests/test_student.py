@@ -102,3 +102,29 @@ def test_student_learns_to_beat_the_baseline(tmp_path):
     baseline, _ = run_suite("baseline", "nominal-v1", episodes=4)
     assert student["failure_rate"] == 0.0
     assert student["score"] < baseline["score"], (student["score"], baseline["score"])
+
+
+def test_setpoint_gaps_are_the_nominal_models_pressure_gaps():
+    """The feature is the baseline's set-point minus the measured pressure (100 kPa units): near
+    zero where an episode starts at rest on its reference (nominal plant, pressures set by the
+    inverse model), and it follows a pressure the env is pushed away from."""
+    import gymnasium as gym
+
+    from cepam_gym.control import InverseStaticController
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features
+
+    venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=3)
+    obs, _ = venv.reset(seed=3)
+    feats = Features(venv, AgentConfig(setpoint_gaps_in_obs=True), obs.shape[1])
+    f, _ = feats(obs)
+    assert f.shape == (3, obs.shape[1] + 2)
+    ref = InverseStaticController(venv)
+    ref.act(obs)
+    np.testing.assert_allclose(f[:, -2:], ref.last_gap / 1e5, rtol=1e-5, atol=1e-7)
+    assert np.abs(f[:, -2:]).max() < 0.05  # < 5 kPa at rest on the reference
+    for _ in range(10):  # exhaust the contractor: its gap opens, positive (it needs air back)
+        obs, *_ = venv.step(np.tile(np.array([-1.0, 0.0], np.float32), (3, 1)))
+    f, _ = feats(obs)
+    assert (f[:, -2] > 0.2).all(), f[:, -2]
+    venv.close()

@@ -161,7 +161,10 @@ class InverseStaticController:
         return self._weight
 
     def _drive(self, pc_set, pe_set, L, pc, pe, setpoint_max: float, single: bool) -> np.ndarray:
-        """Actions that bring the chambers to the set-points, by action mode (step 4 above)."""
+        """Actions that bring the chambers to the set-points, by action mode (step 4 above).
+        Keeps the set-point gaps ``last_gap`` (N, 2) [Pa], contractor then extensor: what the
+        nominal model says each chamber still needs (agents read them as a feature)."""
+        self.last_gap = np.stack([np.asarray(pc_set - pc, float), np.asarray(pe_set - pe, float)], axis=1)
         if self.mode == "pressure":
             action = pressure_actions(pc_set, pe_set, setpoint_max)
         else:
