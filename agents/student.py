@@ -46,6 +46,13 @@ def check_student(cfg: TrainConfig) -> None:
         )
     if not cfg.normalize.obs:
         raise ConfigError("a student normalizes its inputs: set normalize.obs: true")
+    from cepam_gym.bench.suites import SUITES
+
+    other = {s: SUITES[s].env_id for s in cfg.student.suites if SUITES[s].env_id != cfg.env.id}
+    if other:
+        raise ConfigError(
+            f"student.suites must run env.id {cfg.env.id!r} (the student's observation): {other} do not"
+        )
 
 
 class _Actor:
