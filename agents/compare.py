@@ -92,7 +92,9 @@ def measure(configs, seeds, out: Path, unseen: int, cache: dict) -> dict:
 
 
 def table(configs, seeds, cache: dict) -> str:
-    from cepam_gym.bench.stats import iqm_interval
+    import numpy as np
+
+    from cepam_gym.bench.stats import MIN_SEEDS, iqm_interval
 
     lines = [
         "| suite | episodes | controller | score (IQM over seeds, 95 % CI) | gap closed |",
@@ -111,10 +113,15 @@ def table(configs, seeds, cache: dict) -> str:
                 lines.append(f"| {suite} | {where} | {name} | {v:.4f} | {gap(v)} |")
             for c in configs:
                 vals = [cache[f"{suite}|{where}|{Path(c).stem}-s{s}"] for s in seeds]
-                iqm, lo, hi = iqm_interval({"x": vals})["x"]
+                if len(vals) >= MIN_SEEDS:
+                    iqm, lo, hi = iqm_interval({"x": vals})["x"]
+                    cell = f"**{iqm:.4f}** ({lo:.4f}-{hi:.4f})"
+                else:  # too few seeds for an IQM: the mean and the range, said so
+                    iqm = float(np.mean(vals))
+                    cell = f"**{iqm:.4f}** (mean, range {min(vals):.4f}-{max(vals):.4f}; no IQM"
+                    cell += f" under {MIN_SEEDS} seeds)"
                 lines.append(
-                    f"| {suite} | {where} | **{Path(c).stem}** ({len(seeds)} seeds) | "
-                    f"**{iqm:.4f}** ({lo:.4f}-{hi:.4f}) | {gap(iqm)} |"
+                    f"| {suite} | {where} | **{Path(c).stem}** ({len(seeds)} seeds) | {cell} | {gap(iqm)} |"
                 )
     return "\n".join(lines) + "\n"
 

@@ -132,3 +132,20 @@ def test_setpoint_gaps_are_the_nominal_models_pressure_gaps():
     f, _ = feats(obs)
     assert (f[:, -2] > 0.2).all(), f[:, -2]
     venv.close()
+
+
+def test_comparison_table_gives_iqm_and_the_gap_closed():
+    from cepam_gym_agents.compare import CONTROLLERS, SUITES, UNSEEN_CONTROLLERS, table
+
+    cache = {}
+    for suite in SUITES:
+        for where, names in (("suite", CONTROLLERS), ("unseen", UNSEEN_CONTROLLERS)):
+            cache.update({f"{suite}|{where}|{n}": 0.5 for n in names})
+            cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"] = 1.0, 0.0
+            for s, v in enumerate([0.2, 0.2, 0.2, 0.2, 0.9]):  # IQM of five: the middle three
+                cache[f"{suite}|{where}|student-s{s}"] = v
+    md = table(["student"], range(5), cache)
+    rows = [r for r in md.splitlines() if "student" in r]
+    assert len(rows) == 4 and all("**0.2" in r and "| 80 % |" in r for r in rows), rows
+    one = table(["student"], [4], cache)
+    assert "no IQM under 5 seeds" in one and "| 10 % |" in one
