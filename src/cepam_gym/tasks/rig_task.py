@@ -14,8 +14,8 @@ from ..physics import api
 from ..physics import layout as ix
 from . import kernel as tk
 from .layout import rig_layout
+from .planner import planned_schedules
 from .randomization import Randomizer
-from .references import planned_schedules
 from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
 from .task import Task
 
@@ -103,7 +103,7 @@ class RigTask(Task):
 
     # ------------------------------------------------------------------ reset
     def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
-        """:func:`~cepam_gym.tasks.references.planned_schedules`."""
+        """:func:`~cepam_gym.tasks.planner.planned_schedules`."""
         return planned_schedules(rngs, self.spec, rows, n_steps, control_dt)
 
     def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
