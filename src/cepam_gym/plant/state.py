@@ -45,9 +45,14 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
     if np.any(pc + prow[:, ix.P_ATM] <= 0) or np.any(pe + prow[:, ix.P_ATM] <= 0):
         raise InputError("initial gauge pressures must be above vacuum (> -atmospheric)")
     x = np.zeros((n, N_STATE))
-    for i in range(n):
-        _initial_row(L[i], pc[i], pe[i], temp[i], prow[i], x[i])
+    _initial_rows(L, pc, pe, temp, prow, x)
     return x
+
+
+@jit
+def _initial_rows(L, pc, pe, temp, prow, x):
+    for i in range(x.shape[0]):
+        _initial_row(L[i], pc[i], pe[i], temp[i], prow[i], x[i])
 
 
 def stability_number(params, dt: float) -> np.ndarray:
@@ -101,6 +106,11 @@ def measure(state, params):
     state = np.atleast_2d(state)
     params = np.atleast_2d(params)
     aux = np.zeros((state.shape[0], N_AUX))
+    _measure_rows(state, params, aux)
+    return aux
+
+
+@jit
+def _measure_rows(state, params, aux):
     for i in range(state.shape[0]):
         measure_row(state[i], params[0] if params.shape[0] == 1 else params[i], aux[i])
-    return aux

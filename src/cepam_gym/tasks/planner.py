@@ -33,7 +33,7 @@ from .._jit import jit
 from ..physics import layout as ix
 from . import plan_vectors as pv
 from . import rng as R
-from .reach import consts, project_into
+from .reach import N_T, consts, project_into
 from .references import shape_k
 from .schedules import _no_target, schedule_env
 from .spec import TaskSpec
@@ -83,6 +83,7 @@ def _reference_joint(s, sv, mv, p, dt, ta, tk, torque, initial):
     _equivalent_load(ta, torque, p, mv, load)
     work = np.empty((6, n))
     Ls, Ks, angle, load2, L2, K2 = work[0], work[1], work[2], work[3], work[4], work[5]
+    T = np.empty((N_T, n))
     for attempt in range(2):
         k = kind if attempt == 0 else pv.REF_MIN_JERK
         if attempt == 1 and kind == pv.REF_MIN_JERK:
@@ -92,7 +93,7 @@ def _reference_joint(s, sv, mv, p, dt, ta, tk, torque, initial):
         for i in range(n):
             angle[i] = (p[ix.L_MAX] - Ls[i]) / r
         _equivalent_load(angle, torque, p, mv, load2)
-        if project_into(Ls, Ks, load2, p, c, len_lo, len_hi, L2, K2) >= 0:
+        if project_into(Ls, Ks, load2, p, c, len_lo, len_hi, L2, K2, T) >= 0:
             continue
         for i in range(n):
             ta[i] = (p[ix.L_MAX] - L2[i]) / r

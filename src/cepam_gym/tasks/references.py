@@ -39,7 +39,17 @@ from ..errors import InputError
 from ..physics import layout as ix
 from . import plan_vectors as pv
 from . import rng as R
-from .reach import consts, interval_at, npclip, npmax, npmin, project_into, rate_ratios
+from .reach import (
+    N_T,
+    consts,
+    npclip,
+    npmax,
+    npmin,
+    profile_intervals,
+    profile_terms,
+    project_into,
+    rate_ratios,
+)
 from .spec import REFERENCE_KINDS, TaskSpec
 
 __all__ = [
@@ -94,30 +104,34 @@ def smooth_steps_k(v, dt, move_s, out):
 def smooth_reference_k(tl, tk, load, p, c, len_lo, len_hi, dt, move_s, L_out, K_out):
     """:func:`smooth_reference` into ``(L_out, K_out)``; False when not reachable."""
     n = tl.shape[0]
-    both, smooth, ratio = np.empty((2, n)), np.empty((2, n)), np.empty(n)
+    both, smooth, ratio, T = np.empty((2, n)), np.empty((2, n)), np.empty(n), np.empty((N_T, n))
     both[0], both[1] = tl, tk
     for _ in range(_RETRIES):
         smooth_steps_k(both, dt, move_s, smooth)
-        if project_into(smooth[0], smooth[1], load, p, c, len_lo, len_hi, L_out, K_out) >= 0:
+        if project_into(smooth[0], smooth[1], load, p, c, len_lo, len_hi, L_out, K_out, T) >= 0:
             return False
-        if rate_ratios(L_out, K_out, load, p, dt, _RATE_FRACTION, ratio):
+        if rate_ratios(L_out, K_out, load, p, dt, _RATE_FRACTION, ratio, T):
             return True
         move_s /= _SLOWDOWN
     return True  # the slowest moves tried; the ratio says how far from followable they remain
 
 
 @jit
-def _constant_k(s, L, load, p, c):
+def _constant_k(s, L, load, p, c, T):
     """One stiffness reachable over the whole length profile ``L`` under ``load`` (the middle of
     the intersection of the per-step intervals, drawn), or NaN without a draw when there is none.
-    The intervals are never NaN, so the intersection is known empty as soon as it is."""
-    lo, hi = -np.inf, np.inf
-    for i in range(L.shape[0]):
-        w = (p[ix.M_END] + load[i]) * p[ix.GRAV]
-        k_lo, k_hi = interval_at(L[i], w, w, p, c)
-        lo, hi = (k_lo, k_hi) if i == 0 else (npmax(lo, k_lo), npmin(hi, k_hi))
-        if hi <= lo:
-            return np.nan
+    ``T`` then holds the terms of ``L``."""
+    n = L.shape[0]
+    w, k_lo, k_hi = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        w[i] = (p[ix.M_END] + load[i]) * p[ix.GRAV]
+    profile_terms(L, p, T)
+    profile_intervals(T, w, p, c, k_lo, k_hi)
+    lo, hi = k_lo[0], k_hi[0]
+    for i in range(1, n):
+        lo, hi = npmax(lo, k_lo[i]), npmin(hi, k_hi[i])
+    if hi <= lo:
+        return np.nan
     return lo + R.uniform(s, 0.2, 0.8) * (hi - lo)
 
 
@@ -132,7 +146,7 @@ def periodic_length_k(s, load, p, c, len_lo, len_hi, dt, chirp, f_lo, f_hi, L_ou
     if f1 < f0:
         f0, f1 = f1, f0
     phase = R.uniform(s, 0.0, 2 * np.pi)
-    ratio = np.empty(n)
+    ratio, T = np.empty(n), np.empty((N_T, n))
     for _ in range(_RETRIES * 2):
         if chirp:
             sweep = 0.5 * (f1 - f0) / max(t_last, dt)
@@ -143,12 +157,12 @@ def periodic_length_k(s, load, p, c, len_lo, len_hi, dt, chirp, f_lo, f_hi, L_ou
             omega = 2 * np.pi * f1
             for i in range(n):
                 L_out[i] = centre + amp * np.sin(omega * (i * dt) + phase)
-        K = _constant_k(s, L_out, load, p, c)
+        K = _constant_k(s, L_out, load, p, c, T)
         if K != K:
             amp *= _SLOWDOWN
             continue
         K_out[:] = K
-        if rate_ratios(L_out, K_out, load, p, dt, _RATE_FRACTION, ratio):
+        if rate_ratios(L_out, K_out, load, p, dt, _RATE_FRACTION, ratio, T):
             return True
         f0, f1 = f0 * _SLOWDOWN, f1 * _SLOWDOWN
     return False
@@ -173,7 +187,7 @@ def stiffness_ramp_k(tk, load, p, c, len_lo, len_hi, length, L_out, K_out):
             ramp[a + j] = start + (tk[a] - start) * npmin((j + 1) / m, 1.0)
         a = b
     L_out[:] = length
-    return project_into(L_out, ramp, load, p, c, len_lo, len_hi, L_out, K_out) < 0
+    return project_into(L_out, ramp, load, p, c, len_lo, len_hi, L_out, K_out, np.empty((N_T, n))) < 0
 
 
 @jit
@@ -224,7 +238,8 @@ def _row_consts(params_row, spec: TaskSpec):
 
 @jit
 def _project(L, K, load, p, k_min, k_max, margin, len_lo, len_hi, L_out, K_out):
-    return project_into(L, K, load, p, consts(p, k_min, k_max, margin), len_lo, len_hi, L_out, K_out)
+    c = consts(p, k_min, k_max, margin)
+    return project_into(L, K, load, p, c, len_lo, len_hi, L_out, K_out, np.empty((N_T, L.shape[0])))
 
 
 def project(target_l, target_k, load, params_row, spec: TaskSpec):
@@ -250,8 +265,10 @@ def pressure_rate_ratio(target_l, target_k, load, params_row, dt: float) -> np.n
     gives there): above 1 no valve can follow the reference; below about 0.5 it leaves room for
     feedback."""
     L, K, w = (np.ascontiguousarray(a, dtype=float) for a in (target_l, target_k, load))
-    out = np.empty(L.shape[0])
-    rate_ratios(L, K, w, np.ascontiguousarray(params_row, dtype=float), float(dt), np.inf, out)
+    p = np.ascontiguousarray(params_row, dtype=float)
+    out, T = np.empty(L.shape[0]), np.empty((N_T, L.shape[0]))
+    profile_terms(L, p, T)
+    rate_ratios(L, K, w, p, float(dt), np.inf, out, T)
     return out
 
 

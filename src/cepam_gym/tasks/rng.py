@@ -27,7 +27,7 @@ from numba.extending import intrinsic
 
 from .._jit import jit_inline
 
-__all__ = ["N_RNG", "pack", "unpack", "next_double", "uniform", "integers"]
+__all__ = ["N_RNG", "Streams", "pack", "unpack", "next_double", "uniform", "integers"]
 
 N_RNG = 6  # state hi, state lo, increment hi, increment lo, has_uint32, uinteger
 _S_HI, _S_LO, _I_HI, _I_LO, _HAS32, _U32 = range(N_RNG)
@@ -36,7 +36,10 @@ _MULT = 0x2360ED051FC65DA44385DF649FCCF645  # PCG_DEFAULT_MULTIPLIER_128
 
 
 def pack(rngs) -> np.ndarray:
-    """The states of PCG64 generators ``rngs`` as an (n, N_RNG) uint64 array."""
+    """The states of PCG64 generators ``rngs`` (a list, or a :class:`Streams` view) as an
+    (n, N_RNG) uint64 array."""
+    if isinstance(rngs, _View):
+        return rngs.pack()
     out = np.empty((len(rngs), N_RNG), dtype=np.uint64)
     for i, r in enumerate(rngs):
         st = r.bit_generator.state
@@ -49,6 +52,9 @@ def pack(rngs) -> np.ndarray:
 
 def unpack(rngs, states: np.ndarray) -> None:
     """Write the states of :func:`pack` (advanced by compiled draws) back into ``rngs``."""
+    if isinstance(rngs, _View):
+        rngs.unpack(states)
+        return
     for r, row in zip(rngs, states.tolist()):
         r.bit_generator.state = {
             "bit_generator": "PCG64",
@@ -56,6 +62,55 @@ def unpack(rngs, states: np.ndarray) -> None:
             "has_uint32": row[_HAS32],
             "uinteger": row[_U32],
         }
+
+
+class Streams:
+    """The generators of a batch of envs, whose states the compiled draws keep as rows between
+    resets: reading and writing a NumPy generator's state costs about 1 us each way, more than a
+    planned episode's share of the reset, so a row goes back into its generator only when Python
+    code asks for the generator (:meth:`generators`)."""
+
+    def __init__(self, generators):
+        self._gens = list(generators)
+        self._rows = np.zeros((len(self._gens), N_RNG), dtype=np.uint64)
+        self._in_rows = np.zeros(len(self._gens), dtype=bool)  # True: the row is newer
+
+    def __len__(self) -> int:
+        return len(self._gens)
+
+    def generators(self, idx=None) -> list:
+        """The generators of envs ``idx`` (all if None), brought up to date."""
+        idx = np.arange(len(self._gens)) if idx is None else np.asarray(idx)
+        stale = idx[self._in_rows[idx]]
+        if stale.size:
+            unpack([self._gens[i] for i in stale], self._rows[stale])
+            self._in_rows[stale] = False
+        return [self._gens[i] for i in idx]
+
+    def view(self, idx) -> _View:
+        """Envs ``idx`` as :func:`pack` and :func:`unpack` take them (no conversion for rows
+        already held)."""
+        return _View(self, np.asarray(idx))
+
+
+class _View:
+    def __init__(self, streams: Streams, idx: np.ndarray):
+        self.streams, self.idx = streams, idx
+
+    def __len__(self) -> int:
+        return len(self.idx)
+
+    def pack(self) -> np.ndarray:
+        s = self.streams
+        fresh = self.idx[~s._in_rows[self.idx]]
+        if fresh.size:
+            s._rows[fresh] = pack([s._gens[i] for i in fresh])
+            s._in_rows[fresh] = True
+        return s._rows[self.idx]
+
+    def unpack(self, states: np.ndarray) -> None:
+        self.streams._rows[self.idx] = states
+        self.streams._in_rows[self.idx] = True
 
 
 @intrinsic
