@@ -15,6 +15,28 @@ from .substep import measure_row
 
 
 @jit
+def rest_rows(rows, L, pc, pe, params, state, aux):
+    """Plants ``rows`` of a batch at rest at ``L[j]`` [m] with gauge pressures ``pc[j]``, ``pe[j]``
+    [Pa], air at the ambient temperature (as :func:`initial_state`), into ``state`` and their
+    :func:`measure` into ``aux``, in one compiled call (the reset's). Returns the first ``j``
+    :func:`initial_state` would refuse (outside the end stops, below vacuum), else -1, having
+    written nothing."""
+    shared = params.shape[0] == 1
+    for j in range(rows.shape[0]):
+        p = params[0] if shared else params[rows[j]]
+        patm = p[ix.P_ATM]
+        if not (p[ix.L_MIN] <= L[j] <= p[ix.L_MAX]) or pc[j] + patm <= 0.0 or pe[j] + patm <= 0.0:
+            return j
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        p = params[0] if shared else params[i]
+        _initial_row(L[j], pc[j], pe[j], p[ix.T_AMB], p, state[i])
+        aux[i, :] = 0.0  # as measure's fresh rows: nothing of the last step's bookkeeping stays
+        measure_row(state[i], p, aux[i])
+    return -1
+
+
+@jit
 def _initial_row(L, pc, pe, temp, p, x):
     vol_c, vol_e, _a, _b = chamber_volumes(L, p)
     patm = p[ix.P_ATM]

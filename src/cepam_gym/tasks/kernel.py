@@ -453,6 +453,7 @@ _F_TERMS, _F_REW, _F_NOISE, _F_TASK, _F_DT, _F_INFO, _F_W = (
 )
 _F_SCHED = _o  # then target length, target stiffness and load, n_steps each
 _I_T, _I_REASON, _I_MODE, _I_NSUB, _I_MECH = range(5)
+NONFINITE_ACTION = -1  # env_step_single's reason for an action it refused
 
 
 def single_slabs(n_steps: int, mode: int, n_sub: int, dt: float, mech: int = pl.RIG):
@@ -477,7 +478,11 @@ def single_slabs(n_steps: int, mode: int, n_sub: int, dt: float, mech: int = pl.
 @jit
 def env_step_single(F, I, obs, a0, a1):
     """One control step of a single env whose arrays live in the slabs ``F``, ``I`` (see
-    :func:`single_slabs`), with the (finite) action ``(a0, a1)``; returns ``(reward, reason)``."""
+    :func:`single_slabs`), with the action ``(a0, a1)``; returns ``(reward, reason)``, or
+    ``(nan, NONFINITE_ACTION)`` without stepping when an action is NaN or inf (checked here: one
+    call less on the single env's hot path)."""
+    if not (math.isfinite(a0) and math.isfinite(a1)):
+        return math.nan, NONFINITE_ACTION
     n_steps = (F.shape[0] - _F_SCHED) // 3
     state = F[_F_STATE : _F_STATE + pl.N_STATE].reshape((1, pl.N_STATE))
     actions = F[_F_ACT : _F_ACT + 2].reshape((1, 2))

@@ -46,8 +46,24 @@ MV_JOINT, MV_L_MAX, MV_R, MV_R2, MV_MASS, MV_COM, MV_A_LO, MV_A_HI = range(8)
 N_MV = 8
 
 
+_CACHE: dict[int, tuple[TaskSpec, np.ndarray]] = {}
+
+
 def spec_vector(spec: TaskSpec) -> np.ndarray:
-    """The spec vector of ``spec`` (``SV_*`` columns)."""
+    """The spec vector of ``spec`` (``SV_*`` columns; built once per spec object: a single env's
+    reset asks for it every episode)."""
+    hit = _CACHE.get(id(spec))
+    if hit is not None and hit[0] is spec:
+        return hit[1]
+    v = _build(spec)
+    v.setflags(write=False)
+    if len(_CACHE) > 256:
+        _CACHE.clear()
+    _CACHE[id(spec)] = (spec, v)
+    return v
+
+
+def _build(spec: TaskSpec) -> np.ndarray:
     v = np.zeros(N_SV)
     v[SV_LEN_LO], v[SV_LEN_HI] = spec.length_range
     v[SV_FIXED] = math.nan if spec.fixed_length is None else spec.fixed_length

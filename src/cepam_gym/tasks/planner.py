@@ -31,9 +31,11 @@ from numba import njit, prange
 
 from .._jit import jit
 from ..physics import layout as ix
+from ..physics.statics import static_pressures
+from ..plant.state import initial_state, rest_rows
 from . import plan_vectors as pv
 from . import rng as R
-from .reach import N_T, consts, project_into
+from .reach import N_T, consts, npclip, npmin, project_into
 from .references import shape_k
 from .schedules import _no_target, schedule_env
 from .spec import TaskSpec
@@ -175,3 +177,39 @@ def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float, mec
     target_stiffness, load, initial)`` with arrays of shape (n_envs, n_steps) and ``initial``
     (n_envs, 2) = length, stiffness; :func:`plan` with ``shape=False``."""
     return plan(rngs, spec, params, n_steps, dt, mechanism, shape=False)
+
+
+@jit
+def _start_pressures(idx, initial, load0, params, mv, L, pc, pe):
+    """The muscle length [m] and chamber pressures [Pa] of the inverse static model at each env's
+    initial target under its first load (the joint's clipped to ``[0, min(supply, burst)]``, as
+    :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset` starts)."""
+    shared = params.shape[0] == 1
+    joint = mv[pv.MV_JOINT] != 0.0
+    for j in range(idx.shape[0]):
+        p = params[0] if shared else params[idx[j]]
+        if joint:
+            a0 = initial[j, 0]
+            L[j] = p[ix.L_MAX] - mv[pv.MV_R] * a0
+            w = pv.equivalent_weight(a0, load0[j], p, mv)
+            c, e, _ = static_pressures(L[j], initial[j, 1] / mv[pv.MV_R2], w, p)
+            cap = npmin(p[ix.P_SUP] - p[ix.P_ATM], p[ix.P_BURST])
+            pc[j], pe[j] = npclip(c, 0.0, cap), npclip(e, 0.0, cap)
+        else:
+            L[j] = initial[j, 0]
+            w = (p[ix.M_END] + load0[j]) * p[ix.GRAV]
+            pc[j], pe[j], _ = static_pressures(L[j], initial[j, 1], w, p)
+
+
+def start_at_rest(core, idx, initial, mechanism=None) -> None:
+    """Envs ``idx`` of ``core`` at rest at their ``initial`` (position, stiffness) rows under
+    their first load, step 0 (one compiled call for the pressures, one for the plants)."""
+    idx = np.ascontiguousarray(idx, dtype=np.int64)
+    mv = pv.rig_mechanism() if mechanism is None else mechanism
+    m = idx.shape[0]
+    L, pc, pe = np.empty(m), np.empty(m), np.empty(m)
+    load0 = np.ascontiguousarray(core.load[idx, 0])
+    _start_pressures(idx, np.ascontiguousarray(initial, dtype=float), load0, core.params, mv, L, pc, pe)
+    if rest_rows(idx, L, pc, pe, core.params, core.state, core.aux) >= 0:
+        initial_state(core.params[idx], L, pc, pe)  # raises, naming what is wrong
+    core.t_idx[idx] = 0

@@ -1,0 +1,124 @@
+"""How many threads the batched kernel uses when the user leaves ``num_threads=None``: the count
+that steps fastest on this machine now, found while the env runs.
+
+All cores are fastest on a quiet machine. Beside a process that keeps a core busy (a learner, a
+second training run) a parallel step waits for its slowest thread, and a thread that shares its
+core is descheduled for whole time slices: measured on a 2-core VM, 2 threads fell to a third of
+1 thread's speed at 1024 envs and to a seventeenth at 256 envs. No setting is right for both, and
+a machine changes between them while a run goes on. So :class:`ThreadChoice` times the kernel
+calls: it runs the count it believes fastest, tries the other now and then for a few steps
+(stopping at once if the first is slow) and keeps whichever is faster, trying less often while
+its choice keeps winning. The steps' results do not depend on the count (every env is computed
+alone, in its own block), only their speed does.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+
+import numba
+import numpy as np
+
+_PROBE_STEPS = 3  # calls of the other count per trial
+_FIRST_TRIAL, _MAX_INTERVAL = 4, 4000  # calls between trials (after a lost trial at least doubled)
+_COST_SPAN = 40  # a lost trial that cost r - 1 calls is followed by at least 40 r calls: < 2.5 %
+_SWITCH = 0.95  # the other count must take at most this fraction of the time
+_DRIFT = 1.3  # the current count's time changed by this factor since the last trial: try again
+_HISTORY = 9  # recent calls whose median is the current count's time
+
+
+class ThreadChoice:
+    """Picks one of ``counts`` (ascending; the first is the serial kernel) per kernel call."""
+
+    def __init__(self, counts: tuple[int, ...]):
+        self.counts = tuple(counts)
+        # serial first: at worst it is as many times slower as there are cores for a few calls,
+        # while a parallel step beside a busy core can be ten times slower still
+        self.current = self.counts[0]
+        self.trials = 0  # how many trials were run (benchmarks report it)
+        self._recent: list[float] = []
+        self._calls, self._last_trial = 0, 0
+        self._next_trial, self._interval = _FIRST_TRIAL, _FIRST_TRIAL
+        self._trial: list[float] | None = None  # the other count's times while it is tried
+        self._trial_count = self.current
+        self._ref = np.inf  # the current count's time after the last trial
+        self._up = False
+
+    def pick(self) -> int:
+        """The count for the next call."""
+        if self._trial is None and self._calls >= self._next_trial and len(self.counts) > 1:
+            self._up = not self._up
+            self._start(self._neighbour(self._up))
+        return self._trial_count if self._trial is not None else self.current
+
+    def record(self, count: int, seconds: float) -> None:
+        """The duration of a call made with ``count`` threads."""
+        self._calls += 1
+        if self._trial is not None:
+            self._trial.append(seconds)
+            mine = self._time()
+            if len(self._trial) >= _PROBE_STEPS or seconds > 2.0 * mine:  # a slow one: stop at once
+                self._end(float(np.median(self._trial)), mine)
+            return
+        self._recent = (self._recent + [seconds])[-_HISTORY:]
+        if len(self._recent) < _HISTORY or self._calls < self._last_trial + _HISTORY:
+            return
+        # the machine changed: busier (fewer threads may win) or quieter (more may)
+        mine = self._time()
+        if mine > _DRIFT * self._ref and self.current > self.counts[0]:
+            self._start(self._neighbour(up=False))
+        elif mine * _DRIFT < self._ref and self.current < self.counts[-1]:
+            self._start(self._neighbour(up=True))
+
+    def timed(self, run) -> None:
+        """``run(count)`` with the picked count, its duration recorded."""
+        count = self.pick()
+        t0 = time.perf_counter()
+        run(count)
+        self.record(count, time.perf_counter() - t0)
+
+    def _neighbour(self, up: bool) -> int:
+        i = self.counts.index(self.current)
+        if (up and i < len(self.counts) - 1) or i == 0:
+            return self.counts[i + 1]
+        return self.counts[i - 1]
+
+    def _time(self) -> float:
+        return float(np.median(self._recent)) if self._recent else np.inf
+
+    def _start(self, count: int) -> None:
+        self._trial, self._trial_count = [], count
+        self.trials += 1
+
+    def _end(self, theirs: float, mine: float) -> None:
+        self._trial = None
+        if theirs < _SWITCH * mine:
+            self.current, self._recent = self._trial_count, [theirs]
+            self._interval = 4 * _FIRST_TRIAL
+            self._ref = theirs
+        else:
+            self._interval = min(_MAX_INTERVAL, max(2 * self._interval, int(_COST_SPAN * theirs / mine)))
+            self._ref = mine
+        self._last_trial = self._calls
+        self._next_trial = self._calls + self._interval
+
+
+@contextmanager
+def numba_threads(count: int):
+    """numba's thread count of the calling thread set to ``count`` for the block (its own setting
+    restored afterwards: other parallel code of the caller keeps its count)."""
+    prev = numba.get_num_threads()
+    if prev != count:
+        numba.set_num_threads(count)
+    try:
+        yield
+    finally:
+        if prev != count:
+            numba.set_num_threads(prev)
+
+
+def thread_counts(top: int) -> tuple[int, ...]:
+    """The counts tried on a machine of ``top`` threads: serial, all but one (a learner's core),
+    all."""
+    return tuple(sorted({1, max(1, top - 1), top}))
