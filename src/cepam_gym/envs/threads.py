@@ -21,8 +21,8 @@ import numba
 import numpy as np
 
 _PROBE_STEPS = 3  # calls of the other count per trial
-_FIRST_TRIAL, _MAX_INTERVAL = 4, 4000  # calls between trials (after a lost trial at least doubled)
-_COST_SPAN = 40  # a lost trial that cost r - 1 calls is followed by at least 40 r calls: < 2.5 %
+_FIRST_TRIAL, _MAX_INTERVAL = 4, 1000  # calls between trials (after a lost trial at least doubled)
+_COST_SPAN = 40  # a lost trial costing r - 1 calls is followed by 40 r calls (at most 1000): about 2.5 %
 _SWITCH = 0.95  # the other count must take at most this fraction of the time
 _DRIFT = 1.3  # the current count's time changed by this factor since the last trial: try again
 _HISTORY = 9  # recent calls whose median is the current count's time
