@@ -62,8 +62,10 @@ class ThreadChoice:
                 self._end(float(np.median(self._trial)), mine)
             return
         self._recent = (self._recent + [seconds])[-_HISTORY:]
-        if len(self._recent) < _HISTORY or self._calls < self._last_trial + _HISTORY:
-            return
+        if len(self._recent) < _HISTORY or self._calls < self._last_trial + max(
+            _HISTORY, self._interval // 4
+        ):
+            return  # (not before a quarter of the wait a lost trial earned: noise is not a change)
         # the machine changed: busier (fewer threads may win) or quieter (more may)
         mine = self._time()
         if mine > _DRIFT * self._ref and self.current > self.counts[0]:
