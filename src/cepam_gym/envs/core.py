@@ -12,7 +12,6 @@ import warnings
 from collections.abc import Mapping
 from typing import Any
 
-import numba
 import numpy as np
 
 from .. import plant as pl
@@ -25,7 +24,7 @@ from ..tasks.registry import make_task
 from ..tasks.rng import Streams
 from ..tasks.task import Task
 from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
-from .threads import ThreadChoice, numba_threads, thread_counts
+from .threads import KernelThreads, numba_threads
 
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6
@@ -90,12 +89,7 @@ class CEPAMBatch:
             raise InputError(f"stream must be an integer >= 0, got {stream!r}")
         self.stream = int(stream)
         self.num_threads = check_threads(num_threads)
-        # num_threads=None on a batch that steps in parallel: the count that is fastest now
-        parallel = n >= pl.PARALLEL_MIN_BATCH and self.num_threads != 1
-        top = numba.config.NUMBA_NUM_THREADS
-        self.thread_choice = (
-            ThreadChoice(thread_counts(top)) if parallel and self.num_threads is None else None
-        )
+        self.threads = KernelThreads(self.num_threads, n, pl.PARALLEL_MIN_BATCH)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise InputError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
@@ -340,7 +334,7 @@ class CEPAMBatch:
         view = self.streams.view(idx)
         saved = view.pack()
         try:
-            with numba_threads(self.threads_now()):  # the planner runs env by env on these
+            with numba_threads(self.threads.now()):  # the planner runs env by env on these
                 return self._plan(view, self.params[idx])
         except RuntimeError:
             pass
@@ -415,26 +409,7 @@ class CEPAMBatch:
             self.params[rows, ix.P_SUP] = np.clip(
                 self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal
             )
-        if self.thread_choice is not None:
-            self.thread_choice.timed(self._run_step)
-        elif self.num_threads == 1 or self.num_envs < pl.PARALLEL_MIN_BATCH:
-            tk._env_step_serial(*self._kernel_args)  # no parallel region at all
-        else:
-            self._run_step(self.num_threads or numba.config.NUMBA_NUM_THREADS)
-
-    def _run_step(self, count: int) -> None:
-        """The step kernel on ``count`` threads (1: no parallel region at all)."""
-        if count == 1:
-            tk._env_step_serial(*self._kernel_args)
-        else:
-            with numba_threads(count):
-                tk._env_step_parallel(*self._kernel_args)
-
-    def threads_now(self) -> int:
-        """The thread count the batch runs on now (what the reset's planner uses too)."""
-        if self.thread_choice is not None:
-            return self.thread_choice.current
-        return self.num_threads or numba.config.NUMBA_NUM_THREADS
+        self.threads.run(tk._env_step_serial, tk._env_step_parallel, self._kernel_args)
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""

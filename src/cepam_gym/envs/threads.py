@@ -120,6 +120,38 @@ def numba_threads(count: int):
             numba.set_num_threads(prev)
 
 
+class KernelThreads:
+    """The thread count of one batch's step kernel: ``num_threads`` fixed, or (``None``, on a
+    batch large enough for the parallel kernel) a :class:`ThreadChoice`."""
+
+    def __init__(self, num_threads: int | None, num_envs: int, parallel_min: int):
+        top = numba.config.NUMBA_NUM_THREADS
+        self.fixed = 1 if num_envs < parallel_min else (num_threads or top)
+        self.choice = (
+            ThreadChoice(thread_counts(top)) if num_threads is None and num_envs >= parallel_min else None
+        )
+
+    def now(self) -> int:
+        """The count the batch runs on now (what the reset's planner uses too)."""
+        return self.choice.current if self.choice is not None else self.fixed
+
+    def run(self, serial, parallel, args) -> None:
+        """One call of the step kernel: ``serial(*args)`` (no parallel region at all) or
+        ``parallel(*args)`` on the count of :meth:`now`, timed when the count is chosen."""
+
+        def call(count: int) -> None:
+            if count == 1:
+                serial(*args)
+            else:
+                with numba_threads(count):
+                    parallel(*args)
+
+        if self.choice is not None:
+            self.choice.timed(call)
+        else:
+            call(self.fixed)
+
+
 def thread_counts(top: int) -> tuple[int, ...]:
     """The counts tried on a machine of ``top`` threads: serial, all but one (a learner's core),
     all."""
