@@ -38,6 +38,19 @@ def test_thread_choice_settles_on_the_faster_count_both_ways():
     assert choice.current == 2
 
 
+def test_a_noisy_busy_machine_costs_few_trials():
+    """Beside a learner the serial kernel's times jump by 40 % from call to call; the parallel one
+    is 26 times slower (measured at 256 envs): the trials of it cost under 3 % of the time."""
+    rng = np.random.default_rng(0)
+    choice = ThreadChoice((1, 2))
+    slow = 0
+    for k in range(5000):
+        c = choice.pick()
+        slow += c == 2 and k >= 200
+        choice.record(c, {1: 1.0, 2: 26.0}[c] * np.exp(rng.normal(0.0, 0.4)))
+    assert choice.current == 1 and slow * 25.0 / 4800 < 0.03
+
+
 def test_a_slow_trial_stops_after_one_call():
     choice = ThreadChoice((1, 2))
     cost = {1: 1.0, 2: 50.0}

@@ -26,6 +26,7 @@ _COST_SPAN = 40  # a lost trial costing r - 1 calls is followed by 40 r calls (a
 _SWITCH = 0.95  # the other count must take at most this fraction of the time
 _DRIFT = 1.3  # the current count's time changed by this factor since the last trial: try again
 _HISTORY = 9  # recent calls whose median is the current count's time
+_CLOSE = 2.0  # a drift is tried on a count that was at most this many times slower (times the drift)
 
 
 class ThreadChoice:
@@ -43,6 +44,7 @@ class ThreadChoice:
         self._trial: list[float] | None = None  # the other count's times while it is tried
         self._trial_count = self.current
         self._ref = np.inf  # the current count's time after the last trial
+        self._ratio: dict[int, float] = {}  # each tried count's time over the current's, last trial
         self._up = False
 
     def pick(self) -> int:
@@ -67,11 +69,20 @@ class ThreadChoice:
         ):
             return  # (not before a quarter of the wait a lost trial earned: noise is not a change)
         # the machine changed: busier (fewer threads may win) or quieter (more may)
+        # (a count that lost by far is left to the scheduled trials: a drift of the current count's
+        # time on a noisy machine would try it again and again)
         mine = self._time()
         if mine > _DRIFT * self._ref and self.current > self.counts[0]:
-            self._start(self._neighbour(up=False))
+            # slower by f: a count that was up to f times slower may be faster now
+            self._drift_trial(self._neighbour(up=False), _CLOSE * mine / self._ref)
         elif mine * _DRIFT < self._ref and self.current < self.counts[-1]:
-            self._start(self._neighbour(up=True))
+            self._drift_trial(self._neighbour(up=True), _CLOSE)
+
+    def _drift_trial(self, count: int, within: float) -> None:
+        if self._ratio.get(count, 1.0) <= within:
+            self._start(count)
+        else:
+            self._ref = self._time()  # noted: the next drift is measured from here
 
     def timed(self, run) -> None:
         """``run(count)`` with the picked count, its duration recorded."""
@@ -95,7 +106,9 @@ class ThreadChoice:
 
     def _end(self, theirs: float, mine: float) -> None:
         self._trial = None
+        self._ratio[self._trial_count] = theirs / mine
         if theirs < _SWITCH * mine:
+            self._ratio[self.current] = mine / theirs
             self.current, self._recent = self._trial_count, [theirs]
             self._interval = 4 * _FIRST_TRIAL
             self._ref = theirs
