@@ -21,8 +21,8 @@ import numba
 import numpy as np
 
 _PROBE_STEPS = 3  # calls of the other count per trial
-_FIRST_TRIAL, _MAX_INTERVAL = 4, 1000  # calls between trials (after a lost trial at least doubled)
-_COST_SPAN = 40  # a lost trial costing r - 1 calls is followed by 40 r calls (at most 1000): about 2.5 %
+_FIRST_TRIAL, _MAX_INTERVAL = 4, 4000  # calls between trials (after a lost trial at least doubled)
+_COST_SPAN = 40  # a lost trial costing r - 1 calls is followed by 40 r calls (at most 4000): < 2.5 %
 _SWITCH = 0.95  # the other count must take at most this fraction of the time
 _DRIFT = 1.3  # the current count's time changed by this factor since the last trial: try again
 _HISTORY = 9  # recent calls whose median is the current count's time
@@ -38,7 +38,8 @@ class ThreadChoice:
         # while a parallel step beside a busy core can be ten times slower still
         self.current = self.counts[0]
         self.trials = 0  # how many trials were run (benchmarks report it)
-        self._recent: list[float] = []
+        self._recent: list[float] = []  # the current count's calls since its time was last taken
+        self._mine = np.inf  # the current count's time: the median of its last _HISTORY calls
         self._calls, self._last_trial = 0, 0
         self._next_trial, self._interval = _FIRST_TRIAL, _FIRST_TRIAL
         self._trial: list[float] | None = None  # the other count's times while it is tried
@@ -63,10 +64,12 @@ class ThreadChoice:
             if len(self._trial) >= _PROBE_STEPS or seconds > 2.0 * mine:  # a slow one: stop at once
                 self._end(float(np.median(self._trial)), mine)
             return
-        self._recent = (self._recent + [seconds])[-_HISTORY:]
-        if len(self._recent) < _HISTORY or self._calls < self._last_trial + max(
-            _HISTORY, self._interval // 4
-        ):
+        self._recent.append(seconds)
+        if len(self._recent) < _HISTORY:
+            return
+        self._mine = sorted(self._recent)[_HISTORY // 2]  # a median every _HISTORY calls: cheap
+        self._recent = []
+        if self._calls < self._last_trial + max(_HISTORY, self._interval // 4):
             return  # (not before a quarter of the wait a lost trial earned: noise is not a change)
         # the machine changed: busier (fewer threads may win) or quieter (more may)
         # (a count that lost by far is left to the scheduled trials: a drift of the current count's
@@ -98,7 +101,9 @@ class ThreadChoice:
         return self.counts[i - 1]
 
     def _time(self) -> float:
-        return float(np.median(self._recent)) if self._recent else np.inf
+        if self._mine == np.inf and self._recent:
+            return sorted(self._recent)[len(self._recent) // 2]
+        return self._mine
 
     def _start(self, count: int) -> None:
         self._trial, self._trial_count = [], count
@@ -109,7 +114,7 @@ class ThreadChoice:
         self._ratio[self._trial_count] = theirs / mine
         if theirs < _SWITCH * mine:
             self._ratio[self.current] = mine / theirs
-            self.current, self._recent = self._trial_count, [theirs]
+            self.current, self._recent, self._mine = self._trial_count, [], theirs
             self._interval = 4 * _FIRST_TRIAL
             self._ref = theirs
         else:
