@@ -27,6 +27,8 @@ from .shared import (
     seed_core,
 )
 
+_STEP_SINGLE, _REFUSED = tk.env_step_single, tk.NONFINITE_ACTION  # bound once: the hot path's
+
 
 class CEPAMEnv(gym.Env, EzPickle):
     __doc__ = "CE-PAM length and stiffness regulation under changing loads (single env)." + RIG_SPEC_SHEET
@@ -56,7 +58,9 @@ class CEPAMEnv(gym.Env, EzPickle):
         expose(self, self.core)
         # the hot path's handles: the single step's arrays, its info keys (None: the task builds
         # its info itself), the episode's redraws as a Python int
-        self._obs_row, self._obs, self._info_row = self.core.obs[0], self.core.obs, self.core.info_row
+        self._obs_row, self._info_row = self.core.obs[0], self.core.info_row
+        self._one_call = self.core.fast_single
+        self._slabs = (self.core._F, self.core._I, self.core.obs) if self._one_call else None
         self._step_keys = self.core.task.step_keys if self.core.fast_single else None
         self._redraws = 0
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
@@ -100,7 +104,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         if core.needs_reset:
             raise ResetNeeded("call reset() before step(): the env has no episode yet")
         if (
-            core.fast_single
+            self._one_call
             and type(action) is np.ndarray
             and action.shape == (2,)
             and action.dtype.char in "fd"
@@ -109,8 +113,8 @@ class CEPAMEnv(gym.Env, EzPickle):
             # call that also checks the action and writes the info values
             if core.has_noise:
                 core._draw_noise()
-            reward, reason = tk.env_step_single(core._F, core._I, self._obs, *action.tolist())
-            if reason == tk.NONFINITE_ACTION:
+            reward, reason = _STEP_SINGLE(*self._slabs, *action.tolist())
+            if reason == _REFUSED:
                 raise InputError(f"action contains NaN or inf: {action.tolist()}; actions must be finite")
             keys = self._step_keys
             if keys is not None:

@@ -19,6 +19,7 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
 from ..tasks import kernel as tk
+from ..tasks.planner import PARALLEL_MIN_ENVS
 from ..tasks.randomization import MAX_REDRAWS
 from ..tasks.registry import make_task
 from ..tasks.rng import Streams
@@ -334,6 +335,8 @@ class CEPAMBatch:
         view = self.streams.view(idx)
         saved = view.pack()
         try:
+            if len(idx) < PARALLEL_MIN_ENVS:  # planned serially
+                return self._plan(view, self.params[idx])
             with numba_threads(self.threads.now()):  # the planner runs env by env on these
                 return self._plan(view, self.params[idx])
         except RuntimeError:
