@@ -199,7 +199,7 @@ def issue_table(repeats: int, single_seconds: float) -> None:
         f"{j_all / v0_all:.2f} x v0 1024",
         ">= 1 M",
     )
-    choice = v1.env.unwrapped.core.threads.choice
+    choice = getattr(getattr(v1.env.unwrapped.core, "threads", None), "choice", None)
     if choice is not None:
         ran = f"{choice.current} thread(s) at the end; {choice.trials} trials of other counts"
         print(f"(the v1 batch ran on {ran})")

@@ -52,11 +52,13 @@ def test_a_noisy_busy_machine_costs_few_trials():
 
 
 def test_a_slow_trial_stops_after_one_call():
+    """(The first call of a count is not counted: it compiles, or starts the thread pool.)"""
     choice = ThreadChoice((1, 2))
     cost = {1: 1.0, 2: 50.0}
-    picked = _run(choice, cost, 100)
-    runs = [i for i in range(1, len(picked)) if picked[i] == 2 and picked[i - 1] == 2]
-    assert not runs, "a trial went on after a call 50 times slower"
+    picked = _run(choice, cost, 6000)
+    first = picked.index(2)
+    runs = [i for i in range(first + 2, len(picked)) if picked[i] == 2 and picked[i - 1] == 2]
+    assert picked.count(2) >= 3 and not runs, "a trial went on after a call 50 times slower"
 
 
 def test_thread_counts():

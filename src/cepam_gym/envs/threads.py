@@ -46,6 +46,8 @@ class ThreadChoice:
         self._trial_count = self.current
         self._ref = np.inf  # the current count's time after the last trial
         self._ratio: dict[int, float] = {}  # each tried count's time over the current's, last trial
+        self._seen: set[int] = set()  # counts that ran once: a first call (compilation, the thread
+        # pool's start) says nothing about the next ones and is not counted
         self._up = False
 
     def pick(self) -> int:
@@ -58,6 +60,9 @@ class ThreadChoice:
     def record(self, count: int, seconds: float) -> None:
         """The duration of a call made with ``count`` threads."""
         self._calls += 1
+        if count not in self._seen:
+            self._seen.add(count)
+            return
         if self._trial is not None:
             self._trial.append(seconds)
             mine = self._time()
