@@ -224,11 +224,12 @@ def every_id(sizes, seconds: float, repeats: int) -> None:
 # ----------------------------------------------------------------------------- threads
 def _steady(env_id: str, num_envs: int, seconds: float, num_threads) -> float:
     """Env-steps/s of the batched env between resets (no episode ends in the timed steps), after
-    30 steps of warm-up (in which the default's thread choice settles)."""
+    100 steps of warm-up (compilation; the default's first trials of each thread count, whose
+    first parallel call also starts the thread pool: about 20 ms once beside a busy core)."""
     env = gym.make_vec(env_id, num_envs=num_envs, num_threads=num_threads, max_episode_steps=None)
     env.reset(seed=0)
     a = np.zeros((num_envs, 2))
-    for _ in range(30):
+    for _ in range(100):
         env.step(a)
     steps, t0 = 0, time.perf_counter()
     while time.perf_counter() - t0 < seconds:
