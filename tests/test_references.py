@@ -7,6 +7,7 @@ import pytest
 
 from cepam_gym.plant.params import PlantParams
 from cepam_gym.tasks import TASKS
+from cepam_gym.tasks.planner import episode_schedules
 from cepam_gym.tasks.references import (
     min_jerk,
     periodic_length,
@@ -16,7 +17,7 @@ from cepam_gym.tasks.references import (
     smooth_steps,
     stiffness_ramp,
 )
-from cepam_gym.tasks.schedules import episode_schedules, stiffness_interval
+from cepam_gym.tasks.schedules import stiffness_interval
 
 DT = 0.02
 P = PlantParams().to_array()

@@ -1,35 +1,36 @@
-"""Episode schedules: the batched sampler (one feasibility check for all segments of all envs)
-against a plain per-env, per-segment reference written out here, including the fallback path."""
+"""Episode schedules: the compiled sampler against a plain per-env, per-segment reference written
+out here on the former NumPy helpers (``legacy_planner``), including the fallback path."""
 
 from __future__ import annotations
 
 import dataclasses
 
+import legacy_planner as LP
 import numpy as np
 import pytest
 
 from cepam_gym.physics import layout as ix
 from cepam_gym.plant.params import preset
 from cepam_gym.tasks import TASKS
-from cepam_gym.tasks import schedules as S
+from cepam_gym.tasks.planner import episode_schedules
 
 
 def reference_schedule(rng, spec, p, n_steps, dt):
     """One env, segment by segment: the first feasible of the segment's candidates, else
     sample_target; the same draws in the same order as the batched sampler promises."""
-    load, segs, cand_l, cand_u = S._draw(rng, spec, n_steps, dt)
+    load, segs, cand_l, cand_u = LP._draw(rng, spec, n_steps, dt)
     w = (p[ix.M_END] + load) * p[ix.GRAV]
     tl, tk = np.empty(n_steps), np.empty(n_steps)
     fallbacks = 0
     for s, (a, b) in enumerate(segs):
-        lo, hi = S.stiffness_interval(cand_l[s], np.full(8, w[a:b].min()), np.full(8, w[a:b].max()), p, spec)
+        lo, hi = LP.stiffness_interval(cand_l[s], np.full(8, w[a:b].min()), np.full(8, w[a:b].max()), p, spec)
         ok = np.flatnonzero(hi > lo)
         if ok.size:
             c = ok[0]
             target = cand_l[s, c], lo[c] + cand_u[s, c] * (hi[c] - lo[c])
         else:
             fallbacks += 1
-            target = S.sample_target(rng, spec, w[a:b].min(), w[a:b].max(), p)
+            target = LP.sample_target(rng, spec, w[a:b].min(), w[a:b].max(), p)
         if s == len(segs) - 1:
             initial = np.array(target)
         else:
@@ -65,7 +66,7 @@ def test_batched_schedules_equal_the_per_env_reference(task, options, per_plant)
         )
     else:
         params = V0.to_array()[None]
-    tl, tk, load, initial = S.episode_schedules(
+    tl, tk, load, initial = episode_schedules(
         [np.random.default_rng(50 + i) for i in range(n)], spec, params, 500, 0.02
     )
     fallbacks = 0
@@ -79,9 +80,3 @@ def test_batched_schedules_equal_the_per_env_reference(task, options, per_plant)
     if "stiffness_range" in options:
         assert fallbacks > 0  # the fallback path was taken, and matched
     assert np.all(np.isfinite(tl)) and np.all(np.isfinite(tk))
-
-
-def test_uniform_helper_is_numpys_uniform_bit_for_bit():
-    a, b = np.random.default_rng(3), np.random.default_rng(3)
-    for lo, hi, size in ((0.5, 3.0, None), (0.155, 0.19, (4, 8)), (0.0, 2 * np.pi, 2)):
-        np.testing.assert_array_equal(S._uniform(a, lo, hi, size), b.uniform(lo, hi, size))

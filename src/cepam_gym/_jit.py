@@ -11,6 +11,7 @@ from pathlib import Path
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
+from numba.np.arrayobj import make_array, populate_array
 
 _PKG = Path(__file__).parent
 
@@ -112,3 +113,72 @@ def strided_tuple(typingctx, arr, start, n, stride):
         return context.make_tuple(builder, ret, vals)
 
     return ret(arr, start, n, stride), codegen
+
+
+def _borrowed(ndim: int):
+    """An intrinsic ``(arr, start, n)`` -> ``arr[start:start + n]`` of a 1-D C-contiguous array as a
+    1-D array (``ndim`` 1) or a (1, n) array (``ndim`` 2), without a memory-info pointer: the view
+    is borrowed, so passing it on costs no reference counting (an atomic increment and decrement
+    per call it crosses) and making it calls no helper (``reshape`` calls one). Only for views that
+    live inside the call that made them, while ``arr`` is alive."""
+
+    @intrinsic
+    def view(typingctx, arr, start, n):
+        if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"):
+            return None
+        ret = arr.copy(ndim=ndim, layout="C")
+
+        def codegen(context, builder, signature, args):
+            src = make_array(signature.args[0])(context, builder, args[0])
+            count = context.cast(builder, args[2], signature.args[2], types.intp)
+            first = context.cast(builder, args[1], signature.args[1], types.intp)
+            size = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(arr.dtype)))
+            shape = [count] if ndim == 1 else [context.get_constant(types.intp, 1), count]
+            strides = [size] if ndim == 1 else [builder.mul(count, size), size]
+            out = make_array(ret)(context, builder)
+            populate_array(
+                out,
+                data=builder.gep(src.data, [first]),
+                shape=shape,
+                strides=strides,
+                itemsize=size,
+                meminfo=None,
+                parent=None,
+            )
+            return out._getvalue()
+
+        return ret(arr, start, n), codegen
+
+    return view
+
+
+vec_view = _borrowed(1)
+row_view = _borrowed(2)
+
+
+@intrinsic
+def row_of(typingctx, arr, i):
+    """``arr[i]`` of a 2-D C-contiguous array as a borrowed 1-D view (see :func:`_borrowed`): the
+    step kernels hand each env's rows to the physics and the task without reference counting."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 2 and arr.layout == "C"):
+        return None
+    ret = arr.copy(ndim=1, layout="C")
+
+    def codegen(context, builder, signature, args):
+        src = make_array(signature.args[0])(context, builder, args[0])
+        row = context.cast(builder, args[1], signature.args[1], types.intp)
+        cols = builder.extract_value(src.shape, 1)
+        size = context.get_constant(types.intp, context.get_abi_sizeof(context.get_data_type(arr.dtype)))
+        out = make_array(ret)(context, builder)
+        populate_array(
+            out,
+            data=builder.gep(src.data, [builder.mul(row, cols)]),
+            shape=[cols],
+            strides=[size],
+            itemsize=size,
+            meminfo=None,
+            parent=None,
+        )
+        return out._getvalue()
+
+    return ret(arr, i), codegen

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium as gym
@@ -12,6 +11,7 @@ from gymnasium.error import ResetNeeded
 from gymnasium.utils import EzPickle
 
 from ..errors import InputError
+from ..tasks import kernel as tk
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 from .shared import (
@@ -26,6 +26,8 @@ from .shared import (
     restore_episode,
     seed_core,
 )
+
+_STEP_SINGLE, _REFUSED = tk.env_step_single, tk.NONFINITE_ACTION  # bound once: the hot path's
 
 
 class CEPAMEnv(gym.Env, EzPickle):
@@ -54,7 +56,13 @@ class CEPAMEnv(gym.Env, EzPickle):
 
             require_mujoco()  # fail now, with the install hint, rather than at the first render()
         expose(self, self.core)
-        self._obs_row = self.core.obs[0]
+        # the hot path's handles: the single step's arrays, its info keys (None: the task builds
+        # its info itself), the episode's redraws as a Python int
+        self._obs_row, self._info_row = self.core.obs[0], self.core.info_row
+        self._one_call = self.core.fast_single
+        self._slabs = (self.core._F, self.core._I, self.core.obs) if self._one_call else None
+        self._step_keys = self.core.task.step_keys if self.core.fast_single else None
+        self._redraws = 0
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         clip = self.core.obs_layout.clip  # the kernel clips every column to it
@@ -70,10 +78,6 @@ class CEPAMEnv(gym.Env, EzPickle):
     def _info(self, scored: bool) -> dict[str, Any]:
         return self.core.task.info_single(self.core, scored)
 
-    def _fast_info(self) -> dict[str, Any]:
-        """The info of a step taken by the one-call single step (``core.info_row``)."""
-        return self.core.task.info_fast(self.core)
-
     def __getstate__(self) -> dict[str, Any]:
         """Pickles and deep copies carry the episode: the constructor's arguments (EzPickle), then
         the core's episode and the env's own random stream."""
@@ -82,12 +86,14 @@ class CEPAMEnv(gym.Env, EzPickle):
     def __setstate__(self, st: dict[str, Any]) -> None:
         EzPickle.__setstate__(self, st)
         restore_episode(self, st)
+        self._redraws = int(self.core.redraws[0])
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         seed_core(self, seed)
         self.core.reset()
         self.core.apply_options(options)
+        self._redraws = int(self.core.redraws[0])
         info = self._info(scored=False)
         if self.render_mode == "human":
             self.render()
@@ -97,18 +103,30 @@ class CEPAMEnv(gym.Env, EzPickle):
         core = self.core
         if core.needs_reset:
             raise ResetNeeded("call reset() before step(): the env has no episode yet")
-        if core.fast_single and getattr(action, "shape", None) == (2,) and action.dtype.kind in "iuf":
-            # the hot path (kept lean: a single env's step is mostly Python overhead)
-            x0, x1 = float(action[0]), float(action[1])
-            if not (math.isfinite(x0) and math.isfinite(x1)):
+        if (
+            self._one_call
+            and type(action) is np.ndarray
+            and action.shape == (2,)
+            and action.dtype.char in "fd"
+        ):
+            # the hot path, kept lean (a single env's step is mostly Python overhead): one compiled
+            # call that also checks the action and writes the info values
+            if core.has_noise:
+                core._draw_noise()
+            reward, reason = _STEP_SINGLE(*self._slabs, *action.tolist())
+            if reason == _REFUSED:
                 raise InputError(f"action contains NaN or inf: {action.tolist()}; actions must be finite")
-            reward, reason = core.step_single(x0, x1)
-            info = self._fast_info()
+            keys = self._step_keys
+            if keys is not None:
+                info = dict(zip(keys, self._info_row.tolist()))
+                info["redraws"] = self._redraws
+            else:
+                info = self._info(scored=True)
         else:
             core.step(core.check_actions(action))
             reward, reason = float(core.rewards[0]), int(core.reasons[0])
             info = self._info(scored=True)
-        info["termination_reason"] = int(reason)
+        info["termination_reason"] = reason
         if self.render_mode == "human":
             self.render()
         return self._obs_row.copy(), reward, reason != 0, False, info

@@ -68,10 +68,11 @@ def check_randomize(randomize: Mapping[str, Any] | None) -> dict[str, tuple[floa
 
 
 def check_threads(num_threads) -> int | None:
-    """``num_threads`` of the batched kernel: ``None`` (numba's default, every core), or 1 ..
-    ``NUMBA_NUM_THREADS``. On a machine where another process keeps a core busy (training: the
-    learner), fewer threads than cores avoid waiting on a descheduled thread (benchmarks/throughput.py
-    ``--busy-core`` measures both)."""
+    """``num_threads`` of the batched kernel: ``None`` (the count that steps fastest, found while
+    the env runs: :mod:`cepam_gym.envs.threads`), or 1 .. ``NUMBA_NUM_THREADS`` (fixed). On a
+    machine where another process keeps a core busy (training: the learner), fewer threads than
+    cores avoid waiting on a descheduled thread (benchmarks/throughput.py ``--busy-core`` measures
+    each setting)."""
     if num_threads is None:
         return None
     import numba

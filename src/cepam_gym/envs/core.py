@@ -19,10 +19,13 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
 from ..tasks import kernel as tk
+from ..tasks.planner import PARALLEL_MIN_ENVS
 from ..tasks.randomization import MAX_REDRAWS
 from ..tasks.registry import make_task
+from ..tasks.rng import Streams
 from ..tasks.task import Task
 from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
+from .threads import KernelThreads, numba_threads
 
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6
@@ -87,6 +90,7 @@ class CEPAMBatch:
             raise InputError(f"stream must be an integer >= 0, got {stream!r}")
         self.stream = int(stream)
         self.num_threads = check_threads(num_threads)
+        self.threads = KernelThreads(self.num_threads, n, pl.PARALLEL_MIN_BATCH)
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise InputError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
@@ -191,7 +195,7 @@ class CEPAMBatch:
     def episode_state(self) -> dict[str, Any]:
         """Everything a running episode is (arrays, random streams), as copies."""
         out = {k: getattr(self, k).copy() for k in self._EPISODE_ARRAYS}
-        out["rngs"] = [r.bit_generator.state for r in self.rngs]
+        out["rngs"] = [r.bit_generator.state for r in self.streams.generators()]
         out["noise_rngs"] = [r.bit_generator.state for r in self.noise_rngs]
         out["needs_reset"] = self.needs_reset
         return out
@@ -200,7 +204,7 @@ class CEPAMBatch:
         """Continue the episode of :meth:`episode_state` (on a core built with the same args)."""
         for k in self._EPISODE_ARRAYS:
             getattr(self, k)[...] = episode[k]
-        for r, st in zip(self.rngs, episode["rngs"]):
+        for r, st in zip(self.streams.generators(), episode["rngs"]):
             r.bit_generator.state = st
         for r, st in zip(self.noise_rngs, episode["noise_rngs"]):
             r.bit_generator.state = st
@@ -216,13 +220,6 @@ class CEPAMBatch:
         self.__init__(**st["init"])
         self.restore(st["episode"])
 
-    def step_single(self, x0: float, x1: float) -> tuple[float, int]:
-        """The single env's step (``fast_single``) with a finite action ``(x0, x1)``: returns
-        ``(reward, termination reason)``; ``info_row`` then holds the step's info values."""
-        if self.has_noise:
-            self._draw_noise()
-        return tk.env_step_single(self._F, self._I, self.obs, x0, x1)
-
     # ------------------------------------------------------------------ reset
     def seed(self, seed: int | None) -> None:
         """Per-env random streams spawned from ``numpy.random.SeedSequence(seed)``.
@@ -235,12 +232,14 @@ class CEPAMBatch:
         in, so env i of a batch seeded ``s`` follows exactly a single env seeded ``s`` whose
         ``stream`` kwarg is i. ``None``: fresh OS entropy."""
         root = np.random.SeedSequence(seed)
-        self.rngs, self.noise_rngs = [], []
+        rngs, self.noise_rngs = [], []
         for i in range(self.num_envs):
             env_ss = np.random.SeedSequence(root.entropy, spawn_key=(self.stream + i,))
             main, noise = env_ss.spawn(2)
-            self.rngs.append(np.random.Generator(np.random.PCG64(main)))
+            rngs.append(np.random.Generator(np.random.PCG64(main)))
             self.noise_rngs.append(np.random.Generator(np.random.PCG64(noise)))
+        # the reset's compiled draws keep the main streams' states as rows between resets
+        self.streams = Streams(rngs)
         # buffered standard normals per env (columns: 5 sensor-noise channels, supply drift),
         # refilled _NORMAL_CHUNK steps at a time from each env's own noise stream
         draws = self.has_noise or bool(self.supply_drift)
@@ -311,9 +310,11 @@ class CEPAMBatch:
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
-        rngs = [self.rngs[i] for i in idx]
-        self.params[idx], self.redraws[idx] = self.randomizer.draw(rngs)
-        tl, tkk, load, initial = self._schedules(idx, rngs)
+        if self.randomizer.ranges:
+            self.params[idx], self.redraws[idx] = self.randomizer.draw(self.streams.generators(idx))
+        else:
+            self.params[idx], self.redraws[idx] = self._nominal_row, 0
+        tl, tkk, load, initial = self._schedules(idx)
         self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
         self.task.start(self, idx, initial)
         self.prev_action[idx] = 0.0
@@ -323,23 +324,26 @@ class CEPAMBatch:
         if indices is None:
             self.needs_reset = False
 
-    def _plan(self, rngs: list, rows: np.ndarray) -> tuple:
+    def _plan(self, rngs, rows: np.ndarray) -> tuple:
         """``(target_l, target_k, load, initial)`` of the task (:meth:`Task.plan`)."""
         return self.task.plan(rngs, rows, self.n_steps, self.control_dt)
 
-    def _schedules(self, idx: np.ndarray, rngs: list) -> tuple:
+    def _schedules(self, idx: np.ndarray) -> tuple:
         """:meth:`_plan` of the envs ``idx``. A plant for which the task finds no
         reachable target (``RuntimeError``) is redrawn with its schedule, env by env from its own
-        stream (the generators are rewound first, so every env draws as it would alone)."""
-        states = [r.bit_generator.state for r in rngs]
+        stream (the streams are rewound first, so every env draws as it would alone)."""
+        view = self.streams.view(idx)
+        saved = view.pack()
         try:
-            return self._plan(rngs, self.params[idx])
+            if len(idx) < PARALLEL_MIN_ENVS:  # planned serially
+                return self._plan(view, self.params[idx])
+            with numba_threads(self.threads.now()):  # the planner runs env by env on these
+                return self._plan(view, self.params[idx])
         except RuntimeError:
             pass
-        for r, st in zip(rngs, states):
-            r.bit_generator.state = st
+        view.unpack(saved)
         out = [np.empty((len(idx), self.n_steps)) for _ in range(3)] + [np.empty((len(idx), 2))]
-        for j, (i, rng) in enumerate(zip(idx, rngs)):
+        for j, (i, rng) in enumerate(zip(idx, self.streams.generators(idx))):
             for attempt in range(MAX_REDRAWS + 2):
                 try:
                     one = self._plan([rng], self.params[i : i + 1])
@@ -408,14 +412,7 @@ class CEPAMBatch:
             self.params[rows, ix.P_SUP] = np.clip(
                 self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal
             )
-        if self.num_threads == 1:
-            tk._env_step_serial(*self._kernel_args)  # no parallel region at all
-        else:
-            if self.num_threads is not None:
-                import numba
-
-                numba.set_num_threads(self.num_threads)  # per calling thread: set before each call
-            tk.env_step(*self._kernel_args)
+        self.threads.run(tk._env_step_serial, tk._env_step_parallel, self._kernel_args)
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""

@@ -185,7 +185,7 @@ RIG_SPEC_SHEET = """
     | ``action_latency_steps`` | 0 | actions reach the valves this many steps late |
     | ``supply_drift_kpa`` | 0.0 | random-walk intensity of the supply pressure, kPa/sqrt(s), clipped to +-20 % |
     | ``stream`` | 0 | index of the env's random stream (see Seeding) |
-    | ``num_threads`` | ``None`` | threads of the batched kernel (vector env, 256 envs or more): ``None`` every core, 1 serial; see ``benchmarks/throughput.py --busy-core`` |
+    | ``num_threads`` | ``None`` | threads of the batched kernel (vector env, 256 envs or more): ``None`` the count that steps fastest now (every core on a quiet machine, 1 beside a busy core; results are the same), an integer fixes it; see ``benchmarks/throughput.py --busy-core`` |
     | ``task_options`` | ``{}`` | override TaskSpec fields: ``length_range`` [m], ``load_range`` [kg], ``load_kinds``, ``segment_duration`` [s], ``stiffness_range`` [N/m], ``pressure_margin`` |
     | ``render_mode`` | ``None`` | ``"rgb_array"`` or ``"human"`` |
     | ``renderer`` | ``"numpy"`` | ``"numpy"`` (2-D drawing) or ``"mujoco"`` (3-D rig, ``pip install 'cepam-gym[mujoco]'``, headless with ``MUJOCO_GL=egl``) |

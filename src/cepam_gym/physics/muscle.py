@@ -241,15 +241,30 @@ def cpam_tension(L, pc, pe, p):
     braid (``p[SLACK_W] = 0``: always "taut")."""
     if p[ix.SLACK_W] <= 0.0:
         return -math.inf, 0.0
+    return cpam_tension_at(cpam_tension_terms(L, p), pc, pe)
+
+
+@jit_inline
+def cpam_tension_terms(L, p):
+    """What :func:`cpam_tension` needs of the length ``L`` alone, for a tension-only braid
+    (``p[SLACK_W] > 0``): computed once per length, the tension is affine in the pressures."""
     _, _, dvc, dvac, _, _ = cpam_terms(L, p)
     prc, _a, pre, _b = contact_pressures(L, p)
-    pac, pae = pc - prc, pe - pre  # unclipped, so c stays affine (below contact no target is feasible)
     lam = p[ix.LAMBDA]
     gc = lam * dvac + (1.0 - lam) * p[ix.KAPPA] * dvc
     _uc, duc, _d2uc = bladder_energy_k(
         L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C]
     )
-    return pac * dvac - pae * gc - duc, -p[ix.SLACK_W] * fmax(-dvc, 1e-12)
+    return dvac, gc, duc, prc, pre, -p[ix.SLACK_W] * fmax(-dvc, 1e-12)
+
+
+@jit_inline
+def cpam_tension_at(terms, pc, pe):
+    """:func:`cpam_tension` (of a tension-only braid) from the :func:`cpam_tension_terms` of its
+    length."""
+    dvac, gc, duc, prc, pre, c_taut = terms
+    pac, pae = pc - prc, pe - pre  # unclipped, so c stays affine (below contact no target is feasible)
+    return pac * dvac - pae * gc - duc, c_taut
 
 
 @jit_inline

@@ -7,7 +7,7 @@ solve (paper Eq. 25 with Eq. 26-45; Eq. 20/24 at the basic level).
 
 from __future__ import annotations
 
-from .._jit import jit
+from .._jit import jit, jit_inline
 from . import layout as ix
 from .muscle import bladder_energies, contact_pressures, cpam_terms, epam_terms
 
@@ -26,6 +26,14 @@ def static_pressures(L, K, weight, p):
     the CPAM pulling whenever it has ``P_ac`` well above ``P_ae``; a solution that needs a slack CPAM
     is not found by this 2x2 solve).
     """
+    return solve_static(static_terms(L, p), K, weight)
+
+
+@jit_inline
+def static_terms(L, p):
+    """What :func:`static_pressures` needs of the length ``L`` alone (geometry, contact pressures,
+    walls): computed once per length, the solve is then cheap for any ``K`` and ``weight`` (the
+    reset's reference planning solves each length for several)."""
     _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
     _, _, _, dvae, _, d2vae = epam_terms(L, p)
     prc, dprc, pre, dpre = contact_pressures(L, p)
@@ -33,12 +41,20 @@ def static_pressures(L, K, weight, p):
     dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
     k_el = p[ix.K_EL]
     _u, du, d2u = bladder_energies(L, p)
+    f_el = k_el * (L - p[ix.L_EL0])
+    det = -ge * d2vac + dvac * dge
+    return ge, dge, dvac, d2vac, k_el, f_el, du, d2u, prc, dprc, pre, dpre, det
+
+
+@jit_inline
+def solve_static(terms, K, weight):
+    """:func:`static_pressures` from the :func:`static_terms` of its length."""
+    ge, dge, dvac, d2vac, k_el, f_el, du, d2u, prc, dprc, pre, dpre, det = terms
     # unknowns x = P_ae, y = P_ac (active pressures, dP_a/dL = -dP_r/dL while active)
     # force:     ge x + dvac y = -weight + k_el (L - L_el0) + dU/dL
     # stiffness: -dge x - d2vac y = K - k_el - d2U/dL2 - dpre ge - dprc dvac
-    r1 = -weight + k_el * (L - p[ix.L_EL0]) + du
+    r1 = -weight + f_el + du
     r2 = K - k_el - d2u - dpre * ge - dprc * dvac
-    det = -ge * d2vac + dvac * dge
     x = (r1 * (-d2vac) - dvac * r2) / det
     y = (ge * r2 + dge * r1) / det
     ok = 1.0 if (x > 0.0 and y > 0.0) else 0.0

@@ -15,6 +15,28 @@ from .substep import measure_row
 
 
 @jit
+def rest_rows(rows, L, pc, pe, params, state, aux):
+    """Plants ``rows`` of a batch at rest at ``L[j]`` [m] with gauge pressures ``pc[j]``, ``pe[j]``
+    [Pa], air at the ambient temperature (as :func:`initial_state`), into ``state`` and their
+    :func:`measure` into ``aux``, in one compiled call (the reset's). Returns the first ``j``
+    :func:`initial_state` would refuse (outside the end stops, below vacuum), else -1, having
+    written nothing."""
+    shared = params.shape[0] == 1
+    for j in range(rows.shape[0]):
+        p = params[0] if shared else params[rows[j]]
+        patm = p[ix.P_ATM]
+        if not (p[ix.L_MIN] <= L[j] <= p[ix.L_MAX]) or pc[j] + patm <= 0.0 or pe[j] + patm <= 0.0:
+            return j
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        p = params[0] if shared else params[i]
+        _initial_row(L[j], pc[j], pe[j], p[ix.T_AMB], p, state[i])
+        aux[i, :] = 0.0  # as measure's fresh rows: nothing of the last step's bookkeeping stays
+        measure_row(state[i], p, aux[i])
+    return -1
+
+
+@jit
 def _initial_row(L, pc, pe, temp, p, x):
     vol_c, vol_e, _a, _b = chamber_volumes(L, p)
     patm = p[ix.P_ATM]
@@ -45,9 +67,14 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
     if np.any(pc + prow[:, ix.P_ATM] <= 0) or np.any(pe + prow[:, ix.P_ATM] <= 0):
         raise InputError("initial gauge pressures must be above vacuum (> -atmospheric)")
     x = np.zeros((n, N_STATE))
-    for i in range(n):
-        _initial_row(L[i], pc[i], pe[i], temp[i], prow[i], x[i])
+    _initial_rows(L, pc, pe, temp, prow, x)
     return x
+
+
+@jit
+def _initial_rows(L, pc, pe, temp, prow, x):
+    for i in range(x.shape[0]):
+        _initial_row(L[i], pc[i], pe[i], temp[i], prow[i], x[i])
 
 
 def stability_number(params, dt: float) -> np.ndarray:
@@ -101,6 +128,11 @@ def measure(state, params):
     state = np.atleast_2d(state)
     params = np.atleast_2d(params)
     aux = np.zeros((state.shape[0], N_AUX))
+    _measure_rows(state, params, aux)
+    return aux
+
+
+@jit
+def _measure_rows(state, params, aux):
     for i in range(state.shape[0]):
         measure_row(state[i], params[0] if params.shape[0] == 1 else params[i], aux[i])
-    return aux

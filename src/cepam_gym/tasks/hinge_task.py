@@ -12,9 +12,7 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
-from ..physics import api
 from ..physics import layout as ix
-from ..plant.params import pressure_cap_of
 from . import kernel as tk
 from .joint import (
     INIT_KEYS,
@@ -26,6 +24,8 @@ from .joint import (
     joint_layout,
     joint_planned_schedules,
 )
+from .plan_vectors import joint_mechanism
+from .planner import start_at_rest
 from .randomization import Randomizer, unstable
 from .spec import check_kwargs
 from .task import Task
@@ -91,6 +91,7 @@ class HingeTask(Task):
     def bind(self, nominal, sub_dt: float) -> None:
         self.nominal, self.sub_dt = nominal, sub_dt
         self.nominal_row = nominal_row = nominal.to_array()
+        self.mechanism = joint_mechanism(self.geometry, nominal_row, self.spec.angle_range)
         self.spec.check_range(self.geometry, nominal_row)
         self.angle_max = self.geometry.max_angle(nominal_row)
         self.layout = joint_layout(self.spec, self.angle_max, nominal.supply_pressure, self.preview_steps)
@@ -135,18 +136,10 @@ class HingeTask(Task):
     def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
         """At rest at the (angle, joint stiffness) rows with the chamber pressures of the inverse
         static model under the first external torque, clipped to ``[0, min(supply, burst)]`` (as
-        :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`)."""
+        :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`;
+        :func:`~cepam_gym.tasks.planner.start_at_rest`)."""
         core.initial[idx] = initial
-        p = core.params[idx]
-        g, q = self.geometry, p.T  # q[col]: one column of the rows
-        a0, k0 = core.initial[idx, 0], core.initial[idx, 1]
-        L0 = g.length(a0, q)
-        w0 = g.equivalent_weight(a0, core.load[idx, 0], q)
-        pc, pe, _ = api.static_pressures(L0, k0 / g.lever_arm**2, w0, p)
-        cap = pressure_cap_of(p)
-        core.state[idx] = pl.initial_state(p, L0, np.clip(pc, 0.0, cap), np.clip(pe, 0.0, cap))
-        core.aux[idx] = pl.measure(core.state[idx], p)
-        core.t_idx[idx] = 0
+        start_at_rest(core, idx, core.initial[idx], self.mechanism)
 
     def apply_options(self, core, options: dict) -> None:
         """``target_angle`` [rad], ``target_stiffness`` [N m/rad], ``external_torque`` [N m] pinned

@@ -21,8 +21,9 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.hinge import H_DAMP, H_INERTIA, H_MASS_MOMENT, H_R, N_HINGE
 from .layout import ObsColumn, ObsLayout, preview_fields
-from .references import project, shape_reference
-from .schedules import episode_schedules, load_profile, segments, stiffness_interval
+from .plan_vectors import joint_mechanism
+from .planner import plan
+from .schedules import load_profile, segments, stiffness_interval
 from .spec import LOAD_KINDS, TaskScales, TaskSpec
 
 _CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
@@ -294,42 +295,20 @@ def joint_schedules(
     return ta, tk, torque, initial
 
 
-def _equivalent_load(geom: JointGeometry, angle, torque, p):
-    """The hanging load [kg] on the rig that the joint's loads at ``angle`` amount to (what the
-    reference helpers of :mod:`cepam_gym.tasks.references` take): the equivalent weight less the
-    end mass, over g."""
-    return geom.equivalent_weight(angle, torque, p) / p[ix.GRAV] - p[ix.M_END]
-
-
-def joint_muscle_map(geom: JointGeometry, nominal_row):
-    """The joint as :func:`~cepam_gym.tasks.schedules.episode_schedules` sees a mechanism:
-    ``muscle(position, torque, rows) -> (muscle length [m], equivalent weight [N])``, where the
-    position is a muscle length of the *nominal* plant (``L_max - r theta``: the task's
-    ``muscle_spec`` draws angles that way) and ``rows`` the plant row(s) of the episode."""
-    l_max = float(nominal_row[ix.L_MAX])
-
-    def muscle(position, torque, rows):
-        q = np.asarray(rows).T  # q[col]: a column of rows, or the value of one row
-        theta = (l_max - np.asarray(position, dtype=float)) / geom.lever_arm
-        return geom.length(theta, q), geom.equivalent_weight(theta, torque, q)
-
-    return muscle
-
-
 def joint_planned_schedules(
     rngs, task: JointTask, geom: JointGeometry, params, nominal_row, n_steps: int, dt: float
 ):
     """Schedules of several joint envs at once, ``(target_angle, target_stiffness,
     external_torque, initial)`` (arrays (n_envs, n_steps), ``initial`` (n_envs, 2) = angle, joint
-    stiffness): the rig's batched sampler (:func:`~cepam_gym.tasks.schedules.episode_schedules`
-    through :func:`joint_muscle_map`; env i draws only from ``rngs[i]``), then each episode's
-    targets shaped by a reference kind drawn from ``task.references`` (the rig's
-    :func:`~cepam_gym.tasks.references.shape_reference` in muscle coordinates, the joint's loads
-    as an equivalent hanging load; the link's weight depends on the angle, so a shaped reference
-    is projected once more at its own angles; one that cannot be made reachable falls back to
-    ``min_jerk`` moves, then to the set-points). With references other than ``step`` an episode
-    starts at rest on its reference's first point. ``RuntimeError`` when a plant row leaves the
-    task's angles outside the joint's range or has no reachable target (the env redraws it)."""
+    stiffness): the rig's planner (:func:`~cepam_gym.tasks.planner.plan`) through the joint's
+    mechanism (targets drawn as muscle lengths of the nominal plant, ``task.muscle_spec``; env i
+    draws only from ``rngs[i]``), each episode's targets shaped by a reference kind drawn from
+    ``task.references`` in muscle coordinates under the equivalent hanging load (the link's weight
+    depends on the angle, so a shaped reference is projected once more at its own angles; one that
+    cannot be made reachable falls back to ``min_jerk`` moves, then to the set-points). With
+    references other than ``step`` an episode starts at rest on its reference's first point.
+    ``RuntimeError`` when a plant row leaves the task's angles outside the joint's range or has no
+    reachable target (the env redraws it)."""
     params = np.atleast_2d(np.asarray(params, dtype=float))
     for row in params:
         try:
@@ -337,35 +316,8 @@ def joint_planned_schedules(
         except ValueError as e:
             raise RuntimeError(str(e)) from None
     spec = task.muscle_spec(geom, nominal_row)
-    r, l_max = geom.lever_arm, float(nominal_row[ix.L_MAX])
-    pos, k_muscle, torque, initial = episode_schedules(
-        rngs, spec, params, n_steps, dt, muscle=joint_muscle_map(geom, nominal_row)
-    )
-    ta, tk = (l_max - pos) / r, k_muscle * r**2
-    initial = np.stack([(l_max - initial[:, 0]) / r, initial[:, 1] * r**2], axis=1)
-    if tuple(task.references) == ("step",):
-        return ta, tk, torque, initial
-    for i, rng in enumerate(rngs):
-        p = params[i if params.shape[0] > 1 else 0]
-        spec_i = task.muscle_spec(geom, p)
-        kind = task.references[int(rng.integers(len(task.references)))]
-        L, K = geom.length(ta[i], p), tk[i] / r**2
-        for k in (kind, "min_jerk"):
-            shaped = shape_reference(
-                k, rng, spec_i, p, L, K, _equivalent_load(geom, ta[i], torque[i], p), n_steps, dt
-            )
-            if shaped is None:
-                continue
-            try:
-                Ls, Ks = project(
-                    *shaped, _equivalent_load(geom, geom.angle(shaped[0], p), torque[i], p), p, spec_i
-                )
-            except ValueError:
-                continue
-            ta[i], tk[i] = geom.angle(Ls, p), Ks * r**2
-            initial[i] = ta[i, 0], tk[i, 0]
-            break
-    return ta, tk, torque, initial
+    mechanism = joint_mechanism(geom, nominal_row, task.angle_range)
+    return plan(rngs, spec, params, n_steps, dt, mechanism)
 
 
 PIN_KEYS = ("target_angle", "target_stiffness", "external_torque")  # reset options held all episode

@@ -10,12 +10,10 @@ import numpy as np
 
 from .. import plant as pl
 from ..errors import InputError
-from ..physics import api
-from ..physics import layout as ix
 from . import kernel as tk
 from .layout import rig_layout
+from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
-from .references import planned_schedules
 from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
 from .task import Task
 
@@ -50,6 +48,7 @@ class RigTask(Task):
     reward_terms = tk.REWARD_TERMS
     pin_keys = ("target_length", "target_stiffness", "load_mass")
     renderers = ("numpy", "mujoco")
+    step_keys = _STEP_KEYS
 
     def __init__(self, spec: TaskSpec, preview_steps: int = 0):
         self.spec = spec
@@ -103,18 +102,13 @@ class RigTask(Task):
 
     # ------------------------------------------------------------------ reset
     def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
-        """:func:`~cepam_gym.tasks.references.planned_schedules`."""
+        """:func:`~cepam_gym.tasks.planner.planned_schedules`."""
         return planned_schedules(rngs, self.spec, rows, n_steps, control_dt)
 
     def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
         """At rest at the (length, stiffness) rows under the first load: chamber pressures of the
-        inverse static model, step 0."""
-        p = core.params[idx]
-        weight = (p[:, ix.M_END] + core.load[idx, 0]) * p[:, ix.GRAV]
-        pc, pe, _ = api.static_pressures(initial[:, 0], initial[:, 1], weight, p)
-        core.state[idx] = pl.initial_state(p, initial[:, 0], pc, pe)
-        core.aux[idx] = pl.measure(core.state[idx], p)
-        core.t_idx[idx] = 0
+        inverse static model, step 0 (:func:`~cepam_gym.tasks.planner.start_at_rest`)."""
+        start_at_rest(core, idx, initial)
 
     def apply_options(self, core, options: dict) -> None:
         """Pin any of target_length [m], target_stiffness [N/m], load_mass [kg] for the episode
@@ -177,11 +171,6 @@ class RigTask(Task):
         info["target_stiffness"] = float(core.target_k[0, k])
         if scored:
             info.update(zip(TERM_KEYS, core.terms[0].tolist()))
-        info["redraws"] = int(core.redraws[0])
-        return info
-
-    def info_fast(self, core) -> dict[str, Any]:
-        info = dict(zip(_STEP_KEYS, core.info_row.tolist()))
         info["redraws"] = int(core.redraws[0])
         return info
 

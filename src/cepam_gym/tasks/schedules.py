@@ -9,219 +9,225 @@ smallest and the largest load of its segment: both chamber pressures must be pos
 (a slack braid adds no force, so the inverse model's pressures would not give the target). Because
 the static model is affine in stiffness and load at a fixed length, feasibility at the two load
 extremes implies feasibility in between.
+
+The sampling is compiled (:func:`schedule_env`, one env from its own generator's state,
+:mod:`cepam_gym.tasks.rng`) and run env by env by the reset's planner
+(:mod:`cepam_gym.tasks.planner`, whose :func:`~cepam_gym.tasks.planner.episode_schedules` gives
+the schedules of several envs); the functions taking a NumPy generator here are its Python faces.
+The draws of an episode, in order: the load profile, the segments, 8 candidate lengths per segment
+and for the initial state, 8 positions in their stiffness intervals, then (only for a segment
+whose 8 candidates are all infeasible) the fallback's draws.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..physics import api
+from .._jit import jit
 from ..physics import layout as ix
-from ..plant.params import pressure_cap_of
+from . import plan_vectors as pv
+from . import rng as R
+from .reach import consts, interval_at, npmax, npmin
 from .spec import TaskSpec
 
 _TRIES = 32
+_CANDIDATES = 8  # target candidates drawn per segment
 
 
-def _uniform(rng: np.random.Generator, lo, hi, size=None):
-    """``rng.uniform(lo, hi, size)`` bit for bit (numpy computes ``lo + (hi - lo) * next_double``)
-    at a quarter of its call cost: a 4096-env reset makes about 100 k of these draws."""
-    return lo + (hi - lo) * rng.random(size)
-
-
-def load_profile(rng: np.random.Generator, spec: TaskSpec, n_steps: int, dt: float) -> np.ndarray:
-    """Hanging load [kg] over one episode, one of the task's load kinds picked at random."""
-    lo, hi = spec.load_range
-    t = np.arange(n_steps) * dt
-    kind = spec.load_kinds[rng.integers(len(spec.load_kinds))]
-    a, b = _uniform(rng, lo, hi, 2)
-    if kind == "constant":
-        load = np.full(n_steps, a)
-    elif kind == "step":
-        t_step = _uniform(rng, 0.2, 0.8) * t[-1] if n_steps > 1 else 0.0
-        load = np.where(t < t_step, a, b)
-    elif kind == "ramp":
-        t0, t1 = np.sort(_uniform(rng, 0.0, max(t[-1], dt), 2))
-        load = a + (b - a) * np.clip((t - t0) / max(t1 - t0, dt), 0.0, 1.0)
-    elif kind == "sine":
-        mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo) * _uniform(rng, 0.2, 1.0)
-        freq = _uniform(rng, 0.05, 0.5)  # Hz: slow enough for the muscle to follow
-        load = mid + amp * np.sin(2 * np.pi * freq * t + _uniform(rng, 0.0, 2 * np.pi))
+@jit
+def load_profile_k(s, sv, n_steps, dt, out):
+    """Hanging load [kg] (the joint's: external torque [N m]) over one episode into ``out``, one
+    of the spec vector's load kinds picked at random; ``s`` a generator state row."""
+    lo, hi = sv[pv.SV_LOAD_LO], sv[pv.SV_LOAD_HI]
+    t_last = (n_steps - 1) * dt
+    kind = int(sv[pv.SV_LOADS + R.integers(s, int(sv[pv.SV_N_LOADS]))])
+    a = R.uniform(s, lo, hi)
+    b = R.uniform(s, lo, hi)
+    if kind == pv.LOAD_CONSTANT:
+        for i in range(n_steps):
+            out[i] = a
+    elif kind == pv.LOAD_STEP:
+        t_step = R.uniform(s, 0.2, 0.8) * t_last if n_steps > 1 else 0.0
+        for i in range(n_steps):
+            out[i] = a if i * dt < t_step else b
+    elif kind == pv.LOAD_RAMP:
+        top = max(t_last, dt)
+        t0, t1 = R.uniform(s, 0.0, top), R.uniform(s, 0.0, top)
+        if t1 < t0:
+            t0, t1 = t1, t0
+        span = max(t1 - t0, dt)
+        for i in range(n_steps):
+            out[i] = a + (b - a) * min(max((i * dt - t0) / span, 0.0), 1.0)
+    elif kind == pv.LOAD_SINE:
+        mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo) * R.uniform(s, 0.2, 1.0)
+        omega = 2 * np.pi * R.uniform(s, 0.05, 0.5)  # Hz: slow enough for the muscle to follow
+        phase = R.uniform(s, 0.0, 2 * np.pi)
+        for i in range(n_steps):
+            out[i] = mid + amp * np.sin(omega * (i * dt) + phase)
     else:  # random: piecewise constant, a new value every 0.5-3 s
-        load = np.empty(n_steps)
         i = 0
         while i < n_steps:
-            j = i + max(1, int(_uniform(rng, 0.5, 3.0) / dt))
-            load[i:j] = _uniform(rng, lo, hi)
+            j = i + max(1, int(R.uniform(s, 0.5, 3.0) / dt))
+            v = R.uniform(s, lo, hi)
+            for k in range(i, min(j, n_steps)):
+                out[k] = v
             i = j
-    return np.minimum(np.maximum(load, lo), hi)  # np.clip, at a tenth of its call overhead
+    for i in range(n_steps):
+        out[i] = npmin(npmax(out[i], lo), hi)
+
+
+@jit
+def segments_k(s, seg_lo, seg_hi, n_steps, dt, starts):
+    """Target segments of one episode, each lasting a random duration in ``[seg_lo, seg_hi]`` s
+    (the last one cut at the episode's end): their start steps into ``starts`` followed by
+    ``n_steps``; returns their number."""
+    n, i = 0, 0
+    while i < n_steps:
+        starts[n] = i
+        n += 1
+        i = min(n_steps, i + max(1, int(R.uniform(s, seg_lo, seg_hi) / dt)))
+    starts[n] = n_steps
+    return n
+
+
+@jit
+def _muscle_interval(pos, w_lo, w_hi, p, c, mv):
+    """:func:`~cepam_gym.tasks.reach.interval_at` of a target position under loads in
+    ``[w_lo, w_hi]`` (the rig: lengths and weights; the joint: through its mechanism)."""
+    if mv[pv.MV_JOINT] == 0.0:
+        return interval_at(pos, w_lo, w_hi, p, c)
+    length, weight_lo = pv.muscle_of(pos, w_lo, p, mv)
+    return interval_at(length, weight_lo, pv.muscle_of(pos, w_hi, p, mv)[1], p, c)
+
+
+@jit
+def sample_target_k(s, sv, mv, p, c, w_lo, w_hi):
+    """One reachable ``(ok, position, stiffness)`` target for loads in ``[w_lo, w_hi]`` (weights
+    [N] on the rig, torques [N m] on the joint), at most ``_TRIES`` positions drawn."""
+    fixed = sv[pv.SV_FIXED]
+    for _ in range(_TRIES):
+        pos = fixed if fixed == fixed else R.uniform(s, sv[pv.SV_LEN_LO], sv[pv.SV_LEN_HI])
+        k_lo, k_hi = _muscle_interval(pos, w_lo, w_hi, p, c, mv)
+        if k_hi > k_lo:
+            # shrink by 5 % of the width on both sides: targets stay strictly inside
+            pad = 0.05 * (k_hi - k_lo)
+            return True, pos, R.uniform(s, k_lo + pad, k_hi - pad)
+    return False, np.nan, np.nan
+
+
+@jit
+def schedule_env(s, sv, mv, p, n_steps, dt, tl, tk, load, initial, fail):
+    """One env's schedule from generator state ``s`` on parameter row ``p``: targets into ``tl``,
+    ``tk`` (positions and the muscle's stiffness [N/m]), loads into ``load``, the initial target
+    into ``initial``. Each segment's target is its first feasible candidate, else
+    :func:`sample_target_k`. Returns False (the segment's load extremes in ``fail``) when no
+    reachable target exists for some segment."""
+    load_profile_k(s, sv, n_steps, dt, load)
+    starts = np.empty(n_steps + 1, dtype=np.int64)
+    n_seg = segments_k(s, sv[pv.SV_SEG_LO], sv[pv.SV_SEG_HI], n_steps, dt, starts)
+    n_cand = (n_seg + 1) * _CANDIDATES  # the last row: the initial state
+    cand_l = np.empty(n_cand)
+    fixed = sv[pv.SV_FIXED]
+    for j in range(n_cand):
+        cand_l[j] = fixed if fixed == fixed else R.uniform(s, sv[pv.SV_LEN_LO], sv[pv.SV_LEN_HI])
+    cand_u = np.empty(n_cand)
+    for j in range(n_cand):
+        cand_u[j] = R.uniform(s, 0.05, 0.95)  # where in the K interval
+    c = consts(p, sv[pv.SV_K_MIN], sv[pv.SV_K_MAX], sv[pv.SV_MARGIN])
+    rig = mv[pv.MV_JOINT] == 0.0
+    for g in range(n_seg + 1):
+        a, b = (starts[g], starts[g + 1]) if g < n_seg else (0, 1)
+        w0 = (p[ix.M_END] + load[a]) * p[ix.GRAV] if rig else load[a]
+        w_lo, w_hi = w0, w0
+        for i in range(a + 1, b):
+            w = (p[ix.M_END] + load[i]) * p[ix.GRAV] if rig else load[i]
+            w_lo, w_hi = npmin(w_lo, w), npmax(w_hi, w)
+        ok = False
+        pos, k = 0.0, 0.0
+        for j in range(g * _CANDIDATES, (g + 1) * _CANDIDATES):
+            k_lo, k_hi = _muscle_interval(cand_l[j], w_lo, w_hi, p, c, mv)
+            if k_hi > k_lo:
+                ok, pos, k = True, cand_l[j], k_lo + cand_u[j] * (k_hi - k_lo)
+                break
+        if not ok:
+            ok, pos, k = sample_target_k(s, sv, mv, p, c, w_lo, w_hi)
+            if not ok:
+                fail[0], fail[1] = w_lo, w_hi
+                return False
+        if g < n_seg:
+            for i in range(a, b):
+                tl[i] = pos
+                tk[i] = k
+        else:
+            initial[0], initial[1] = pos, k
+    return True
+
+
+# ------------------------------------------------------------------ the NumPy faces
+def load_profile(rng: np.random.Generator, spec: TaskSpec, n_steps: int, dt: float) -> np.ndarray:
+    """Hanging load [kg] over one episode, one of the task's load kinds picked at random."""
+    s = R.pack([rng])
+    out = np.empty(n_steps)
+    load_profile_k(s[0], pv.spec_vector(spec), n_steps, dt, out)
+    R.unpack([rng], s)
+    return out
 
 
 def segments(rng, spec: TaskSpec, n_steps: int, dt: float) -> list[tuple[int, int]]:
     """``(start, stop)`` step indices of the target segments of one episode, each lasting a
     random ``segment_duration`` (the last one cut at the episode's end)."""
-    out, i = [], 0
-    while i < n_steps:
-        j = min(n_steps, i + max(1, int(_uniform(rng, *spec.segment_duration) / dt)))
-        out.append((i, j))
-        i = j
-    return out
+    s = R.pack([rng])
+    starts = np.empty(n_steps + 1, dtype=np.int64)
+    n = segments_k(s[0], *spec.segment_duration, n_steps, dt, starts)
+    R.unpack([rng], s)
+    return list(zip(starts[:n].tolist(), starts[1 : n + 1].tolist()))
 
 
-def _interval(a, s, lo, hi):
-    """The K for which ``lo <= a + K s <= hi`` (arrays), as ``(K_lo, K_hi)``; empty if lo > hi."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        e1, e2 = (lo - a) / s, (hi - a) / s
-    inside = (lo <= a) & (a <= hi)
-    k_lo = np.where(s > 0, e1, np.where(s < 0, e2, np.where(inside, -np.inf, np.inf)))
-    k_hi = np.where(s > 0, e2, np.where(s < 0, e1, np.where(inside, np.inf, -np.inf)))
-    return k_lo, k_hi
+@jit
+def _intervals(L, w_lo, w_hi, P, k_min, k_max, margin, out_lo, out_hi):
+    shared = P.shape[0] == 1
+    for i in range(L.shape[0]):
+        p = P[0] if shared else P[i]
+        out_lo[i], out_hi[i] = interval_at(L[i], w_lo[i], w_hi[i], p, consts(p, k_min, k_max, margin))
 
 
 def stiffness_interval(length, w_lo, w_hi, params, spec: TaskSpec):
     """Reachable stiffness interval ``(K_lo, K_hi)`` [N/m] at ``length`` for weights in
-    ``[w_lo, w_hi]`` [N]; empty when ``K_lo >= K_hi``. ``params`` is one row, or one row per
-    element of the (1-D) arguments."""
-    p = np.asarray(params, dtype=float)
-    p_cap = spec.pressure_margin * pressure_cap_of(p)
-    p_floor = 2e3  # Pa above the contact pressure: keeps targets off the P_a = 0 kink
-    prc, pre = api.contact_pressures(length, p)
-    k_lo = np.full(np.broadcast(length, w_lo, w_hi).shape, spec.stiffness_range[0], dtype=float)
-    k_hi = np.full_like(k_lo, spec.stiffness_range[1])
-    for w in (w_lo, w_hi):
-        # pressures are affine in K at fixed (L, W): P(K) = P(0) + K dP/dK
-        pc0, pe0, _ = api.static_pressures(length, 0.0, w, p)
-        pc1, pe1, _ = api.static_pressures(length, 1000.0, w, p)
-        for p0, p1, pr in ((pc0, pc1, prc), (pe0, pe1, pre)):
-            lo, hi = _interval(p0, (p1 - p0) / 1000.0, pr + p_floor, p_cap)
-            k_lo, k_hi = np.maximum(k_lo, lo), np.minimum(k_hi, hi)
-        # a tension-only CPAM (plant v1) must stay taut: the inverse model assumes its braid pulls,
-        # and a slack one adds no force (its load is affine in K too: one more interval)
-        c0, c_taut = api.cpam_tension(length, pc0, pe0, p)
-        c1, _ = api.cpam_tension(length, pc1, pe1, p)
-        if np.any(np.isfinite(c0)):
-            lo, hi = _interval(c0, (c1 - c0) / 1000.0, -np.inf, c_taut)
-            k_lo, k_hi = np.maximum(k_lo, lo), np.minimum(k_hi, hi)
-    return k_lo, k_hi
+    ``[w_lo, w_hi]`` [N] (arrays of their broadcast shape); empty when ``K_lo >= K_hi``. ``params``
+    is one row, or one row per element of the (1-D) arguments."""
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (length, w_lo, w_hi)))
+    shape = arrays[0].shape
+    flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+    P = np.ascontiguousarray(np.atleast_2d(np.asarray(params, dtype=float)))
+    out_lo, out_hi = np.empty(flat[0].shape[0]), np.empty(flat[0].shape[0])
+    _intervals(
+        *flat, P, *(float(v) for v in spec.stiffness_range), float(spec.pressure_margin), out_lo, out_hi
+    )
+    return out_lo.reshape(shape), out_hi.reshape(shape)
 
 
-def sample_target(
-    rng, spec: TaskSpec, w_lo: float, w_hi: float, params_row, muscle=None
-) -> tuple[float, float]:
-    """One reachable ``(length, stiffness)`` target for weights in ``[w_lo, w_hi]`` [N]. With a
-    ``muscle`` map (:func:`episode_schedules`), ``w_lo, w_hi`` are the segment's load extremes and
-    the position drawn is mapped to the muscle's length and weights."""
-    for _ in range(_TRIES):
-        L = spec.fixed_length if spec.fixed_length is not None else rng.uniform(*spec.length_range)
-        if muscle is None:
-            k_lo, k_hi = stiffness_interval(L, w_lo, w_hi, params_row, spec)
-        else:
-            length, weight_lo = muscle(L, w_lo, params_row)
-            k_lo, k_hi = stiffness_interval(
-                length, weight_lo, muscle(L, w_hi, params_row)[1], params_row, spec
-            )
-        k_lo, k_hi = float(k_lo), float(k_hi)
-        if k_hi > k_lo:
-            # shrink by 5 % of the width on both sides: targets stay strictly inside
-            pad = 0.05 * (k_hi - k_lo)
-            return L, float(rng.uniform(k_lo + pad, k_hi - pad))
-    raise RuntimeError(
+def _no_target(spec: TaskSpec, w_lo: float, w_hi: float) -> RuntimeError:
+    return RuntimeError(
         f"task {spec.name!r}: found no reachable target in {_TRIES} tries for loads "
         f"{w_lo / 9.81:.3g}-{w_hi / 9.81:.3g} kg; the plant's pressures cannot hold these loads "
         "(lower load_range, widen length_range, or raise the supply/burst pressure)"
     )
 
 
-_CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
+def sample_target(rng, spec: TaskSpec, w_lo: float, w_hi: float, params_row) -> tuple[float, float]:
+    """One reachable ``(length, stiffness)`` target for weights in ``[w_lo, w_hi]`` [N] (at most
+    32 lengths drawn; ``RuntimeError`` when none is reachable)."""
+    p = np.asarray(params_row, dtype=float)
+    sv = pv.spec_vector(spec)
+    s = R.pack([rng])
+    c = (sv[pv.SV_K_MIN], sv[pv.SV_K_MAX], sv[pv.SV_MARGIN])
+    ok, length, k = _sample_target(s[0], sv, pv.rig_mechanism(), p, *c, float(w_lo), float(w_hi))
+    R.unpack([rng], s)
+    if not ok:
+        raise _no_target(spec, w_lo, w_hi)
+    return length, k
 
 
-def _draw(rng, spec: TaskSpec, n_steps: int, dt: float):
-    """All random draws of one episode, in a fixed order that depends only on this env's rng."""
-    load = load_profile(rng, spec, n_steps, dt)
-    segs = segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last "segment" is the initial state
-    n = len(segs)
-    if spec.fixed_length is not None:
-        cand_l = np.full((n, _CANDIDATES), spec.fixed_length)
-    else:
-        cand_l = _uniform(rng, *spec.length_range, (n, _CANDIDATES))
-    cand_u = _uniform(rng, 0.05, 0.95, (n, _CANDIDATES))  # where in the K interval
-    return load, segs, cand_l, cand_u
-
-
-def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float, muscle=None):
-    """Schedules of several envs at once: ``(target_length, target_stiffness, load, initial)``
-    with arrays of shape (n_envs, n_steps) and ``initial`` (n_envs, 2) = length, stiffness.
-
-    ``muscle``: for another mechanism than the rig's (the joint), a map
-    ``muscle(position, load, rows) -> (muscle length [m], weight [N])`` from the mechanism's
-    target position (drawn in ``spec.length_range``) and load (in ``spec.load_range``, held over
-    a segment at its extremes) to what the muscle sees (``rows``: parameter row(s), one per
-    element or one for all). The targets returned are then positions, and stiffnesses the
-    muscle's [N/m]. ``None``: the rig (position = length, load = hanging mass).
-
-    Env i uses only ``rngs[i]`` (in the same order whatever the batch), so a batch of envs gets
-    exactly the schedules single envs with the same generators would get. Targets come from
-    candidates drawn per segment and checked together with :func:`stiffness_interval`; the rare
-    segment without a feasible candidate falls back to :func:`sample_target`. Only the random
-    draws run per env; everything else runs on all segments of all envs at once (a 4096-env reset
-    is dominated by the draws).
-    """
-    params = np.atleast_2d(np.asarray(params, dtype=float))
-    m = len(rngs)
-    draws = [_draw(rng, spec, n_steps, dt) for rng in rngs]
-    loads = np.stack([d[0] for d in draws]) if m else np.empty((0, n_steps))
-    per_env = params if params.shape[0] > 1 else params[[0] * m]
-    if muscle is None:
-        weights = (per_env[:, ix.M_END, None] + loads) * per_env[:, ix.GRAV, None]  # [N], (m, n_steps)
-    else:  # the loads themselves: their extremes per segment go through the map
-        weights = loads
-    # segments of all envs, the real ones first (they tile each env's row), then one initial
-    # pseudo-segment (step 0) per env
-    n_seg = np.array([len(d[1]) - 1 for d in draws], dtype=np.int64)
-    env_of = np.repeat(np.arange(m), n_seg)
-    starts = np.concatenate([[a for a, _ in d[1][:-1]] for d in draws] or [[]]).astype(np.int64)
-    flat = weights.ravel()
-    first = env_of * n_steps + starts
-    w_lo = np.concatenate([np.minimum.reduceat(flat, first) if m else [], weights[:, 0]])
-    w_hi = np.concatenate([np.maximum.reduceat(flat, first) if m else [], weights[:, 0]])
-    seg_env = np.concatenate([env_of, np.arange(m)])
-    seg_idx = np.concatenate([np.arange(len(env_of)) - np.repeat(np.cumsum(n_seg) - n_seg, n_seg), n_seg])
-    cand_l = np.concatenate(
-        [
-            np.concatenate([d[2][:-1] for d in draws] or [np.empty((0, _CANDIDATES))]),
-            np.stack([d[2][-1] for d in draws]) if m else np.empty((0, _CANDIDATES)),
-        ]
-    )
-    cand_u = np.concatenate(
-        [
-            np.concatenate([d[3][:-1] for d in draws] or [np.empty((0, _CANDIDATES))]),
-            np.stack([d[3][-1] for d in draws]) if m else np.empty((0, _CANDIDATES)),
-        ]
-    )
-    prow = params[np.repeat(seg_env, _CANDIDATES)] if params.shape[0] > 1 else params[0]
-    if muscle is None:
-        k_lo, k_hi = stiffness_interval(
-            cand_l.ravel(), np.repeat(w_lo, _CANDIDATES), np.repeat(w_hi, _CANDIDATES), prow, spec
-        )
-    else:
-        length, weight_lo = muscle(cand_l.ravel(), np.repeat(w_lo, _CANDIDATES), prow)
-        weight_hi = muscle(cand_l.ravel(), np.repeat(w_hi, _CANDIDATES), prow)[1]
-        k_lo, k_hi = stiffness_interval(length, weight_lo, weight_hi, prow, spec)
-    k_lo, k_hi = k_lo.reshape(-1, _CANDIDATES), k_hi.reshape(-1, _CANDIDATES)
-    ok = k_hi > k_lo
-    c = ok.argmax(axis=1)  # the first feasible candidate of each segment
-    rows = np.arange(len(c))
-    lo, hi = k_lo[rows, c], k_hi[rows, c]
-    target_l = cand_l[rows, c]
-    target_k = lo + cand_u[rows, c] * (hi - lo)
-    # the rare segment with no feasible candidate: sample_target, per env in segment order (each
-    # env's own generator, after its draws, as a single env would)
-    for j in sorted(np.flatnonzero(~ok.any(axis=1)), key=lambda j: (seg_env[j], seg_idx[j])):
-        i = seg_env[j]
-        target_l[j], target_k[j] = sample_target(rngs[i], spec, w_lo[j], w_hi[j], per_env[i], muscle)
-    n_real = len(env_of)
-    seg_len = np.concatenate([[b - a for a, b in d[1][:-1]] for d in draws] or [[]]).astype(np.int64)
-    tl = np.repeat(target_l[:n_real], seg_len).reshape(m, n_steps)
-    tkk = np.repeat(target_k[:n_real], seg_len).reshape(m, n_steps)
-    initial = np.stack([target_l[n_real:], target_k[n_real:]], axis=1)
-    return tl, tkk, loads, initial
+@jit
+def _sample_target(s, sv, mv, p, k_min, k_max, margin, w_lo, w_hi):
+    return sample_target_k(s, sv, mv, p, consts(p, k_min, k_max, margin), w_lo, w_hi)

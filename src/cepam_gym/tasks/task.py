@@ -90,9 +90,10 @@ class Task:
         """The info of env 0 as Python floats (the single env's hot path)."""
         raise NotImplementedError
 
-    def info_fast(self, core) -> dict[str, Any]:
-        """The info of a step taken by the one-call single step (``core.info_row``)."""
-        return self.info_single(core, True)
+    # the info keys of a step taken by the single env's one-call step, in the order of the values
+    # it writes to ``core.info_row`` (``redraws`` and ``termination_reason`` follow); None: the
+    # single env builds the info with :meth:`info_single`
+    step_keys: tuple[str, ...] | None = None
 
     def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
         """Per-env info arrays (SI)."""
