@@ -74,12 +74,9 @@ class BCPolicy:
     def act(self, obs, info=None) -> np.ndarray:
         import torch
 
-        single = np.ndim(obs) == 1
-        o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
-        if o.shape[1] != self.obs_dim:
-            raise InputError(
-                f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}), got {np.shape(obs)}"
-            )
+        from .policy import obs_batch
+
+        o, single = obs_batch(obs, self.obs_dim)
         with torch.no_grad():
             a = self.net((torch.from_numpy(o) - self.mean) / self.std).numpy()
         return a[0] if single else a

@@ -57,21 +57,13 @@ def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int) -> No
 def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
     """The benchmark score of controller ``spec`` on ``episodes`` episodes of ``suite`` from
     ``seed`` (None: the suite's own)."""
-    from cepam_gym.bench.harness import record
-    from cepam_gym.bench.metrics import score_traces
-    from cepam_gym.bench.suites import SUITES
-    from cepam_gym.control import make_controller
+    import dataclasses
 
-    s = SUITES[suite]
-    tr, track_k = record(
-        lambda venv: make_controller(spec, venv),
-        s.env_id,
-        s.env_kwargs,
-        episodes,
-        s.seed if seed is None else seed,
-        spec=s.traces,
-    )
-    return float(score_traces(tr, track_k, s.traces)["score"])
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.suites import SUITES
+
+    s = SUITES[suite] if seed is None else dataclasses.replace(SUITES[suite], seed=seed)
+    return float(run_suite(spec, s, episodes)[0]["score"])
 
 
 def measure(configs, seeds, out: Path, unseen: int, cache: dict) -> dict:

@@ -113,28 +113,17 @@ def eval_references(out: Path, suite: str, episodes: int, seed: int) -> tuple[fl
     (``episodes`` from ``seed`` on the suite's env): the ends its scores are normalized between.
     The suite's stored references are measured on other episodes (its own seed and count), so
     they cannot normalize these. Measured once, cached in ``out/eval_references.json``."""
-    from cepam_gym.bench.harness import record
-    from cepam_gym.bench.metrics import score_traces
+    import dataclasses
+
+    from cepam_gym.bench.harness import run_suite
     from cepam_gym.bench.suites import SUITES
-    from cepam_gym.control import make_controller
 
     path = out / "eval_references.json"
     cache = json.loads(path.read_text()) if path.is_file() else {}
     key = f"{suite}|{episodes}|{seed}"
     if key not in cache:
-        s = SUITES[suite]
-        ends = []
-        for name in ("zero", "oracle"):
-            tr, track_k = record(
-                lambda venv, name=name: make_controller(name, venv),
-                s.env_id,
-                s.env_kwargs,
-                episodes,
-                seed,
-                spec=s.traces,
-            )
-            ends.append(float(score_traces(tr, track_k, s.traces)["score"]))
-        cache[key] = ends
+        s = dataclasses.replace(SUITES[suite], seed=seed)
+        cache[key] = [float(run_suite(name, s, episodes)[0]["score"]) for name in ("zero", "oracle")]
         path.write_text(json.dumps(cache, indent=1))
     return tuple(cache[key])
 

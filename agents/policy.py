@@ -26,6 +26,16 @@ if TYPE_CHECKING:
 MODEL_CHOICES = ("best", "final", "latest")
 
 
+def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
+    """``(batch (N, obs_dim) float32, was a single observation)``; ``InputError`` naming the shape
+    otherwise. Every policy a run loads checks its input here."""
+    single = np.ndim(obs) == 1
+    o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
+    if o.shape[1] != obs_dim:
+        raise InputError(f"observation must have shape ({obs_dim},) or (N, {obs_dim}), got {np.shape(obs)}")
+    return o, single
+
+
 class AgentPolicy:
     """Deterministic policy of a trained model: ``act(obs)`` maps (N, obs_dim) -> (N, 2) float32
     or (obs_dim,) -> (2,), through the run's features, observation normalization and residual."""
@@ -59,12 +69,7 @@ class AgentPolicy:
             self._starts[np.asarray(indices)] = True
 
     def act(self, obs, info=None) -> np.ndarray:
-        single = np.ndim(obs) == 1
-        o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
-        if o.shape[1] != self.obs_dim:
-            raise InputError(
-                f"observation must have shape ({self.obs_dim},) or (N, {self.obs_dim}), got {np.shape(obs)}"
-            )
+        o, single = obs_batch(obs, self.obs_dim)
         f, base = self.features(o)
         if self.normalizer is not None:
             f = self.normalizer.normalize_obs(f)

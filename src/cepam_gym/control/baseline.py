@@ -160,11 +160,17 @@ class InverseStaticController:
         self._weight = np.where(fresh, load_now, self._weight + self.alpha * (load_now - self._weight))
         return self._weight
 
+    @property
+    def last_gap(self) -> np.ndarray:
+        """The set-point gaps (N, 2) [Pa] of the last action, contractor then extensor: what the
+        nominal model says each chamber still needs (agents read them as a feature)."""
+        pc_set, pc, pe_set, pe = self._last
+        return np.stack([np.asarray(pc_set - pc, float), np.asarray(pe_set - pe, float)], axis=1)
+
     def _drive(self, pc_set, pe_set, L, pc, pe, setpoint_max: float, single: bool) -> np.ndarray:
         """Actions that bring the chambers to the set-points, by action mode (step 4 above).
-        Keeps the set-point gaps ``last_gap`` (N, 2) [Pa], contractor then extensor: what the
-        nominal model says each chamber still needs (agents read them as a feature)."""
-        self.last_gap = np.stack([np.asarray(pc_set - pc, float), np.asarray(pe_set - pe, float)], axis=1)
+        Keeps the set-points and measured pressures for :attr:`last_gap`."""
+        self._last = (pc_set, pc, pe_set, pe)
         if self.mode == "pressure":
             action = pressure_actions(pc_set, pe_set, setpoint_max)
         else:
