@@ -47,6 +47,11 @@ class ModelPredictiveController(InverseStaticController):
         if hasattr(self, "planner"):
             self.planner.reset(indices)
 
+    def model_rows(self, n: int) -> np.ndarray:
+        """The parameter rows the model plans with: (1, N_PARAMS) the nominal plant for all ``n``
+        envs (:class:`KnownParamsMPC`: each env's true row)."""
+        return self.params[None]
+
     def estimate_state(self, obs: np.ndarray, L, pc, pe, params=None) -> np.ndarray:
         """Plant states (N, N_STATE) of the model (the nominal one, or ``params`` rows (N,
         N_PARAMS)) from measured quantities."""
@@ -67,14 +72,15 @@ class ModelPredictiveController(InverseStaticController):
         single = np.ndim(obs) == 1
         obs = np.atleast_2d(np.asarray(obs, dtype=float))
         L, pc, pe, L_t, K_t = self._decode(obs)
-        p = self.params
+        rows = self.model_rows(obs.shape[0])
+        p = rows.T  # columns by index: one value, or one per env
         w_min = p[ix.M_END] * p[ix.GRAV]
-        weight = np.maximum(self._filtered(-api.force(L, pc, pe, p)), w_min)
+        weight = np.maximum(self._filtered(-api.force(L, pc, pe, rows if len(rows) > 1 else rows[0])), w_min)
         load = weight / p[ix.GRAV] - p[ix.M_END]
         ref_l, ref_k = self.reference(obs, L_t, K_t)
         ones = np.ones((obs.shape[0], self.cfg.horizon_steps))
-        x = self.estimate_state(obs, L, pc, pe)
-        a = self.planner.plan(x, p[None], ref_l, ref_k, load[:, None] * ones).astype(np.float32)
+        x = self.estimate_state(obs, L, pc, pe, None if len(rows) == 1 else rows)
+        a = self.planner.plan(x, rows, ref_l, ref_k, load[:, None] * ones).astype(np.float32)
         return a[0] if single else a
 
     def reference(self, obs, L_t, K_t):
@@ -96,3 +102,18 @@ class ModelPredictiveController(InverseStaticController):
             np.concatenate([ref_l, np.repeat(ref_l[:, -1:], pad, axis=1)], axis=1),
             np.concatenate([ref_k, np.repeat(ref_k[:, -1:], pad, axis=1)], axis=1),
         )
+
+
+class KnownParamsMPC(ModelPredictiveController):
+    """The MPC given each env's true parameter row (randomized plants included); its state is
+    still estimated from the sensors and its load from the static balance. Not a practical
+    controller: the ceiling of adapting to the plant by identifying its parameters, the yardstick
+    of an agent that must infer them (docs/benchmark.md, "What the oracle's privileges are worth")."""
+
+    def __init__(self, env, config: CEMConfig | None = None, **overrides):
+        super().__init__(env, config, **overrides)
+        self.core = core_of(env)
+
+    def model_rows(self, n: int) -> np.ndarray:
+        rows = np.asarray(self.core.params)
+        return rows if len(rows) == n else np.broadcast_to(rows, (n, rows.shape[1]))

@@ -107,3 +107,15 @@ class OracleController:
         tl, tkk, load, w = self.horizon()
         a = self.planner.plan(core.state, core.params, tl, tkk, load, w).astype(np.float32)
         return a[0] if np.ndim(obs) == 1 else a
+
+
+class CausalOracle(OracleController):
+    """The oracle without foresight of the load: it plans with the load of the current step held
+    over its horizon, as any causal controller must (it still reads the true state, parameters
+    and targets; the targets are announced by the v1 preview anyway). Where the load is constant
+    it is the oracle itself. What a student imitating the oracle could at best reach
+    (docs/benchmark.md, "What the oracle's privileges are worth")."""
+
+    def horizon(self):
+        tl, tkk, load, w = super().horizon()
+        return tl, tkk, np.repeat(load[:, :1], load.shape[1], axis=1), w

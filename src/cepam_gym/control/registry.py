@@ -41,6 +41,10 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     # the MPC with an online estimate (EKF) of the load and of the static map's parameters
     "adaptive_mpc": "cepam_gym.control.adaptive_mpc:AdaptiveMPC",
     "oracle": "cepam_gym.control.oracle:OracleController",
+    # privileged ceilings of what the oracle's inputs are worth (docs/benchmark.md): the oracle
+    # without foresight of the load, and the MPC given each plant's true parameters
+    "oracle_causal": "cepam_gym.control.oracle:CausalOracle",
+    "mpc_known_params": "cepam_gym.control.mpc:KnownParamsMPC",
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}

@@ -1,0 +1,103 @@
+"""What the oracle's privileges are worth: the ladder from the practical MPC to the oracle.
+
+The oracle (the 100 of every normalized score) reads four things no rig has: the future of the
+load, the plant's hidden state (air temperatures, spool positions, friction slips), its true
+parameters (randomized plants), and it searches harder than the practical MPC. An agent that sees
+only the sensors is asked to close 80 % of the baseline-to-oracle gap (issue 26); this script
+measures how much of that gap each privilege carries, by giving the MPC one privilege at a time
+and taking the foresight away from the oracle, all on the same seeded episodes of a suite:
+
+* ``mpc``: the nominal model, state from the sensors (air at ambient temperature, spools where the
+  last command put them, friction relaxed), load from the static balance;
+* ``mpc + oracle search``: the same with the oracle's search settings;
+* ``mpc + true hidden state`` (and its parts: air, friction): the plant's true columns copied into
+  the MPC's state estimate, with the oracle's search;
+* ``mpc_known_params`` (registered): each plant's true parameters, state and load still estimated;
+* ``oracle_causal`` (registered): the oracle with the load of the current step held over its
+  horizon (no foresight);
+* ``oracle``.
+
+Per row: the score, its 95 % interval and the share of the baseline-to-oracle gap it closes
+(``(baseline - score) / (baseline - oracle)``, the yardstick of issue 26's goal).
+
+Run: ``NUMBA_NUM_THREADS=1 python benchmarks/oracle_privileges.py [--suite nominal-v1] [--episodes 20]``
+(about 12 minutes for both default suites on one core of a busy 2-core machine).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import cepam_gym  # noqa: F401  (registers the ids)
+from cepam_gym import plant as pl
+from cepam_gym.bench.harness import record
+from cepam_gym.bench.metrics import score_traces
+from cepam_gym.bench.suites import SUITES
+from cepam_gym.control import make_controller
+from cepam_gym.control.baseline import find_core
+from cepam_gym.control.mpc import ModelPredictiveController
+from cepam_gym.control.oracle import ORACLE_CONFIG
+
+AIR = (pl.S_MC, pl.S_UC, pl.S_ME, pl.S_UE)
+SPOOLS = (pl.S_SC, pl.S_SE, pl.S_SRC, pl.S_SRE)
+FRICTION = (pl.S_Z1, pl.S_Z2, pl.S_Z3)
+
+
+class _TrueColumnsMPC(ModelPredictiveController):
+    """The MPC with the oracle's search and some true state columns in place of its estimate."""
+
+    def __init__(self, env, columns: tuple[int, ...]):
+        super().__init__(env, config=ORACLE_CONFIG)
+        self.columns, self.core = list(columns), find_core(env)
+
+    def estimate_state(self, obs, L, pc, pe, params=None):
+        x = super().estimate_state(obs, L, pc, pe, params)
+        x[:, self.columns] = self.core.state[:, self.columns]
+        return x
+
+
+ROWS = {
+    "baseline": lambda v: make_controller("baseline", v),
+    "mpc": lambda v: make_controller("mpc", v),
+    "mpc + oracle search": lambda v: _TrueColumnsMPC(v, ()),
+    "mpc + true air": lambda v: _TrueColumnsMPC(v, AIR),
+    "mpc + true friction": lambda v: _TrueColumnsMPC(v, FRICTION),
+    "mpc + true hidden state": lambda v: _TrueColumnsMPC(v, AIR + SPOOLS + FRICTION),
+    "mpc_known_params": lambda v: make_controller("mpc_known_params", v),
+    "oracle_causal": lambda v: make_controller("oracle_causal", v),
+    "oracle": lambda v: make_controller("oracle", v),
+}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--suite", action="append", help="repeatable; default nominal-v1, randomized-v1")
+    ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's)")
+    ap.add_argument("--row", action="append", choices=sorted(ROWS), help="rows to run (default all)")
+    args = ap.parse_args(argv)
+    for name in args.suite or ["nominal-v1", "randomized-v1"]:
+        s = SUITES[name]
+        rows = {}
+        for row in args.row or list(ROWS):
+            t = time.perf_counter()
+            episodes = args.episodes or s.episodes
+            tr, track = record(ROWS[row], s.env_id, s.env_kwargs, episodes, s.seed, None, s.traces)
+            rows[row] = (score_traces(tr, track, s.traces), time.perf_counter() - t)
+        base = rows["baseline"][0]["score"] if "baseline" in rows else None
+        top = rows["oracle"][0]["score"] if "oracle" in rows else None
+        print(f"\n{name} ({args.episodes or s.episodes} episodes, seed {s.seed})")
+        print("| row | length RMSE mm | stiffness RMSE % | score | 95 % CI | gap closed | s |")
+        print("|---|---|---|---|---|---|---|")
+        for row, (m, sec) in rows.items():
+            gap = "" if base is None or top is None else f"{100 * (base - m['score']) / (base - top):.0f} %"
+            lo, hi = m["score_ci95"]
+            print(
+                f"| {row} | {m['length_rmse_mm']:.3f} | {m['stiffness_rmse_pct']:.2f} | {m['score']:.4f} "
+                f"| {lo:.4f}-{hi:.4f} | {gap} | {sec:.0f} |",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
