@@ -158,6 +158,26 @@ FIT_PARAMS: dict[str, FitParam] = {
             ("friction_presliding",),
         ),
         FitParam(
+            "epam_thread_compliance",
+            "per_kn",
+            0.0,
+            1.5,
+            "plant v2: strain of the EPAM braid's threads per kN of their total tension; 1.5 per kN "
+            "stretches them by about a third at the tube's 500 kPa, the size of the braid-elasticity "
+            "effects Chambers and Wereley (2022) measured (diameters up to 30 % above the inelastic braid)",
+            *field_accessors("epam_thread_compliance"),
+            ("epam_thread_compliance",),
+        ),
+        FitParam(
+            "cpam_thread_compliance",
+            "per_kn",
+            0.0,
+            1.5,
+            "plant v2: the same for the CPAM's braid (loaded by P_ac - P_ae): the same kind of sleeve",
+            *field_accessors("cpam_thread_compliance"),
+            ("cpam_thread_compliance",),
+        ),
+        FitParam(
             "end_mass",
             "g",
             5.0,
