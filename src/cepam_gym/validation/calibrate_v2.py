@@ -25,16 +25,14 @@ V2_FIT = V1_FIT + (
     "friction_mu",
     "friction_presliding",
     "collapse_seal_diameter",
-    "epam_thread_compliance",
-    "cpam_thread_compliance",
+    "thread_compliance",
 )
 V2_BOUNDS = {
     **V1_BOUNDS,
     "friction_mu": (0.0, 1e-3),
     "friction_presliding": (0.1, 2.0),
     "collapse_seal_diameter": (0.0, 5.0),
-    "epam_thread_compliance": (0.0, 1.5),
-    "cpam_thread_compliance": (0.0, 1.5),
+    "thread_compliance": (0.0, 1.5),
 }
 DIFF_STEP = 2e-3  # scaled variables: a friction protocol is piecewise smooth; 1e-4 sees its steps
 MAX_NFEV = 30  # per parameter and start

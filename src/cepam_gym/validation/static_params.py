@@ -178,6 +178,20 @@ FIT_PARAMS: dict[str, FitParam] = {
             ("cpam_thread_compliance",),
         ),
         FitParam(
+            "thread_compliance",
+            "per_kn",
+            0.0,
+            1.5,
+            "plant v2: one thread compliance for both braids (the same kind of sleeve; strain per kN "
+            "of total thread tension), bounded as epam_thread_compliance",
+            lambda p: from_si(p.epam_thread_compliance, "per_kn"),
+            lambda p, v: {
+                "epam_thread_compliance": to_si(v, "per_kn"),
+                "cpam_thread_compliance": to_si(v, "per_kn"),
+            },
+            ("epam_thread_compliance", "cpam_thread_compliance"),
+        ),
+        FitParam(
             "end_mass",
             "g",
             5.0,
