@@ -162,9 +162,9 @@ FIT_PARAMS: dict[str, FitParam] = {
             "per_kn",
             0.0,
             1.5,
-            "plant v2: strain of the EPAM braid's threads per kN of their total tension; 1.5 per kN "
-            "stretches them by about a third at the tube's 500 kPa, the size of the braid-elasticity "
-            "effects Chambers and Wereley (2022) measured (diameters up to 30 % above the inelastic braid)",
+            "plant v2: strain of the EPAM braid's threads per kN of their total tension; generous: 1.5 "
+            "per kN stretches them by about half at the tube's 500 kPa, where Chambers and Wereley (2022) "
+            "measured PAM diameters up to 30 % above the inelastic braid's",
             *field_accessors("epam_thread_compliance"),
             ("epam_thread_compliance",),
         ),
