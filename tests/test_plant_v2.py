@@ -216,7 +216,13 @@ def test_v2_preset_is_the_protocol_fits_optimum_along_its_interior_parameters(v2
 
     c0 = cost(v2)
     assert np.sqrt(c0 / len(exps)) < 0.1
-    for name in ("cpam_rest_angle", "epam_sleeve_free_angle", "bladder_thickness", "friction_mu"):
+    for name in (
+        "cpam_rest_angle",
+        "epam_sleeve_free_angle",
+        "bladder_thickness",
+        "friction_mu",
+        "thread_compliance",
+    ):
         lo, hi = V2_BOUNDS[name]
         x = FIT_PARAMS[name].get(v2)
         for step in (-0.05, -0.02, 0.02, 0.05):

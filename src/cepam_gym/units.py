@@ -39,6 +39,7 @@ EDGE_UNITS: dict[str, float] = {
     # ISO 6358 catalogues give sonic conductance in dm^3/(s bar) = 1e-8 m^3/(s Pa)
     "dm3_per_s_bar": 1e-8,
     "per_kpa": 1e-3,
+    "per_kn": 1e-3,  # a compliance: strain per kN of tension
     "": 1.0,
 }
 

@@ -96,8 +96,12 @@ FR_D = 74  # presliding displacement of the slowest element [m]
 COL_A = 75  # seal area of a slack, collapsed CPAM on the end cap [m^2]: (Pe - Pc)+ pulls on it; 0 = v1
 FR_MU = 76  # friction coefficient of the contact-area law [-]; 0 = the v1 law FR_C (Pc+ + Pe+)
 FR_CC = 77  # derived (contact-area law): break-away force per Pa of Pc+ [N/Pa]; FR_C is then per Pa of Pe+
+THR_E = 78  # EPAM braid thread compliance [1/N]: strain per N of total thread tension; 0 = inextensible
+THR_AE = 79  # derived: THR_E b_e / (2 pi n_e^2) [1/(Pa m)]: the thread is b_e / (1 - THR_AE P_ae L)
+THR_C = 80  # CPAM braid thread compliance [1/N]; 0 = inextensible
+THR_AC = 81  # derived: THR_C b_c / (2 pi n_c^2): the CPAM's thread is b_c / (1 - THR_AC (P_ac - P_ae) L)
 
-N_PARAMS = 78
+N_PARAMS = 82
 
 NAMES = tuple(
     name

@@ -268,6 +268,60 @@ def cpam_tension_at(terms, pc, pe):
 
 
 @jit_inline
+def stretched_thread(L, P, a, b0):
+    """Plant v2's extensible braid (Chambers and Wereley 2022: braid threads stretch under the
+    tension of the pressure): ``(b, db/dP, db/dL at fixed P)`` of a braid of rest thread ``b0``
+    loaded by the net active pressure ``P`` (>= 0).
+
+    The threads' total tension is the ideal braid's, ``T = P dV/db = P b L / (2 pi n^2)``
+    (``V = (b^2 - L^2) L / (4 pi n^2)``, Eq. 1-3 with Eq. 14: the tension whose axial part is the
+    pressure on the end cap less the push), and they stretch linearly, ``b = b0 (1 + C T)`` (``C``
+    the thread compliance, strain per N of total tension). Both are linear in ``b``, so
+    ``b = b0 / (1 - a P L)`` with ``a = C b0 / (2 pi n^2)`` (columns ``THR_AE``, ``THR_AC``); the
+    turns ``n`` stay (the braid's topology). The denominator is floored at 0.2 (a fivefold thread)
+    so a runaway stretch stays finite; the fitted plants stay far from it.
+    """
+    den = fmax(1.0 - a * P * L, 0.2)
+    b = b0 / den
+    k = a * b / den
+    return b, k * L, k * P
+
+
+@jit_inline
+def stretched_slopes(L, P, dP, a, b0, q, tan, pta2):
+    """Volume slopes of a braid with stretched threads (:func:`stretched_thread`; ``dP = dP/dL``):
+    ``(dV_out/dL, dV_air/dL, d2V_out/dL2, d2V_air/dL2, d(dV_out/dL)/dP, d(dV_air/dL)/dP)``, the
+    second length derivatives total (through ``b(L, P(L))``). With ``r = sqrt(b^2 - L^2)``,
+    :func:`braid_terms_k` in ``L, b`` reads ``dV_out/dL = (b^2 - 3 L^2) q`` and ``dV_air/dL =
+    dV_out/dL + (t_a/n) (2 L^2 - b^2) / r + pi t_a^2``, whose ``b``-slopes are ``2 b q`` and
+    ``2 b q - (t_a/n) b^3 / r^3``."""
+    b, db_dp, db_dl = stretched_thread(L, P, a, b0)
+    db_dl += db_dp * dP
+    inv_r = 1.0 / sqrt(b * b - L * L)
+    inv_r3 = inv_r * inv_r * inv_r
+    dv_out = (b * b - 3.0 * L * L) * q
+    dv_air = dv_out + tan * (2.0 * L * L - b * b) * inv_r + pta2
+    out_l = -6.0 * L * q
+    out_b = 2.0 * b * q
+    air_l = out_l + tan * L * (3.0 * b * b - 2.0 * L * L) * inv_r3
+    air_b = out_b - tan * b * b * b * inv_r3
+    return dv_out, dv_air, out_l + out_b * db_dl, air_l + air_b * db_dl, out_b * db_dp, air_b * db_dp
+
+
+@jit
+def thread_lengths(L, pc, pe, p):
+    """The CPAM's and the EPAM's thread lengths ``(b_c, b_e)`` [m] at length ``L`` and gauge
+    pressures ``pc, pe`` (their rest values for inextensible braids)."""
+    prc, dprc, pre, dpre = contact_pressures(L, p)
+    pac, _ = active_pressure(pc, prc, dprc)
+    pae, _ = active_pressure(pe, pre, dpre)
+    return (
+        stretched_thread(L, fmax(pac - pae, 0.0), p[ix.THR_AC], p[ix.BC])[0],
+        stretched_thread(L, pae, p[ix.THR_AE], p[ix.BE])[0],
+    )
+
+
+@jit_inline
 def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     """:func:`cepam_force` from precomputed volume slopes (the plant computes them once per step).
 
@@ -281,12 +335,29 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
       multiplied by a smooth step of ``x = -c / (w |dV_c/dL|)`` (``w`` a pressure width, 1 kPa):
       exactly 0 for a slack CPAM (``c >= 0``: squeezed from outside, or buckled because it is
       shorter than its own free length), exactly 1 from a pull of ``w |dV_c/dL|`` on, C1 between.
+
+    Plant v2 (off, exact zeros, in v0 and v1 rows): the slack CPAM's seal (``COL_A``) and
+    extensible braids (``THR_AE``, ``THR_AC``; :func:`stretched_thread`): the slopes are then those
+    of the stretched threads, the EPAM's loaded by ``P_ae``, the CPAM's by ``P_ac - P_ae`` while
+    positive; the contact pressures ``P_r`` and the walls' energy stay the unstretched braids'.
     """
     kappa = p[ix.KAPPA]
     lam = p[ix.LAMBDA]
     prc, dprc, pre, dpre = contact_pressures(L, p)
     pac, dpac = active_pressure(pc, prc, dprc)
     pae, dpae = active_pressure(pe, pre, dpre)
+    # plant v2 stretch: slopes of dV/dL per Pa of each braid's load (zero for inextensible braids)
+    dvae_p = 0.0
+    dvc_p = 0.0
+    dvac_p = 0.0
+    if p[ix.THR_AE] > 0.0:
+        _o1, dvae, _o2, d2vae, _o3, dvae_p = stretched_slopes(
+            L, pae, dpae, p[ix.THR_AE], p[ix.BE], p[ix.QE], p[ix.TAN_E], p[ix.PTA2]
+        )
+    if p[ix.THR_AC] > 0.0 and pac > pae:
+        dvc, dvac, d2vc, d2vac, dvc_p, dvac_p = stretched_slopes(
+            L, pac - pae, dpac - dpae, p[ix.THR_AC], p[ix.BC], p[ix.QC], p[ix.TAN_C], p[ix.PTA2]
+        )
     ge = dvae - kappa * dvc - lam * dvac  # what multiplies P_ae
     dge = d2vae - kappa * d2vc - lam * d2vac
     k_el = p[ix.K_EL]
@@ -294,6 +365,14 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     dforce_dl = dpae * ge + pae * dge + dpac * dvac + pac * d2vac - k_el
     df_dpc = dvac if pac > 0.0 else 0.0
     df_dpe = ge if pae > 0.0 else 0.0
+    if dvae_p != 0.0 and pae > 0.0:
+        df_dpe += pae * dvae_p  # the EPAM's thread lengthens with P_ae
+    # the CPAM's: its load P_ac - P_ae rises with Pc (P_ac > P_ae > = 0 here) and falls with Pe
+    s_c = pac * dvac_p - pae * (kappa * dvc_p + lam * dvac_p)
+    if s_c != 0.0:
+        df_dpc += s_c
+        if pae > 0.0:
+            df_dpe -= s_c
     _uc, duc, d2uc = bladder_energy_k(
         L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C]
     )
@@ -316,10 +395,23 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
         g, dg = slack_gate(x)
         dc_dpc = dvac if pac > 0.0 else 0.0
         dc_dpe = -gc if pae > 0.0 else 0.0
+        # what moves the gate's x per Pa: c's slope, and the scale a's when the CPAM stretches
+        dx_dpc = dc_dpc
+        dx_dpe = dc_dpe
+        if s_c != 0.0:
+            sc_c = pac * dvac_p - pae * (lam * dvac_p + (1.0 - lam) * kappa * dvc_p)  # dc/d(P_ac - P_ae)
+            da_p = -dvc_p if -dvc > 1e-12 else 0.0
+            dc_dpc += sc_c
+            dx_dpc = dc_dpc - c * da_p / a
+            if pae > 0.0:
+                dc_dpe -= sc_c
+                dx_dpe = dc_dpe + c * da_p / a
+            else:
+                dx_dpe = dc_dpe
         force += (g - 1.0) * c - duc  # the braid term and the wall, now both gated: g c
         dforce_dl += (g - 1.0) * dc + dg * dx * c - d2uc
-        df_dpc += (g - 1.0) * dc_dpc - dg * dc_dpc * inv_wa * c
-        df_dpe += (g - 1.0) * dc_dpe - dg * dc_dpe * inv_wa * c
+        df_dpc += (g - 1.0) * dc_dpc - dg * dx_dpc * inv_wa * c
+        df_dpe += (g - 1.0) * dc_dpe - dg * dx_dpe * inv_wa * c
         a_col = p[ix.COL_A]
         if a_col > 0.0:
             # plant v2: a slack CPAM (buckled, or collapsed when squeezed by the annulus) carries
@@ -330,8 +422,8 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
             fcol = a_col * (pc - pe)
             force += (1.0 - g) * fcol
             dforce_dl -= dg * dx * fcol
-            df_dpc += dg * dc_dpc * inv_wa * fcol + (1.0 - g) * a_col
-            df_dpe += dg * dc_dpe * inv_wa * fcol - (1.0 - g) * a_col
+            df_dpc += dg * dx_dpc * inv_wa * fcol + (1.0 - g) * a_col
+            df_dpe += dg * dx_dpe * inv_wa * fcol - (1.0 - g) * a_col
     else:
         force -= duc
         dforce_dl -= d2uc

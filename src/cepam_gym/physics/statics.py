@@ -9,7 +9,14 @@ from __future__ import annotations
 
 from .._jit import jit, jit_inline
 from . import layout as ix
-from .muscle import bladder_energies, contact_pressures, cpam_terms, epam_terms
+from .muscle import (
+    active_pressure,
+    bladder_energies,
+    contact_pressures,
+    cpam_terms,
+    epam_terms,
+    stretched_slopes,
+)
 
 
 @jit
@@ -25,8 +32,28 @@ def static_pressures(L, K, weight, p):
     pressures and join the constant terms. A tension-only CPAM is assumed taut (the solution has
     the CPAM pulling whenever it has ``P_ac`` well above ``P_ae``; a solution that needs a slack CPAM
     is not found by this 2x2 solve).
+
+    Plant v2's extensible braids are taken at their rest threads here: the force is then no longer
+    affine in the pressures, and the tasks' planning (:mod:`cepam_gym.tasks.reach`) relies on this
+    affine solve; :func:`static_pressures_exact` is the exact inverse of a stretching plant.
     """
     return solve_static(static_terms(L, p), K, weight)
+
+
+@jit
+def static_pressures_exact(L, K, weight, p):
+    """:func:`static_pressures` of a plant with extensible braids (plant v2): the 2x2 solve
+    repeated with the slopes of the threads stretched at the previous solution (a fixed point; the
+    stretch changes the slopes by a few per cent per 100 kPa, so each pass gains about a decimal).
+    The same as :func:`static_pressures` for inextensible braids."""
+    pc, pe, ok = solve_static(static_terms(L, p), K, weight)
+    if p[ix.THR_AE] > 0.0 or p[ix.THR_AC] > 0.0:
+        for _ in range(STRETCH_PASSES):
+            pc, pe, ok = solve_static(static_terms_at(L, p, pc, pe), K, weight)
+    return pc, pe, ok
+
+
+STRETCH_PASSES = 12  # fixed-point passes of a plant with extensible braids (none for v0 and v1)
 
 
 @jit_inline
@@ -37,6 +64,32 @@ def static_terms(L, p):
     _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
     _, _, _, dvae, _, d2vae = epam_terms(L, p)
     prc, dprc, pre, dpre = contact_pressures(L, p)
+    ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
+    dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
+    k_el = p[ix.K_EL]
+    _u, du, d2u = bladder_energies(L, p)
+    f_el = k_el * (L - p[ix.L_EL0])
+    det = -ge * d2vac + dvac * dge
+    return ge, dge, dvac, d2vac, k_el, f_el, du, d2u, prc, dprc, pre, dpre, det
+
+
+@jit_inline
+def static_terms_at(L, p, pc, pe):
+    """:func:`static_terms` with the slopes of braids stretched by the gauge pressures ``pc, pe``
+    (plant v2; the same terms as :func:`static_terms` for inextensible braids)."""
+    _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
+    _, _, _, dvae, _, d2vae = epam_terms(L, p)
+    prc, dprc, pre, dpre = contact_pressures(L, p)
+    pac, dpac = active_pressure(pc, prc, dprc)
+    pae, dpae = active_pressure(pe, pre, dpre)
+    if p[ix.THR_AE] > 0.0:
+        _o1, dvae, _o2, d2vae, _o3, _o4 = stretched_slopes(
+            L, pae, dpae, p[ix.THR_AE], p[ix.BE], p[ix.QE], p[ix.TAN_E], p[ix.PTA2]
+        )
+    if p[ix.THR_AC] > 0.0 and pac > pae:
+        dvc, dvac, d2vc, d2vac, _o5, _o6 = stretched_slopes(
+            L, pac - pae, dpac - dpae, p[ix.THR_AC], p[ix.BC], p[ix.QC], p[ix.TAN_C], p[ix.PTA2]
+        )
     ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
     dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
     k_el = p[ix.K_EL]

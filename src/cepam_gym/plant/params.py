@@ -168,6 +168,21 @@ class PlantParams:
         "bladder's 5 mm. 0 = v1",
         calibrate=True,
     )
+    epam_thread_compliance: float = _f(
+        0.0,
+        "per_kn",
+        "v2: extensible EPAM braid (Chambers and Wereley 2022): strain of its threads per kN of their total "
+        "tension, the tension being the ideal braid's P_ae b L / (2 pi n^2) (Eq. 14's braid); "
+        "0 = inextensible",
+        calibrate=True,
+    )
+    cpam_thread_compliance: float = _f(
+        0.0,
+        "per_kn",
+        "v2: extensible CPAM braid, as epam_thread_compliance, loaded by its net active pressure "
+        "P_ac - P_ae while that is positive (a squeezed braid is slack); 0 = inextensible",
+        calibrate=True,
+    )
     onoff_open_delay: float = _f(
         0.004,
         "ms",
@@ -272,6 +287,8 @@ class PlantParams:
             "onoff_close_delay",
             "friction_coefficient",
             "friction_mu",
+            "epam_thread_compliance",
+            "cpam_thread_compliance",
         )
         for name in positive:
             if not getattr(self, name) > 0.0:
@@ -405,6 +422,8 @@ class PlantParams:
         p[ix.FR_D] = self.friction_presliding
         p[ix.COL_A] = 0.25 * math.pi * self.collapse_seal_diameter**2
         p[ix.FR_MU] = self.friction_mu if self.friction_law == "contact_area" else 0.0
+        p[ix.THR_E] = self.epam_thread_compliance
+        p[ix.THR_C] = self.cpam_thread_compliance
         fill_derived(p)
         return p
 
@@ -524,6 +543,9 @@ def fill_derived(p: np.ndarray) -> np.ndarray:
     v2 = mu > 0.0
     q[ix.FR_CC] = np.where(v2, mu * math.pi * d_c * lm, 0.0)
     q[ix.FR_C] = np.where(v2, mu * math.pi * d_e * lm, q[ix.FR_C])
+    # plant v2 extensible braids: a stretched thread is b / (1 - THR_A P L), P its net active pressure
+    q[ix.THR_AE] = q[ix.THR_E] * q[ix.BE] / (2.0 * math.pi * q[ix.NE] ** 2)
+    q[ix.THR_AC] = q[ix.THR_C] * q[ix.BC] / (2.0 * math.pi * q[ix.NC] ** 2)
     h = q[ix.H_WALL]
     q[ix.HA_C] = np.where(h > 0.0, h * math.pi * (d_c - 2.0 * ta) * lm, q[ix.HA])
     q[ix.HA_E] = np.where(h > 0.0, h * math.pi * (d_e - 2.0 * ta + d_c) * lm, q[ix.HA])

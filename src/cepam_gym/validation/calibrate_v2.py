@@ -21,12 +21,18 @@ from .fit import fit, fitted_yaml, format_report
 from .protocols import is_fixed_stiffness_sequence, protocol_values
 from .static_params import V1_BOUNDS, V1_FIT
 
-V2_FIT = V1_FIT + ("friction_mu", "friction_presliding", "collapse_seal_diameter")
+V2_FIT = V1_FIT + (
+    "friction_mu",
+    "friction_presliding",
+    "collapse_seal_diameter",
+    "thread_compliance",
+)
 V2_BOUNDS = {
     **V1_BOUNDS,
     "friction_mu": (0.0, 1e-3),
     "friction_presliding": (0.1, 2.0),
     "collapse_seal_diameter": (0.0, 5.0),
+    "thread_compliance": (0.0, 1.5),
 }
 DIFF_STEP = 2e-3  # scaled variables: a friction protocol is piecewise smooth; 1e-4 sees its steps
 MAX_NFEV = 30  # per parameter and start

@@ -43,7 +43,7 @@ from .._jit import jit
 from ..errors import InputError
 from ..physics import api, muscle
 from ..physics import layout as ix
-from ..plant.params import PlantParams
+from ..plant.params import PlantParams, fill_derived
 from ..units import from_si, to_si
 from .experiments import Experiment
 
@@ -127,6 +127,12 @@ def _row(params: PlantParams, device: str) -> np.ndarray:
         row[ix.LAMBDA] = 0.0
         row[ix.K_EL] = 0.0
         row[ix.COL_A] = 0.0  # plant v2: no CPAM to collapse
+        if device == "epam":
+            # the EPAM alone: a vanishing CPAM (no air, no force) whose braid the EPAM never
+            # reaches (plant v2's stretched EPAM passes the CPAM's rest thread)
+            row[ix.BC] = 4.0 * row[ix.BE]
+            row[ix.NC] = 1e6
+            fill_derived(row[None, :])
         # plant v1: only the muscle's own bladder wall stores energy
         row[ix.EL_E if device == "cpam" else ix.EL_C] = 0.0
     return row

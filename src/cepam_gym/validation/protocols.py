@@ -36,7 +36,7 @@ import numpy as np
 from .. import plant as pl
 from ..errors import InputError
 from ..physics import layout as ix
-from ..plant.params import PlantParams, fill_derived
+from ..plant.params import PlantParams
 from ..units import from_si, to_si
 from .equilibrium import _row, device_range, experiment_params
 from .experiments import Experiment
@@ -77,13 +77,7 @@ class ProtocolResult:
 def device_row(params: PlantParams, exp: Experiment) -> np.ndarray:
     """Kernel parameter row of the experiment's device with the rig's supply and its end stops."""
     p = experiment_params(exp, params)
-    row = _row(p, exp.device)
-    if exp.device == "epam":
-        # the EPAM alone: a vanishing CPAM (no air, no force) whose braid the EPAM never reaches
-        row[ix.BC] = 4.0 * row[ix.BE]
-        row[ix.NC] = 1e6
-        fill_derived(row[None, :])
-        row[ix.EL_C] = 0.0
+    row = _row(p, exp.device)  # the EPAM alone has a vanishing CPAM there
     _start, lo, hi = device_range(p, exp.device)
     if exp.device == "cpam":
         # unpressurised, a lone CPAM hangs from its bladder glued at its rest length; without that

@@ -158,6 +158,40 @@ FIT_PARAMS: dict[str, FitParam] = {
             ("friction_presliding",),
         ),
         FitParam(
+            "epam_thread_compliance",
+            "per_kn",
+            0.0,
+            1.5,
+            "plant v2: strain of the EPAM braid's threads per kN of their total tension; generous: 1.5 "
+            "per kN stretches them by about half at the tube's 500 kPa, where Chambers and Wereley (2022) "
+            "measured PAM diameters up to 30 % above the inelastic braid's",
+            *field_accessors("epam_thread_compliance"),
+            ("epam_thread_compliance",),
+        ),
+        FitParam(
+            "cpam_thread_compliance",
+            "per_kn",
+            0.0,
+            1.5,
+            "plant v2: the same for the CPAM's braid (loaded by P_ac - P_ae): the same kind of sleeve",
+            *field_accessors("cpam_thread_compliance"),
+            ("cpam_thread_compliance",),
+        ),
+        FitParam(
+            "thread_compliance",
+            "per_kn",
+            0.0,
+            1.5,
+            "plant v2: one thread compliance for both braids (the same kind of sleeve; strain per kN "
+            "of total thread tension), bounded as epam_thread_compliance",
+            lambda p: from_si(p.epam_thread_compliance, "per_kn"),
+            lambda p, v: {
+                "epam_thread_compliance": to_si(v, "per_kn"),
+                "cpam_thread_compliance": to_si(v, "per_kn"),
+            },
+            ("epam_thread_compliance", "cpam_thread_compliance"),
+        ),
+        FitParam(
             "end_mass",
             "g",
             5.0,

@@ -250,9 +250,11 @@ def geometry_lines(params: PlantParams) -> str:
     de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
     vc, ve, _, _ = api.chamber_volumes(lengths, params)
     at = "  ".join(f"{L * 100:.2f} cm" for L in lengths)
+    stretch = params.epam_thread_compliance > 0.0 or params.cpam_thread_compliance > 0.0
+    tail = ", unpressurised (unstretched threads):" if stretch else ":"
     return "\n".join(
         [
-            f"geometry over the stroke ({at}):",
+            f"geometry over the stroke ({at}){tail}",
             "  CPAM braid diameter [mm]:   "
             + "  ".join(f"{x * 1e3:7.2f}" for x in dc)
             + f"   (paper: {params.cpam_rest_diameter * 1e3:g} mm at {params.cpam_rest_length * 100:g} cm)",
