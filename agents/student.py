@@ -1,7 +1,11 @@
 """A student distilled from a privileged teacher: ``cepam-gym train --config student``.
 
-The teacher (the oracle by default, :class:`cepam_gym.control.oracle.OracleController`) reads what
-no rig has: the true plant state, parameters, load and the reference horizon. The student sees only
+The teacher is any registered controller that reads what no rig has: the oracle (the schema's
+default, :class:`cepam_gym.control.oracle.OracleController`: the true plant state, parameters,
+load and reference horizon) or, in the shipped ``configs/student.yaml``, the MPC given each plant's
+true parameters (``mpc_known_params``: privileged only in what a history can reveal, and smooth;
+the oracle's labels follow hidden state and are noisy, and its student scored worse on both
+suites: README, "Agents that adapt"). The student sees only
 the agent's features of the observation (:mod:`agents.features`: an observation history, low-passed
 copies). DAgger (Ross et al. 2011) trains it: round 0 records the teacher driving the envs; every
 later round lets the student drive (the teacher taking over a step with probability ``beta``) and
@@ -47,6 +51,13 @@ def check_student(cfg: TrainConfig) -> None:
     if not cfg.normalize.obs:
         raise ConfigError("a student normalizes its inputs: set normalize.obs: true")
     from cepam_gym.bench.suites import SUITES
+    from cepam_gym.control import controller_names
+
+    if cfg.student.teacher not in controller_names():
+        raise ConfigError(
+            f"student.teacher {cfg.student.teacher!r} is not a registered controller: "
+            f"{', '.join(controller_names())}"
+        )
 
     other = {s: SUITES[s].env_id for s in cfg.student.suites if SUITES[s].env_id != cfg.env.id}
     if other:

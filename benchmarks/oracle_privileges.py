@@ -29,6 +29,8 @@ from __future__ import annotations
 import argparse
 import time
 
+import numpy as np
+
 import cepam_gym  # noqa: F401  (registers the ids)
 from cepam_gym import plant as pl
 from cepam_gym.bench.harness import record
@@ -38,6 +40,7 @@ from cepam_gym.control import make_controller
 from cepam_gym.control.baseline import find_core
 from cepam_gym.control.mpc import ModelPredictiveController
 from cepam_gym.control.oracle import ORACLE_CONFIG
+from cepam_gym.physics import layout as ix
 
 AIR = (pl.S_MC, pl.S_UC, pl.S_ME, pl.S_UE)
 SPOOLS = (pl.S_SC, pl.S_SE, pl.S_SRC, pl.S_SRE)
@@ -45,11 +48,19 @@ FRICTION = (pl.S_Z1, pl.S_Z2, pl.S_Z3)
 
 
 class _TrueColumnsMPC(ModelPredictiveController):
-    """The MPC with the oracle's search and some true state columns in place of its estimate."""
+    """The MPC with the oracle's search and some true state columns in place of its estimate;
+    ``true_load``: the load of the current step instead of the static balance's estimate."""
 
-    def __init__(self, env, columns: tuple[int, ...]):
+    def __init__(self, env, columns: tuple[int, ...], true_load: bool = False):
         super().__init__(env, config=ORACLE_CONFIG)
-        self.columns, self.core = list(columns), find_core(env)
+        self.columns, self.core, self.true_load = list(columns), find_core(env), true_load
+
+    def _filtered(self, load_now):
+        if not self.true_load:
+            return super()._filtered(load_now)
+        core, p = self.core, self.params
+        load = core.load[np.arange(core.num_envs), core.t_idx]
+        return (load + p[ix.M_END]) * p[ix.GRAV]  # the weight the act turns back into the load
 
     def estimate_state(self, obs, L, pc, pe, params=None):
         x = super().estimate_state(obs, L, pc, pe, params)
@@ -64,6 +75,8 @@ ROWS = {
     "mpc + true air": lambda v: _TrueColumnsMPC(v, AIR),
     "mpc + true friction": lambda v: _TrueColumnsMPC(v, FRICTION),
     "mpc + true hidden state": lambda v: _TrueColumnsMPC(v, AIR + SPOOLS + FRICTION),
+    "mpc + true load": lambda v: _TrueColumnsMPC(v, (), true_load=True),
+    "mpc + true hidden state and load": lambda v: _TrueColumnsMPC(v, AIR + SPOOLS + FRICTION, True),
     "mpc_known_params": lambda v: make_controller("mpc_known_params", v),
     "oracle_causal": lambda v: make_controller("oracle_causal", v),
     "oracle": lambda v: make_controller("oracle", v),

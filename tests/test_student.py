@@ -50,6 +50,8 @@ def test_student_needs_ppo_and_normalized_inputs():
         check_student(_cfg().replace(normalize=_cfg().normalize.__class__(obs=False)))
     with pytest.raises(ConfigError, match="must run env.id"):
         check_student(_cfg(suites={"length-v1": 4}))
+    with pytest.raises(ConfigError, match="'orcale' is not a registered controller"):
+        check_student(_cfg(teacher="orcale"))
 
 
 def test_saved_student_acts_as_the_fitted_actor(tmp_path):
