@@ -57,13 +57,8 @@ STRETCH_PASSES = 12  # fixed-point passes of a plant with extensible braids (non
 
 
 @jit_inline
-def static_terms(L, p):
-    """What :func:`static_pressures` needs of the length ``L`` alone (geometry, contact pressures,
-    walls): computed once per length, the solve is then cheap for any ``K`` and ``weight`` (the
-    reset's reference planning solves each length for several)."""
-    _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
-    _, _, _, dvae, _, d2vae = epam_terms(L, p)
-    prc, dprc, pre, dpre = contact_pressures(L, p)
+def _assembled(L, p, dvc, dvac, d2vc, d2vac, dvae, d2vae, prc, dprc, pre, dpre):
+    """The terms of :func:`solve_static` from the braids' volume slopes and the contact pressures."""
     ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
     dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
     k_el = p[ix.K_EL]
@@ -71,6 +66,17 @@ def static_terms(L, p):
     f_el = k_el * (L - p[ix.L_EL0])
     det = -ge * d2vac + dvac * dge
     return ge, dge, dvac, d2vac, k_el, f_el, du, d2u, prc, dprc, pre, dpre, det
+
+
+@jit_inline
+def static_terms(L, p):
+    """What :func:`static_pressures` needs of the length ``L`` alone (geometry, contact pressures,
+    walls): computed once per length, the solve is then cheap for any ``K`` and ``weight`` (the
+    reset's reference planning solves each length for several)."""
+    _, _, dvc, dvac, d2vc, d2vac = cpam_terms(L, p)
+    _, _, _, dvae, _, d2vae = epam_terms(L, p)
+    prc, dprc, pre, dpre = contact_pressures(L, p)
+    return _assembled(L, p, dvc, dvac, d2vc, d2vac, dvae, d2vae, prc, dprc, pre, dpre)
 
 
 @jit_inline
@@ -90,13 +96,7 @@ def static_terms_at(L, p, pc, pe):
         dvc, dvac, d2vc, d2vac, _o5, _o6 = stretched_slopes(
             L, pac - pae, dpac - dpae, p[ix.THR_AC], p[ix.BC], p[ix.QC], p[ix.TAN_C], p[ix.PTA2]
         )
-    ge = dvae - p[ix.KAPPA] * dvc - p[ix.LAMBDA] * dvac
-    dge = d2vae - p[ix.KAPPA] * d2vc - p[ix.LAMBDA] * d2vac
-    k_el = p[ix.K_EL]
-    _u, du, d2u = bladder_energies(L, p)
-    f_el = k_el * (L - p[ix.L_EL0])
-    det = -ge * d2vac + dvac * dge
-    return ge, dge, dvac, d2vac, k_el, f_el, du, d2u, prc, dprc, pre, dpre, det
+    return _assembled(L, p, dvc, dvac, d2vc, d2vac, dvae, d2vae, prc, dprc, pre, dpre)
 
 
 @jit_inline
