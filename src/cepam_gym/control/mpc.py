@@ -52,6 +52,11 @@ class ModelPredictiveController(InverseStaticController):
         envs (:class:`KnownParamsMPC`: each env's true row)."""
         return self.params[None]
 
+    def measured_force(self, L, pc, pe, rows) -> np.ndarray:
+        """The model's force (N,) [N] at the measured length and pressures, whose static balance
+        is the load estimate: the air's (:class:`FrictionObserverMPC` adds its friction's)."""
+        return api.force(L, pc, pe, rows if len(rows) > 1 else rows[0])
+
     def estimate_state(self, obs: np.ndarray, L, pc, pe, params=None) -> np.ndarray:
         """Plant states (N, N_STATE) of the model (the nominal one, or ``params`` rows (N,
         N_PARAMS)) from measured quantities."""
@@ -75,7 +80,7 @@ class ModelPredictiveController(InverseStaticController):
         rows = self.model_rows(obs.shape[0])
         p = rows.T  # columns by index: one value, or one per env
         w_min = p[ix.M_END] * p[ix.GRAV]
-        weight = np.maximum(self._filtered(-api.force(L, pc, pe, rows if len(rows) > 1 else rows[0])), w_min)
+        weight = np.maximum(self._filtered(-self.measured_force(L, pc, pe, rows)), w_min)
         load = weight / p[ix.GRAV] - p[ix.M_END]
         ref_l, ref_k = self.reference(obs, L_t, K_t)
         ones = np.ones((obs.shape[0], self.cfg.horizon_steps))
@@ -104,9 +109,50 @@ class ModelPredictiveController(InverseStaticController):
         )
 
 
-class KnownParamsMPC(ModelPredictiveController):
-    """The MPC given each env's true parameter row (randomized plants included); its state is
-    still estimated from the sensors and its load from the static balance. Not a practical
+class FrictionObserverMPC(ModelPredictiveController):
+    """The MPC with the model's friction elements tracked from the measured length: each
+    element's deflection follows the motion and is held at its presliding displacement
+    (:func:`cepam_gym.physics.friction.friction_slip`), so the load estimate is the balance of the
+    air's force *and* the friction's (the plain MPC's static balance leaves out the part of the
+    weight friction holds), and the plan starts from the tracked deflections. On ``nominal-v1``
+    the friction left out of the balance is what separates the MPC from the causal oracle
+    (docs/benchmark.md, "What the oracle's privileges are worth")."""
+
+    def reset(self, indices=None) -> None:
+        super().reset(indices)
+        if indices is None or getattr(self, "_z", None) is None:
+            self._z = self._last_l = None
+        else:
+            self._last_l[np.asarray(indices)] = np.nan
+
+    def measured_force(self, L, pc, pe, rows) -> np.ndarray:
+        from ..physics.friction import friction_force, friction_slip
+
+        n, p = len(L), rows[0] if len(rows) == 1 else None
+        if self._z is None or len(self._z) != n:
+            self._z, self._last_l = np.zeros((n, 3)), np.full(n, np.nan)
+        fresh = np.isnan(self._last_l)
+        self._z[fresh] = 0.0  # a new episode starts at rest, its elements relaxed
+        dl = np.where(fresh, 0.0, L - self._last_l)
+        self._last_l = np.array(L, dtype=float)
+        f = np.empty(n)
+        for i in range(n):
+            row = p if p is not None else rows[i]
+            self._z[i] = friction_slip(row, dl[i], *self._z[i])
+            f[i] = friction_force(row, pc[i], pe[i], *self._z[i])
+        return super().measured_force(L, pc, pe, rows) + f
+
+    def estimate_state(self, obs, L, pc, pe, params=None) -> np.ndarray:
+        x = super().estimate_state(obs, L, pc, pe, params)
+        if self._z is not None and len(self._z) == len(x):
+            x[:, [pl.S_Z1, pl.S_Z2, pl.S_Z3]] = self._z
+        return x
+
+
+class KnownParamsMPC(FrictionObserverMPC):
+    """The friction-observing MPC (:class:`FrictionObserverMPC`) given each env's true parameter
+    row (randomized plants included); its state, friction and load are still estimated from the
+    sensors. Not a practical
     controller: the ceiling of adapting to the plant by identifying its parameters, the yardstick
     of an agent that must infer them (docs/benchmark.md, "What the oracle's privileges are worth")."""
 

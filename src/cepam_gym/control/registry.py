@@ -45,6 +45,8 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     # without foresight of the load, and the MPC given each plant's true parameters
     "oracle_causal": "cepam_gym.control.oracle:CausalOracle",
     "mpc_known_params": "cepam_gym.control.mpc:KnownParamsMPC",
+    # the MPC whose load estimate balances its friction elements too (tracked from the length)
+    "mpc_friction": "cepam_gym.control.mpc:FrictionObserverMPC",
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}
