@@ -75,7 +75,8 @@ ZOO_ALGOS = {"ppo": "PPO", "sac": "SAC", "td3": "TD3", "ppo_lstm": "RecurrentPPO
 def test_hyperparams_files_have_all_ids(algo):
     """v0 ids (ppo, sac): the benchmark's randomized suite as the training distribution. v1 ids
     (every algorithm): the values of the reference curves' config ``configs/v1_<algo>.yaml`` and
-    the suite each id is trained on there."""
+    the suite each id is trained on there. v2 ids: the same values and their v1 suite's v2 twin
+    (nominal-v2 for CEPAM-v2, ...)."""
     import yaml
 
     pytest.importorskip("stable_baselines3")
@@ -87,14 +88,22 @@ def test_hyperparams_files_have_all_ids(algo):
         hp = yaml.load(f, Loader=yaml.UnsafeLoader)  # as rl_zoo3 loads them
     from cepam_gym.registration import JOINT_ENV_IDS
 
-    # v2 ids have no suites and no training config yet: no zoo entry to check against
-    ids = [i for i in ENV_IDS if i.endswith("-v1") or (i.endswith("-v0") and algo in ("ppo", "sac"))]
-    ids += [i for i in JOINT_ENV_IDS if i.endswith("-v1")]
+    new = ("-v1", "-v2")
+    ids = [i for i in ENV_IDS if i.endswith(new) or (i.endswith("-v0") and algo in ("ppo", "sac"))]
+    ids += [i for i in JOINT_ENV_IDS if i.endswith(new)]
+    assert {i for i in ids if i.endswith("-v2")} == {
+        "cepam_gym/CEPAM-v2",
+        "cepam_gym/CEPAMLength-v2",
+        "cepam_gym/CEPAMStiffness-v2",
+        "cepam_gym/CEPAMJoint-v2",
+    }
     assert set(ids) <= set(hp)
     for env_id in ids:
         kw = hp[env_id]["env_kwargs"]
-        if env_id.endswith("-v1"):
-            assert kw == SUITES[SUITE_OF[env_id]].env_kwargs, env_id
+        if env_id.endswith(new):
+            suite = SUITE_OF[env_id.replace("-v2", "-v1")].replace("-v1", env_id[-3:])
+            assert SUITES[suite].env_id == env_id
+            assert kw == SUITES[suite].env_kwargs, env_id
             cfg = load_config(CONFIG_OF[ZOO_ALGOS[algo]])
             assert hp[env_id]["n_envs"] == cfg.env.num_envs
             for key, value in cfg.hyperparameters.items():

@@ -114,6 +114,12 @@ def test_shipped_settings_differ_by_mechanism():
     # v1 scores leave the transient after a jump out: 0.1 s; v0 scores it: 0.2 s to anticipate
     assert oracle_config(rig).horizon_steps * rig.control_dt == pytest.approx(0.1)
     assert oracle_config(v0).horizon_steps * v0.control_dt == pytest.approx(0.2)
+    # plant v2 needs 0.16 s and 40 iterations on the rig (docs/benchmark.md); its hinge the joint's
+    v2 = gym.make_vec("cepam_gym/CEPAM-v2", num_envs=1).unwrapped.core
+    v2_joint = gym.make_vec("cepam_gym/CEPAMJoint-v2", num_envs=1).unwrapped.core
+    assert oracle_config(v2).horizon_steps * v2.control_dt == pytest.approx(0.16)
+    assert oracle_config(v2).iterations == 2 * oracle_config(rig).iterations
+    assert oracle_config(v2_joint) == oracle_config(joint)
     assert isinstance(OracleController(gym.make("cepam_gym/CEPAM-v1")).planner, CEMPlanner)
 
 
@@ -123,7 +129,16 @@ def _score(make, name: str, episodes: int, seed: int | None = None) -> float:
     return score_traces(tr, k, s.traces)["score"]
 
 
-FIRM_SUITES = ("nominal-v1", "length-v1", "stiffness-at-fixed-length-v1", "randomized-v1", "joint-v1")
+FIRM_SUITES = (
+    "nominal-v1",
+    "length-v1",
+    "stiffness-at-fixed-length-v1",
+    "randomized-v1",
+    "joint-v1",
+    # plant v2 under the same shipped settings (its convergence check: docs/benchmark.md)
+    "nominal-v2",
+    "randomized-v2",
+)
 
 
 @pytest.mark.slow

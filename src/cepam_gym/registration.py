@@ -54,8 +54,8 @@ JOINT_ENV_IDS: dict[str, tuple[str, str, dict]] = {
 
 
 def register_envs() -> None:
-    # v1 stays the recommended version until plant v2 has its suites, references and a met
-    # calibration goal: Gymnasium's "v1 is out of date, upgrade to v2" would send users to it. The
+    # v1 stays the recommended version until plant v2 meets its calibration goal (its suites and
+    # references exist): Gymnasium's "v1 is out of date, upgrade to v2" would send users to it. The
     # v0 ids keep their notice that a v1 exists.
     warnings.filterwarnings(
         "ignore", message=r".*cepam_gym/\w+-v1 is out of date", category=DeprecationWarning

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -51,6 +52,14 @@ def missing_ends(rows: list[dict]) -> list[tuple[str, str]]:
     return out
 
 
+def expand_version(name: str) -> list[str]:
+    """A version ``vN`` as the suites of its ids (names ending in ``-vN``), so one command
+    re-measures exactly one version's references after its plant changes; any other name as is."""
+    if re.fullmatch(r"v\d+", name):
+        return [s for s in SUITES if s.endswith(f"-{name}")] or [name]
+    return [name]
+
+
 def _oracle_drives(suite: str) -> bool:
     """Whether the oracle drives the suite's env (every batched env; not the MuJoCo joint)."""
     return "CEPAMJoint-v0" not in SUITES[suite].env_id
@@ -80,7 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         "--suite",
         action="append",
         default=None,
-        help=f"one of {list(SUITES)} or 'all' (repeatable; default all)",
+        help=f"one of {list(SUITES)}, 'all', or a version such as 'v2' (its suites: *-v2) (repeatable; "
+        "default all)",
     )
     ap.add_argument(
         "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
@@ -104,6 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     suites = args.suite or ["all"]
     if "all" in suites:  # every suite whose extra is installed (the joint suite needs mujoco)
         suites = [s for s in SUITES if available(s)]
+    suites = list(dict.fromkeys(n for s in suites for n in expand_version(s)))
     bad = [s for s in suites if s not in SUITES]
     if bad:
         ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")

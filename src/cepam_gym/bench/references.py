@@ -7,10 +7,11 @@ They are stored with the episodes they were measured on (the suite's seed and ep
 
 (the zero controller and the oracle on every suite the oracle drives, at the suite's default
 episodes; measured on one core of a busy machine: about 1 minute per v1 rig suite, 1.6 on a v0
-suite, 5.6 on joint-v1, 18 for all). A normalized score uses them only for a run on the same
-episodes (:func:`stored_ends`); any other run uses the ends it measured itself, measures them on
-request (``--measure-references``) or says it cannot normalize (:mod:`cepam_gym.bench.cli`). A slow
-test recomputes every entry (``tests/test_scores.py``).
+suite, 5.6 on joint-v1, 18 for all). ``--suite v2`` names exactly the v2 suites (``*-v2``), so a
+change of plant v2 re-measures its references and no others. A normalized score uses them only
+for a run on the same episodes (:func:`stored_ends`); any other run uses the ends it measured
+itself, measures them on request (``--measure-references``) or says it cannot normalize
+(:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry (``tests/test_scores.py``).
 """
 
 from __future__ import annotations

@@ -46,6 +46,22 @@ RANDOMIZE_V1: dict[str, list[float]] = {
     "damping_ns_per_m": [3.0, 7.0],
     "coulomb_friction_n": [0.0, 0.3],
 }
+# The same spread around the v2 plant (presets/balloon_v2.yaml). v2 uses the contact-area friction
+# law, under which the v1 key friction_coefficient_n_per_kpa is not used (the kernel zeroes it), so
+# randomizing it would change nothing: v2 spreads its counterpart friction_mu instead, over the
+# same relative range as v1's coefficient (0.5-2 x nominal 2.05e-4). The angles are re-centred on
+# v2's fitted values (+/- 1.5 deg; the CPAM's kept above v1's sleeve-size bound 20.3 deg). Where the
+# v2 fit sits on a physical bound the spread goes inward only: presliding 1.2-2 mm (bound 2 mm: PAM
+# hysteresis loops stick over up to about a mm or two) and the collapsed CPAM's seal 3.5-5 mm (it
+# cannot exceed the 5 mm bladder it seals). Noise and the other keys as v1's.
+RANDOMIZE_V2: dict[str, list[float]] = {
+    **{k: v for k, v in RANDOMIZE_V1.items() if k != "friction_coefficient_n_per_kpa"},
+    "cpam_rest_angle_deg": [20.3, 23.2],
+    "epam_sleeve_free_angle_deg": [29.3, 32.3],
+    "friction_mu": [1.0e-4, 4.0e-4],
+    "friction_presliding_mm": [1.2, 2.0],
+    "collapse_seal_diameter_mm": [3.5, 5.0],
+}
 NOISE = {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0}
 
 
@@ -184,6 +200,71 @@ SUITES: dict[str, Suite] = {
             seed=15000,
             traces=RIG_V1,
             doc="v1 with large load steps, near-limit targets, fast changes",
+        ),
+        # v2: the v1 suites on the v2 ids (the v1 tasks on plant v2, preset balloon_v2), same
+        # options, their own seeds (the v1 seed + 10000); randomized-v2 spreads RANDOMIZE_V2
+        Suite(
+            "nominal-v2",
+            "cepam_gym/CEPAM-v2",
+            {"task_options": {"load_kinds": ["step"]}},
+            seed=21000,
+            traces=RIG_V1,
+            doc="v2 plant: v1 references with preview, default parameters, no noise, load steps",
+        ),
+        Suite(
+            "randomized-v2",
+            "cepam_gym/CEPAM-v2",
+            {"randomize": RANDOMIZE_V2, "supply_drift_kpa": 5.0, "sensor_noise": NOISE},
+            seed=22000,
+            traces=RIG_V1,
+            doc="v2 plant: domain-randomized (contact-area friction included), sensor noise, supply drift",
+        ),
+        Suite(
+            "tracking-v2",
+            "cepam_gym/CEPAM-v2",
+            {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
+            seed=23000,
+            traces=RIG_V1,
+            doc="v2 plant: smooth references only (sines, chirps, minimum-jerk moves), constant load",
+        ),
+        Suite(
+            "stiffness-at-fixed-length-v2",
+            "cepam_gym/CEPAMStiffness-v2",
+            {},
+            seed=24000,
+            traces=RIG_V1,
+            doc="v2 plant: paper section XII, 17.5 cm, stiffness ramps and moves",
+        ),
+        Suite(
+            "stress-v2",
+            "cepam_gym/CEPAM-v2",
+            {
+                "task_options": {
+                    "load_range": [0.0, 0.45],
+                    "load_kinds": ["step", "random"],
+                    "pressure_margin": 0.95,
+                    "segment_duration": [1.0, 2.0],
+                }
+            },
+            seed=25000,
+            traces=RIG_V1,
+            doc="v2 plant: large load steps, near-limit targets, fast changes",
+        ),
+        Suite(
+            "length-v2",
+            "cepam_gym/CEPAMLength-v2",
+            {"task_options": {"load_kinds": ["step"]}},
+            seed=26000,
+            traces=RIG_V1,
+            doc="v2 plant: the length-only task, v1 length references with preview, load steps",
+        ),
+        Suite(
+            "joint-v2",
+            "cepam_gym/CEPAMJoint-v2",
+            {},
+            seed=27000,
+            traces=JOINT_V1,
+            doc="v2 plant: the batched hinge, v1 angle and joint-stiffness references, preview",
         ),
     )
 }
