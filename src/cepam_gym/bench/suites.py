@@ -49,15 +49,20 @@ RANDOMIZE_V1: dict[str, list[float]] = {
 # The same spread around the v2 plant (presets/balloon_v2.yaml). v2 uses the contact-area friction
 # law, under which the v1 key friction_coefficient_n_per_kpa is not used (the kernel zeroes it), so
 # randomizing it would change nothing: v2 spreads its counterpart friction_mu instead, over the
-# same relative range as v1's coefficient (0.5-2 x nominal 2.05e-4). The angles are re-centred on
-# v2's fitted values (+/- 1.5 deg; the CPAM's kept above v1's sleeve-size bound 20.3 deg). Where the
-# v2 fit sits on a physical bound the spread goes inward only: presliding 1.2-2 mm (bound 2 mm: PAM
-# hysteresis loops stick over up to about a mm or two) and the collapsed CPAM's seal 3.5-5 mm (it
-# cannot exceed the 5 mm bladder it seals). Noise and the other keys as v1's.
+# same relative range as v1's coefficient (0.5-2 x nominal 2.08e-4). The angles are centred on
+# v2's fitted values (+/- 1.5 deg), the balloon's modulus on its fitted 736 kPa (-40 / +35 %,
+# within latex's 0.2-1 MPa), the braid threads' compliance on its fitted 0.89 per kN (+/- 2 sd of
+# the fit, 0.6-1.2). Where the v2 fit sits at a physical bound the spread goes inward only:
+# presliding 1.2-2 mm (bound 2 mm: PAM hysteresis loops stick over up to about a mm or two) and the
+# collapsed CPAM's seal 3.5-5 mm (it cannot exceed the 5 mm bladder it seals). Noise and the other
+# keys as v1's.
 RANDOMIZE_V2: dict[str, list[float]] = {
     **{k: v for k, v in RANDOMIZE_V1.items() if k != "friction_coefficient_n_per_kpa"},
-    "cpam_rest_angle_deg": [20.3, 23.2],
-    "epam_sleeve_free_angle_deg": [29.3, 32.3],
+    "cpam_rest_angle_deg": [20.7, 23.7],
+    "epam_sleeve_free_angle_deg": [28.35, 31.35],
+    "bladder_shear_modulus_kpa": [450.0, 1000.0],
+    "epam_thread_compliance_per_kn": [0.6, 1.2],
+    "cpam_thread_compliance_per_kn": [0.6, 1.2],
     "friction_mu": [1.0e-4, 4.0e-4],
     "friction_presliding_mm": [1.2, 2.0],
     "collapse_seal_diameter_mm": [3.5, 5.0],
