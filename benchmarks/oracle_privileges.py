@@ -12,7 +12,10 @@ and taking the foresight away from the oracle, all on the same seeded episodes o
 * ``mpc + oracle search``: the same with the oracle's search settings;
 * ``mpc + true hidden state`` (and its parts: air, friction): the plant's true columns copied into
   the MPC's state estimate, with the oracle's search;
-* ``mpc_known_params`` (registered): each plant's true parameters, state and load still estimated;
+* ``mpc_friction`` (registered): the MPC whose load balance includes its friction elements,
+  tracked from the measured length (practical: sensors only);
+* ``mpc_known_params`` (registered): the MPC given each plant's true parameters, state and load
+  still estimated; ``mpc_friction + true parameters`` the same on ``mpc_friction``;
 * ``oracle_causal`` (registered): the oracle with the load of the current step held over its
   horizon (no foresight);
 * ``oracle``.
@@ -38,7 +41,7 @@ from cepam_gym.bench.metrics import score_traces
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.control import make_controller
 from cepam_gym.control.baseline import find_core
-from cepam_gym.control.mpc import ModelPredictiveController
+from cepam_gym.control.mpc import FrictionObserverMPC, KnownParamsMPC, ModelPredictiveController
 from cepam_gym.control.oracle import ORACLE_CONFIG
 from cepam_gym.physics import layout as ix
 
@@ -68,6 +71,10 @@ class _TrueColumnsMPC(ModelPredictiveController):
         return x
 
 
+class _KnownParamsFrictionMPC(KnownParamsMPC, FrictionObserverMPC):
+    """``mpc_friction`` given each plant's true parameters."""
+
+
 ROWS = {
     "baseline": lambda v: make_controller("baseline", v),
     "mpc": lambda v: make_controller("mpc", v),
@@ -77,7 +84,9 @@ ROWS = {
     "mpc + true hidden state": lambda v: _TrueColumnsMPC(v, AIR + SPOOLS + FRICTION),
     "mpc + true load": lambda v: _TrueColumnsMPC(v, (), true_load=True),
     "mpc + true hidden state and load": lambda v: _TrueColumnsMPC(v, AIR + SPOOLS + FRICTION, True),
+    "mpc_friction": lambda v: make_controller("mpc_friction", v),
     "mpc_known_params": lambda v: make_controller("mpc_known_params", v),
+    "mpc_friction + true parameters": _KnownParamsFrictionMPC,
     "oracle_causal": lambda v: make_controller("oracle_causal", v),
     "oracle": lambda v: make_controller("oracle", v),
 }

@@ -48,9 +48,9 @@ def test_the_causal_oracle_plans_with_the_current_load_held():
         env.close()
 
 
-def test_the_known_parameters_mpc_is_the_friction_mpc_on_the_nominal_plant():
+def test_the_known_parameters_mpc_is_the_mpc_on_the_nominal_plant():
     kw = {"task_options": {"load_kinds": ["step"]}}
-    np.testing.assert_array_equal(_actions("mpc_known_params", kw, 40), _actions("mpc_friction", kw, 40))
+    np.testing.assert_array_equal(_actions("mpc_known_params", kw, 40), _actions("mpc", kw, 40))
 
 
 def test_the_friction_mpc_is_the_mpc_on_a_plant_without_friction():

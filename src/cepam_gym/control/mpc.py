@@ -149,12 +149,12 @@ class FrictionObserverMPC(ModelPredictiveController):
         return x
 
 
-class KnownParamsMPC(FrictionObserverMPC):
-    """The friction-observing MPC (:class:`FrictionObserverMPC`) given each env's true parameter
-    row (randomized plants included); its state, friction and load are still estimated from the
-    sensors. Not a practical
-    controller: the ceiling of adapting to the plant by identifying its parameters, the yardstick
-    of an agent that must infer them (docs/benchmark.md, "What the oracle's privileges are worth")."""
+class KnownParamsMPC(ModelPredictiveController):
+    """The MPC given each env's true parameter row (randomized plants included); its state and
+    load are still estimated from the sensors. Not a practical controller: the ceiling of adapting
+    to the plant by identifying its parameters, the yardstick of an agent that must infer them
+    (docs/benchmark.md, "What the oracle's privileges are worth"), and the shipped student's
+    teacher (configs/student.yaml)."""
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
         super().__init__(env, config, **overrides)
