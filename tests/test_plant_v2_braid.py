@@ -118,3 +118,32 @@ def test_stretch_lengthens_the_single_epam_towards_the_papers_23_cm(v2):
         assert rigid < stretched
         assert stretched == pytest.approx(paper, rel=0.1)
         assert rigid < 0.9 * paper
+
+
+def test_the_baseline_sets_pressures_that_hold_the_stretching_plant_at_its_target():
+    """The baseline's inverse is exact on plant v2 (threads stretched at the solution): at its
+    set-points the plant's own force balances the weight and its tangent stiffness is the target;
+    the affine solve at rest threads would miss the stiffness by several per cent."""
+    import gymnasium as gym
+
+    from cepam_gym.control import make_controller
+    from cepam_gym.physics import api
+
+    env = gym.make_vec("cepam_gym/CEPAM-v2", num_envs=1)
+    try:
+        base = make_controller("baseline", env)
+        row = base.params
+        from cepam_gym.tasks.schedules import stiffness_interval
+
+        L = np.array([0.170, 0.175, 0.180])
+        W = np.full(3, 0.1 * 9.81)
+        k_lo, k_hi = stiffness_interval(L, W, W, row, base.task)
+        assert np.all(k_hi > k_lo + 50.0)
+        K = k_lo + np.array([0.3, 0.5, 0.7]) * (k_hi - k_lo)  # reachable targets
+        pc, pe = base.setpoints(L, K, W)
+        np.testing.assert_allclose(api.force(L, pc, pe, row), -W, rtol=1e-4)
+        np.testing.assert_allclose(api.stiffness(L, pc, pe, row), K, rtol=1e-3)
+        pc0, pe0, _ = api.static_pressures(L, K, W, row)
+        assert np.max(np.abs(api.stiffness(L, pc0, pe0, row) / K - 1)) > 0.01
+    finally:
+        env.close()

@@ -111,7 +111,9 @@ class InverseStaticController:
         else:
             K = np.clip(K_target, k_lo, np.maximum(k_lo, k_hi))
         K = np.where(reachable, K, np.nan_to_num(K_target if K_target is not None else 800.0))
-        pc, pe, _ = api.static_pressures(L_target, K, weight, p)
+        # exact for plant v2's stretching threads (its set-points 8 % off in stiffness otherwise);
+        # v0 and v1: the same numbers as the affine solve the reachable interval uses
+        pc, pe, _ = api.static_pressures_exact(L_target, K, weight, p)
         return np.clip(pc, 0.0, self.p_cap), np.clip(pe, 0.0, self.p_cap)
 
     def _valve_command(self, p_set, p_meas, vol, integral):

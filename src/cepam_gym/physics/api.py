@@ -29,6 +29,7 @@ __all__ = [
     "closed_chamber_stiffness",
     "chamber_volumes",
     "static_pressures",
+    "static_pressures_exact",
     "iso6358_flow",
     "contact_pressures",
 ]
@@ -129,6 +130,13 @@ def static_pressures(length, stiffness_target, weight, params):
     """Inverse static model: ``(Pc, Pe, ok)`` gauge [Pa] holding ``length`` with
     ``stiffness_target`` under the downward force ``weight`` [N]; see physics.statics."""
     Pc, Pe, ok = _call(statics.static_pressures, 3, params, length, stiffness_target, weight)
+    return Pc, Pe, ok.astype(bool)
+
+
+def static_pressures_exact(length, stiffness_target, weight, params):
+    """:func:`static_pressures` solved exactly for plant v2's extensible braids (the threads
+    stretched at the solution); the same numbers for inextensible braids (v0, v1)."""
+    Pc, Pe, ok = _call(statics.static_pressures_exact, 3, params, length, stiffness_target, weight)
     return Pc, Pe, ok.astype(bool)
 
 
