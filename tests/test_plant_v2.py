@@ -183,6 +183,9 @@ def test_protocol_stiffness_info_is_the_secant_at_the_steps_state():
     from cepam_gym.envs.protocol_info import ProtocolStiffnessInfo
 
     env = ProtocolStiffnessInfo(gym.make("cepam_gym/CEPAMStiffness-v2"))
+    # seeded actions: on the refitted plant about 1 random state in 60 has no protocol reading
+    # (a weight pulls the stretching braids past an equilibrium: the secant is NaN there)
+    env.action_space.seed(0)
     _, info = env.reset(seed=3)
     for _ in range(5):
         *_, info = env.step(env.action_space.sample())

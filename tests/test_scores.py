@@ -84,13 +84,27 @@ def test_iqm_over_seeds_with_rliable():
     assert 2.0 <= iqm <= 4.0 and lo <= iqm <= hi  # the outlier does not drag the IQM
 
 
+# the v2 suites' oracle costs twice v1's (0.16 s, 40 iterations): in `make test` the oracle end of
+# the v2 entries is recomputed on the two headline suites; CEPAM_ALL_REFERENCES=1 recomputes all
+V2_ORACLE_CHECKED = ("nominal-v2", "randomized-v2")
+
+
 # every stored entry, recomputed: a change of the plant, a suite or the oracle that moves a
 # reference by more than 2 % fails here (then: cepam-gym bench --update-references)
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(references.load()))
 def test_stored_references_are_current(name):
+    import os
+
+    from cepam_gym.bench.harness import run_suite
+
     stored = references.load()[name]
-    now = measure_references(name)
+    everything = os.environ.get("CEPAM_ALL_REFERENCES") == "1"
+    if everything or not name.endswith("-v2") or name in V2_ORACLE_CHECKED:
+        now = measure_references(name)
+        assert now["oracle"] == pytest.approx(stored["oracle"], rel=0.02), name
+    else:  # the zero controller's end only (seconds); the oracle's: CEPAM_ALL_REFERENCES=1
+        zero, _ = run_suite("zero", name)
+        now = {"seed": SUITES[name].seed, "episodes": zero["episodes"], "zero": zero["score"]}
     assert now["episodes"] == stored["episodes"] and now["seed"] == stored["seed"]
     assert now["zero"] == pytest.approx(stored["zero"], rel=0.02), name
-    assert now["oracle"] == pytest.approx(stored["oracle"], rel=0.02), name
