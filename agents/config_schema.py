@@ -126,6 +126,9 @@ class AgentConfig:
     * ``setpoint_gaps_in_obs``: the gaps between the baseline's set-point pressures (the nominal
       inverse static model at its load estimate) and the measured ones are appended, in units of
       100 kPa: what the model says each chamber still needs (same restriction).
+    * ``friction_observer``: the baseline's load estimate balances its friction elements' force
+      too, tracked from the measured length (``baseline_friction``,
+      :mod:`cepam_gym.control.friction_observer`), so its set-points (and gaps) are friction-aware.
     * ``history``: the last ``history`` observations are stacked.
     * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
       restarted with each episode) are appended: a cheap memory over seconds.
@@ -149,6 +152,7 @@ class AgentConfig:
         default_factory=list
     )  # time constants [s] of low-passed copies of the observation
     privileged_critic: bool = False
+    friction_observer: bool = False
 
     @property
     def uses_baseline(self) -> bool:
@@ -170,7 +174,13 @@ class AgentConfig:
             as_float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
             _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),
             as_bool(d.get("privileged_critic", False), "agent.privileged_critic"),
+            as_bool(d.get("friction_observer", False), "agent.friction_observer"),
         )
+        if out.friction_observer and not out.uses_baseline:
+            raise ConfigError(
+                "agent.friction_observer changes the baseline's load estimate, and no baseline is used: "
+                "set agent.residual, agent.baseline_in_obs, agent.setpoint_gaps_in_obs or agent.target_shift"
+            )
         if out.target_shift and (out.baseline_in_obs or out.setpoint_gaps_in_obs):
             raise ConfigError(
                 "agent.baseline_in_obs and agent.setpoint_gaps_in_obs cannot be used with "

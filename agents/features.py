@@ -7,6 +7,7 @@
 * ``baseline_in_obs``: the baseline's action is appended to the env observation.
 * ``setpoint_gaps_in_obs``: the baseline's set-point pressure gaps (model minus measured, per
   chamber, in units of 100 kPa) are appended.
+* ``friction_observer``: the baseline's load estimate includes its friction elements' force.
 * ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
 * ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
   starts with copies of its first one.
@@ -36,7 +37,7 @@ class Features:
         if cfg.uses_baseline:
             from cepam_gym.control import InverseStaticController
 
-            self.baseline = InverseStaticController(env)
+            self.baseline = InverseStaticController(env, friction_observer=cfg.friction_observer)
             track_k = self.baseline.task.track_stiffness
             if cfg.target_shift:
                 self.n_shift = 2 if track_k else 1

@@ -41,7 +41,7 @@ from cepam_gym.bench.metrics import score_traces
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.control import make_controller
 from cepam_gym.control.baseline import find_core
-from cepam_gym.control.mpc import FrictionObserverMPC, KnownParamsMPC, ModelPredictiveController
+from cepam_gym.control.mpc import ModelPredictiveController
 from cepam_gym.control.oracle import ORACLE_CONFIG
 from cepam_gym.physics import layout as ix
 
@@ -71,10 +71,6 @@ class _TrueColumnsMPC(ModelPredictiveController):
         return x
 
 
-class _KnownParamsFrictionMPC(KnownParamsMPC, FrictionObserverMPC):
-    """``mpc_friction`` given each plant's true parameters."""
-
-
 ROWS = {
     "baseline": lambda v: make_controller("baseline", v),
     "mpc": lambda v: make_controller("mpc", v),
@@ -86,7 +82,7 @@ ROWS = {
     "mpc + true hidden state and load": lambda v: _TrueColumnsMPC(v, AIR + SPOOLS + FRICTION, True),
     "mpc_friction": lambda v: make_controller("mpc_friction", v),
     "mpc_known_params": lambda v: make_controller("mpc_known_params", v),
-    "mpc_friction + true parameters": _KnownParamsFrictionMPC,
+    "mpc_friction + true parameters": lambda v: make_controller("mpc_friction_known_params", v),
     "oracle_causal": lambda v: make_controller("oracle_causal", v),
     "oracle": lambda v: make_controller("oracle", v),
 }

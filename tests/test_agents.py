@@ -103,6 +103,7 @@ def test_unknown_keys_are_named(changes, key):
         ({"policy_kwargs": {"activation_fn": "sigmoidish"}}, "activation_fn must be one of"),
         ({"eval": {"suite": "nope"}}, "eval.suite: unknown suite 'nope'"),
         ({"agent": {"history": 0}}, "agent.history must be >= 1"),
+        ({"agent": {"friction_observer": True}}, "agent.friction_observer changes the baseline's load"),
     ],
 )
 def test_bad_values_are_named(changes, match):
@@ -322,6 +323,31 @@ def test_ppo_and_td3_train_and_act(tmp_path, algo, hp, agent, n_act):
 
 
 # --------------------------------------------------------------------------- features
+def test_friction_aware_features_peek_rewinds_the_observer():
+    import gymnasium as gym
+
+    from cepam_gym.control import make_controller
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features
+
+    venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=2)
+    obs, _ = venv.reset(seed=5)
+    cfg = AgentConfig(setpoint_gaps_in_obs=True, friction_observer=True)
+    feats = Features(venv, cfg, venv.unwrapped.core.obs_dim)
+    twin = Features(venv, cfg, venv.unwrapped.core.obs_dim)
+    ref = make_controller("baseline_friction", venv)
+    moved = False
+    for _ in range(40):
+        f, _ = feats(obs)
+        a = ref.act(obs)  # the features' baseline is the registered friction-aware one
+        np.testing.assert_array_equal(feats.baseline.last_gap, ref.last_gap)
+        feats.peek(obs + 0.01)  # a terminal observation must not move the observer
+        np.testing.assert_array_equal(f, twin(obs)[0])
+        moved |= bool(np.abs(feats.baseline.friction.z).max() > 0)
+        obs, *_ = venv.step(a)
+    assert moved
+
+
 def test_residual_features_terminal_obs_and_peek():
     import gymnasium as gym
 

@@ -59,6 +59,21 @@ def test_the_friction_mpc_is_the_mpc_on_a_plant_without_friction():
     np.testing.assert_array_equal(got, _actions("mpc", {}, 40, env_id="cepam_gym/CEPAM-v0"))
 
 
+def test_the_friction_mpc_given_the_true_parameters_is_the_friction_mpc_on_the_nominal_plant():
+    kw = {"task_options": {"load_kinds": ["step"]}}
+    np.testing.assert_array_equal(
+        _actions("mpc_friction_known_params", kw, 40), _actions("mpc_friction", kw, 40)
+    )
+
+
+def test_the_friction_baseline_is_the_baseline_without_friction_and_differs_with_it():
+    v0 = {"env_id": "cepam_gym/CEPAM-v0"}
+    np.testing.assert_array_equal(
+        _actions("baseline_friction", {}, 60, **v0), _actions("baseline", {}, 60, **v0)
+    )
+    assert not np.array_equal(_actions("baseline_friction", {}, 60), _actions("baseline", {}, 60))
+
+
 def test_the_friction_mpc_tracks_the_plants_friction_deflections():
     from cepam_gym import plant as pl
 
@@ -71,7 +86,7 @@ def test_the_friction_mpc_tracks_the_plants_friction_deflections():
         for _ in range(150):
             a = ctrl.act(obs, info)
             z_true = core.state[:, [pl.S_Z1, pl.S_Z2, pl.S_Z3]]
-            errs.append(np.abs(ctrl._z - z_true).max())
+            errs.append(np.abs(ctrl.friction.z - z_true).max())
             sizes.append(np.abs(z_true).max())
             obs, _r, _te, _tr, info = env.step(a)
     finally:

@@ -92,5 +92,5 @@ def test_reset_of_some_envs_before_any_action_is_harmless():
     obs, info = venv.reset(seed=0)
     assert ctl.act(obs, info).shape == (3, 2)
     ctl.reset(np.array([0, 2]))  # and after it: those envs restart their load filter
-    weight, _integral = ctl.get_state()
+    weight, _integral, _friction = ctl.get_state()
     assert np.isnan(weight[[0, 2]]).all() and not np.isnan(weight[1])

@@ -34,6 +34,7 @@ from ..physics import api
 from ..physics import layout as ix
 from ..plant.actions import pressure_actions
 from ..tasks.schedules import stiffness_interval
+from .friction_observer import FrictionObserver
 
 
 class InverseStaticController:
@@ -41,9 +42,20 @@ class InverseStaticController:
     observations. Build it from an env (single, vector or SB3 adapter) so it knows the
     observation scaling, the action mode and the nominal parameters."""
 
+    friction: FrictionObserver | None = None
+
     def __init__(
-        self, env, gap_fraction: float = 0.5, kp: float = 0.2, ki: float = 0.5, load_filter_s: float = 0.15
+        self,
+        env,
+        gap_fraction: float = 0.5,
+        kp: float = 0.2,
+        ki: float = 0.5,
+        load_filter_s: float = 0.15,
+        friction_observer: bool = False,
     ):
+        # friction_observer: the load estimate balances the friction elements' force too
+        # (:mod:`.friction_observer`); off, the air's force alone (the registered baseline)
+        self.friction = FrictionObserver() if friction_observer else None
         core = core_of(env)
         self.task = core.task.spec
         self.layout = core.obs_layout
@@ -78,20 +90,28 @@ class InverseStaticController:
         else:
             self._weight[indices] = np.nan
             self._integral[indices] = 0.0
+        if getattr(self, "friction", None) is not None:
+            self.friction.reset(indices)
 
     def get_state(self):
-        """A copy of the per-env filter and integrator states (``None`` before the first act),
-        for :meth:`set_state`: code that runs the controller on trial observations and rewinds it."""
+        """A copy of the per-env filter, integrator and friction-observer states (``None`` before
+        the first act), for :meth:`set_state`: code that runs the controller on trial
+        observations and rewinds it."""
         if self._weight is None:
             return None
-        return self._weight.copy(), self._integral.copy()
+        friction = None if self.friction is None else self.friction.get_state()
+        return self._weight.copy(), self._integral.copy(), friction
 
     def set_state(self, state) -> None:
         """Restore what :meth:`get_state` returned."""
         if state is None:
             self._weight = self._integral = None
+            if self.friction is not None:
+                self.friction.set_state(None)
         else:
             self._weight, self._integral = state[0].copy(), state[1].copy()
+            if self.friction is not None:
+                self.friction.set_state(state[2])
 
     # ------------------------------------------------------------------ helpers
     def _decode(self, obs: np.ndarray):
@@ -145,11 +165,18 @@ class InverseStaticController:
         obs = np.atleast_2d(np.asarray(obs, dtype=float))
         L, pc, pe, L_t, K_t = self._decode(obs)
         p = self.params
-        w_now = -api.force(L, pc, pe, p)  # Eq. 25 balance: weight = -F
+        w_now = -self.measured_force(L, pc, pe, p[None])  # Eq. 25 balance: weight = -F
         w_min = p[ix.M_END] * p[ix.GRAV]
         weight = np.maximum(self._filtered(w_now), w_min)
         pc_set, pe_set = self.setpoints(L_t, K_t, weight)
         return self._drive(pc_set, pe_set, L, pc, pe, self.p_cap, single)
+
+    def measured_force(self, L, pc, pe, rows) -> np.ndarray:
+        """The model's force (N,) [N] at the measured length and pressures, whose static balance
+        is the load estimate: the air's, plus the friction elements' with the observer on.
+        ``rows``: (1, N_PARAMS) the nominal plant, or one row per env."""
+        f = api.force(L, pc, pe, rows if len(rows) > 1 else rows[0])
+        return f if self.friction is None else f + self.friction.force(L, pc, pe, rows)
 
     def _filtered(self, load_now: np.ndarray) -> np.ndarray:
         """Low-pass filter of the load estimate (the hanging weight here; subclasses may filter
@@ -182,6 +209,14 @@ class InverseStaticController:
             action = np.stack([uc, ue], axis=1)
         action = np.clip(action, -1.0, 1.0).astype(np.float32)
         return action[0] if single else action
+
+
+class FrictionAwareBaseline(InverseStaticController):
+    """The baseline whose load estimate balances the friction elements' force too, tracked from
+    the measured length (:class:`~cepam_gym.control.friction_observer.FrictionObserver`)."""
+
+    def __init__(self, env, **kwargs):
+        super().__init__(env, friction_observer=True, **kwargs)
 
 
 class UnsupportedEnvError(TypeError):

@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 
 from .. import plant as pl
-from ..physics import api
 from ..physics import layout as ix
 from .baseline import InverseStaticController, core_of
 from .planner import CEMConfig, planner_for
@@ -35,8 +34,8 @@ from .planner import CEMConfig, planner_for
 class ModelPredictiveController(InverseStaticController):
     """``reset(indices=None)`` / ``act(obs, info=None)`` on single or batched observations."""
 
-    def __init__(self, env, config: CEMConfig | None = None, **overrides):
-        super().__init__(env)
+    def __init__(self, env, config: CEMConfig | None = None, friction_observer: bool = False, **overrides):
+        super().__init__(env, friction_observer=friction_observer)
         core = core_of(env)
         self.planner = planner_for(core, config, **overrides)
         self.cfg = self.planner.cfg
@@ -51,11 +50,6 @@ class ModelPredictiveController(InverseStaticController):
         """The parameter rows the model plans with: (1, N_PARAMS) the nominal plant for all ``n``
         envs (:class:`KnownParamsMPC`: each env's true row)."""
         return self.params[None]
-
-    def measured_force(self, L, pc, pe, rows) -> np.ndarray:
-        """The model's force (N,) [N] at the measured length and pressures, whose static balance
-        is the load estimate: the air's (:class:`FrictionObserverMPC` adds its friction's)."""
-        return api.force(L, pc, pe, rows if len(rows) > 1 else rows[0])
 
     def estimate_state(self, obs: np.ndarray, L, pc, pe, params=None) -> np.ndarray:
         """Plant states (N, N_STATE) of the model (the nominal one, or ``params`` rows (N,
@@ -110,42 +104,21 @@ class ModelPredictiveController(InverseStaticController):
 
 
 class FrictionObserverMPC(ModelPredictiveController):
-    """The MPC with the model's friction elements tracked from the measured length: each
-    element's deflection follows the motion and is held at its presliding displacement
-    (:func:`cepam_gym.physics.friction.friction_slip`), so the load estimate is the balance of the
-    air's force *and* the friction's (the plain MPC's static balance leaves out the part of the
-    weight friction holds), and the plan starts from the tracked deflections. On ``nominal-v1``
-    the friction left out of the balance is what separates the MPC from the causal oracle
-    (docs/benchmark.md, "What the oracle's privileges are worth")."""
+    """The MPC with the model's friction elements tracked from the measured length
+    (:class:`~cepam_gym.control.friction_observer.FrictionObserver`), so the load estimate is the
+    balance of the air's force *and* the friction's (the plain MPC's static balance leaves out the
+    part of the weight friction holds), and the plan starts from the tracked deflections. On
+    ``nominal-v1`` the friction left out of the balance is what separates the MPC from the causal
+    oracle (docs/benchmark.md, "What the oracle's privileges are worth")."""
 
-    def reset(self, indices=None) -> None:
-        super().reset(indices)
-        if indices is None or getattr(self, "_z", None) is None:
-            self._z = self._last_l = None
-        else:
-            self._last_l[np.asarray(indices)] = np.nan
-
-    def measured_force(self, L, pc, pe, rows) -> np.ndarray:
-        from ..physics.friction import friction_force, friction_slip
-
-        n, p = len(L), rows[0] if len(rows) == 1 else None
-        if self._z is None or len(self._z) != n:
-            self._z, self._last_l = np.zeros((n, 3)), np.full(n, np.nan)
-        fresh = np.isnan(self._last_l)
-        self._z[fresh] = 0.0  # a new episode starts at rest, its elements relaxed
-        dl = np.where(fresh, 0.0, L - self._last_l)
-        self._last_l = np.array(L, dtype=float)
-        f = np.empty(n)
-        for i in range(n):
-            row = p if p is not None else rows[i]
-            self._z[i] = friction_slip(row, dl[i], *self._z[i])
-            f[i] = friction_force(row, pc[i], pe[i], *self._z[i])
-        return super().measured_force(L, pc, pe, rows) + f
+    def __init__(self, env, config: CEMConfig | None = None, **overrides):
+        super().__init__(env, config, friction_observer=True, **overrides)
 
     def estimate_state(self, obs, L, pc, pe, params=None) -> np.ndarray:
         x = super().estimate_state(obs, L, pc, pe, params)
-        if self._z is not None and len(self._z) == len(x):
-            x[:, [pl.S_Z1, pl.S_Z2, pl.S_Z3]] = self._z
+        z = self.friction.z
+        if z is not None and len(z) == len(x):
+            x[:, [pl.S_Z1, pl.S_Z2, pl.S_Z3]] = z
         return x
 
 
@@ -163,3 +136,9 @@ class KnownParamsMPC(ModelPredictiveController):
     def model_rows(self, n: int) -> np.ndarray:
         rows = np.asarray(self.core.params)
         return rows if len(rows) == n else np.broadcast_to(rows, (n, rows.shape[1]))
+
+
+class KnownParamsFrictionMPC(KnownParamsMPC, FrictionObserverMPC):
+    """``mpc_friction`` given each env's true parameter row (its friction elements tracked with
+    the true friction parameters): the student's teacher (configs/student.yaml). On the nominal
+    plant it is ``mpc_friction``."""

@@ -47,6 +47,9 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     "mpc_known_params": "cepam_gym.control.mpc:KnownParamsMPC",
     # the MPC whose load estimate balances its friction elements too (tracked from the length)
     "mpc_friction": "cepam_gym.control.mpc:FrictionObserverMPC",
+    # the same observer in the baseline's load estimate; mpc_friction given the true parameters
+    "baseline_friction": "cepam_gym.control.baseline:FrictionAwareBaseline",
+    "mpc_friction_known_params": "cepam_gym.control.mpc:KnownParamsFrictionMPC",
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}
