@@ -6,6 +6,8 @@ The parameters are plant v1's (braid angles, walls, rubber moduli; same bounds a
 two v2 terms, each bounded by what it physically is: the contact-area friction coefficient and its
 presliding displacement (:mod:`cepam_gym.physics.friction`) and the collapsed CPAM's seal
 diameter (at most its 5 mm bladder, :func:`cepam_gym.physics.muscle.force_from_slopes`).
+By default the fit is maximum a posteriori: weak literature priors (:data:`PRIORS`) on what the
+data fix only in combination; ``priors=False`` (``--no-priors``) is the plain least squares.
 """
 
 from __future__ import annotations
