@@ -114,6 +114,12 @@ def calibrate_main(argv: list[str] | None = None) -> int:
         "--starts are then not used (about a minute)",
     )
     ap.add_argument(
+        "--no-priors",
+        action="store_true",
+        help="with --v2: the plain least-squares fit, without the weak literature priors of "
+        "calibrate_v2.PRIORS (maximum a posteriori by default)",
+    )
+    ap.add_argument(
         "--cv",
         action="store_true",
         help="with --v1 or --v2: also the leave-one-experiment-group-out cross-validation "
@@ -137,7 +143,7 @@ def calibrate_main(argv: list[str] | None = None) -> int:
         if not args.out:
             ap.error("--out is required")
         name = args.preset or "balloon_v2"
-        return calibrate_v2(preset(name), args.out, cv=args.cv, preset_name=name)
+        return calibrate_v2(preset(name), args.out, cv=args.cv, preset_name=name, priors=not args.no_priors)
     args.preset = args.preset or "balloon"
     if args.v1:
         return _calibrate_v1(args)

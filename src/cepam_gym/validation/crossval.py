@@ -33,12 +33,14 @@ def cross_validate(
     model_fn=None,
     diff_step: float = 1e-4,
     group_fn=None,
+    prior=None,
 ) -> CrossValidation:
     """Fit without each experiment group in turn (``group_fn``, default :func:`experiment_group`)
-    and predict it (``model_fn``, ``diff_step``: as :func:`~cepam_gym.validation.fit.fit`)."""
+    and predict it (``model_fn``, ``diff_step``, ``prior``: as :func:`~cepam_gym.validation.fit.fit`;
+    a prior is not data: every fold keeps it)."""
     group_fn = group_fn or experiment_group
     model_fn = model_fn or model_values
-    kw = dict(bounds=bounds, max_nfev=max_nfev, tol=tol, model_fn=model_fn, diff_step=diff_step)
+    kw = dict(bounds=bounds, max_nfev=max_nfev, tol=tol, model_fn=model_fn, diff_step=diff_step, prior=prior)
     groups = list(dict.fromkeys(group_fn(e) for e in experiments))
     full = full or fit(experiments, base, names, x0s=x0s, **kw)
     pred, ins, vals = {}, {}, {}

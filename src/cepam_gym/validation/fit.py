@@ -91,6 +91,7 @@ def fit(
     x0s: list[np.ndarray] | None = None,
     model_fn: Callable[[list[Experiment], PlantParams], np.ndarray] | None = None,
     diff_step: float = 1e-4,
+    prior: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> FitResult:
     """Bounded least squares of the relative residuals over ``names`` (see the module docstring).
 
@@ -101,7 +102,10 @@ def fit(
     the model's values (default :func:`model_values`, the static simulation; plant v2: the
     protocols, :func:`cepam_gym.validation.protocols.protocol_values`); ``diff_step`` is the
     finite-difference step in the scaled variables (larger for a protocol with dry friction,
-    whose results are piecewise smooth).
+    whose results are piecewise smooth). ``prior(values)`` (edge values in ``names`` order) adds
+    residuals to the least squares, a maximum-a-posteriori fit (plant v2:
+    :func:`cepam_gym.validation.calibrate_v2.prior_residuals`); ``residuals`` of the result stay the
+    data's alone, ``cost`` includes the prior.
     """
     model_fn = model_fn or model_values
     names = tuple(names)
@@ -110,13 +114,7 @@ def fit(
     x_start = np.array([FIT_PARAMS[n].get(base) for n in names])
     model_start = model_fn(experiments, base)
 
-    def residuals(z: np.ndarray) -> np.ndarray:
-        try:
-            p = apply(base, names, scale.to_edge(z))
-        except ValueError:
-            return np.full(len(experiments), 1.0)  # impossible geometry: 100 % off everywhere
-        return relative_errors(model_fn(experiments, p), experiments)
-
+    residuals = fit_residuals(experiments, base, names, scale, model_fn, prior)
     rng = np.random.default_rng(seed)
     z0s = [scale.to_z(x_start)] + [rng.uniform(0.05, 0.95, len(names)) for _ in range(starts - 1)]
     z0s += [scale.to_z(x) for x in (x0s or [])]
@@ -125,8 +123,9 @@ def fit(
     params = apply(base, names, values)
     model = model_fn(experiments, params)
     r = relative_errors(model, experiments)
-    Jz = fitcore.fd_jacobian(residuals, best.x, r, h=diff_step)  # own differences: one-sided at a bound
-    unc = fitcore.uncertainty(Jz, r, scale.dx_dz(best.x), names)
+    r_all = residuals(best.x)  # with the prior's rows, if any: the posterior's uncertainty
+    Jz = fitcore.fd_jacobian(residuals, best.x, r_all, h=diff_step)  # own differences: one-sided at a bound
+    unc = fitcore.uncertainty(Jz, r_all, scale.dx_dz(best.x), names)
     at_bound = fitcore.at_bounds(best)
     notes = unc.notes[:1] if len(experiments) <= len(names) else []
     if np.any(at_bound):
@@ -155,6 +154,31 @@ def fit(
         notes,
         scale.bounds(),
     )
+
+
+def fit_residuals(
+    experiments: list[Experiment],
+    base: PlantParams,
+    names: tuple[str, ...],
+    scale: fitcore.Scaling,
+    model_fn: Callable[[list[Experiment], PlantParams], np.ndarray],
+    prior: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The least-squares residuals of :func:`fit` as a function of the scaled variables ``z``: the
+    relative errors of the experiments, then ``prior(values)`` if a prior is given."""
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        x = scale.to_edge(z)
+        extra = prior(x) if prior is not None else np.empty(0)
+        try:
+            p = apply(base, names, x)
+        except ValueError:
+            r = np.full(len(experiments), 1.0)  # impossible geometry: 100 % off everywhere
+        else:
+            r = relative_errors(model_fn(experiments, p), experiments)
+        return np.concatenate([r, extra])
+
+    return residuals
 
 
 def minimax(
