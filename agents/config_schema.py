@@ -109,6 +109,17 @@ def _filters(value: Any, where: str) -> list:
     return out
 
 
+def _controller(name: Any, where: str) -> str:
+    """A registered controller's name (``cepam_gym.control.controller_names``)."""
+    from cepam_gym.control import controller_names
+
+    if not isinstance(name, str) or name not in controller_names():
+        raise ConfigError(
+            f"{where} must be a registered controller ({', '.join(controller_names())}), got {name!r}"
+        )
+    return name
+
+
 @dataclass(frozen=True)
 class AgentConfig:
     """What the policy sees and sends, on top of the inverse-model baseline
@@ -129,6 +140,10 @@ class AgentConfig:
     * ``friction_observer``: the baseline's load estimate balances its friction elements' force
       too, tracked from the measured length (``baseline_friction``,
       :mod:`cepam_gym.control.friction_observer`), so its set-points (and gaps) are friction-aware.
+    * ``base_controller``: the registered controller (``cepam_gym.control``) that ``residual`` and
+      ``baseline_in_obs`` act on, default ``baseline``; another one (e.g. ``mpc_friction``) takes
+      neither ``target_shift``, ``setpoint_gaps_in_obs`` nor ``friction_observer`` (they need the
+      baseline's set-points).
     * ``history``: the last ``history`` observations are stacked.
     * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
       restarted with each episode) are appended: a cheap memory over seconds.
@@ -153,6 +168,7 @@ class AgentConfig:
     )  # time constants [s] of low-passed copies of the observation
     privileged_critic: bool = False
     friction_observer: bool = False
+    base_controller: str = "baseline"
 
     @property
     def uses_baseline(self) -> bool:
@@ -175,7 +191,16 @@ class AgentConfig:
             _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),
             as_bool(d.get("privileged_critic", False), "agent.privileged_critic"),
             as_bool(d.get("friction_observer", False), "agent.friction_observer"),
+            _controller(d.get("base_controller", "baseline"), "agent.base_controller"),
         )
+        if out.base_controller != "baseline" and (
+            out.target_shift or out.setpoint_gaps_in_obs or out.friction_observer
+        ):
+            raise ConfigError(
+                f"agent.base_controller {out.base_controller!r}: agent.target_shift, "
+                "agent.setpoint_gaps_in_obs and agent.friction_observer need the baseline's set-points; "
+                "drop them or use base_controller: baseline"
+            )
         if out.friction_observer and not out.uses_baseline:
             raise ConfigError(
                 "agent.friction_observer changes the baseline's load estimate, and no baseline is used: "

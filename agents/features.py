@@ -8,6 +8,8 @@
 * ``setpoint_gaps_in_obs``: the baseline's set-point pressure gaps (model minus measured, per
   chamber, in units of 100 kPa) are appended.
 * ``friction_observer``: the baseline's load estimate includes its friction elements' force.
+* ``base_controller``: the registered controller in the baseline's place (``residual``,
+  ``baseline_in_obs``), e.g. ``mpc_friction``.
 * ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
 * ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
   starts with copies of its first one.
@@ -35,9 +37,12 @@ class Features:
         self.baseline = None
         self.n_shift = 0
         if cfg.uses_baseline:
-            from cepam_gym.control import InverseStaticController
+            from cepam_gym.control import InverseStaticController, make_controller
 
-            self.baseline = InverseStaticController(env, friction_observer=cfg.friction_observer)
+            if cfg.base_controller == "baseline":
+                self.baseline = InverseStaticController(env, friction_observer=cfg.friction_observer)
+            else:  # another registered controller under the residual (an InverseStaticController too)
+                self.baseline = make_controller(cfg.base_controller, env)
             track_k = self.baseline.task.track_stiffness
             if cfg.target_shift:
                 self.n_shift = 2 if track_k else 1

@@ -43,11 +43,13 @@ _VAR_EPS = 1e-8
 def check_student(cfg: TrainConfig) -> None:
     """What a student needs of the rest of the config."""
     a = cfg.agent
-    if a.residual or a.target_shift or a.privileged_critic:
+    if a.target_shift or a.privileged_critic:
         raise ConfigError(
-            "a student drives the valves from its features: agent.residual, agent.target_shift and "
-            "agent.privileged_critic do not apply"
+            "a student drives the valves from its features (or a residual on agent.base_controller): "
+            "agent.target_shift and agent.privileged_critic do not apply"
         )
+    if a.residual and a.residual_scale <= 0:
+        raise ConfigError("a residual student needs agent.residual_scale > 0 (its labels are divided by it)")
     if not cfg.normalize.obs:
         raise ConfigError("a student normalizes its inputs: set normalize.obs: true")
     from cepam_gym.bench.suites import SUITES
@@ -102,8 +104,9 @@ class Student:
 
 def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None, beta: float = 1.0):
     """One episode in each of ``num_envs`` envs of ``suite``'s plant: the features the student saw
-    (T*N, dim) and the teacher's actions (T*N, 2). ``student``: a callable of features that drives
-    (the teacher every step with probability ``beta``); None: the teacher drives."""
+    (T*N, dim) and the teacher's actions (T*N, 2) (with ``agent.residual``: what the teacher adds
+    to the base controller, over ``residual_scale``). ``student``: a callable of features that
+    drives (the teacher every step with probability ``beta``); None: the teacher drives."""
     import gymnasium as gym
 
     from cepam_gym.bench.suites import SUITES
@@ -119,14 +122,17 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
         teacher.reset()
         n_steps = venv.unwrapped.core.n_steps
         xs, ys = [], []
+        residual = cfg.agent.residual
         for _ in range(n_steps):
-            x, _base = features(obs)
+            x, base = features(obs)
             label = np.asarray(teacher.act(obs, info), dtype=np.float32)
             xs.append(x)
-            ys.append(label)
+            # a residual student is fitted to what the teacher adds to its base controller
+            ys.append((label - base) / cfg.agent.residual_scale if residual else label)
             act = label
             if student is not None:
-                act = np.where((rng.random(num_envs) < beta)[:, None], label, student(x))
+                own = features.action(student(x), base) if residual else student(x)
+                act = np.where((rng.random(num_envs) < beta)[:, None], label, own)
             obs, _r, term, trunc, info = venv.step(act)
             if (term | trunc).any():  # a burst bladder ends an episode early: its rows stop here
                 break

@@ -151,3 +151,50 @@ def test_comparison_table_gives_iqm_and_the_gap_closed():
     assert len(rows) == 4 and all("**0.2" in r and "| 80 % |" in r for r in rows), rows
     one = table(["student"], [4], cache)
     assert "no IQM under 5 seeds" in one and "| 10 % |" in one
+
+
+def test_base_controller_config_is_checked():
+    with pytest.raises(ConfigError, match="agent.base_controller must be a registered controller"):
+        TrainConfig.from_dict(
+            {"algorithm": "PPO", "agent": {"residual": True, "base_controller": "mpc_frictoin"}}
+        )
+    with pytest.raises(ConfigError, match="need the baseline's set-points"):
+        TrainConfig.from_dict(
+            {"algorithm": "PPO", "agent": {"setpoint_gaps_in_obs": True, "base_controller": "mpc"}}
+        )
+    from cepam_gym_agents.student import check_student
+
+    cfg = _cfg()
+    bad = cfg.replace(agent=cfg.agent.__class__(residual=True, residual_scale=0.0))
+    with pytest.raises(ConfigError, match="residual_scale > 0"):
+        check_student(bad)
+
+
+def test_a_residual_student_is_fitted_to_what_the_teacher_adds_to_its_base():
+    """Labels of a residual student are (teacher - base) / residual_scale: zero where the teacher
+    is the base controller itself, the teacher's difference otherwise; and a zero residual sends
+    the base controller's own action (here the registered mpc_friction)."""
+    import gymnasium as gym
+
+    from cepam_gym.control import make_controller
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import Features
+    from cepam_gym_agents.student import collect
+
+    cfg = _cfg()
+    cfg = cfg.replace(agent=AgentConfig(residual=True, residual_scale=0.5, baseline_in_obs=True))
+    _x, y = collect(cfg.replace(student=cfg.student.__class__(teacher="baseline")), "nominal-v1", 2, seed=4)
+    assert y.shape == (1000, 2) and np.abs(y).max() == 0.0
+    _x, y = collect(cfg.replace(student=cfg.student.__class__(teacher="zero")), "nominal-v1", 2, seed=4)
+    assert np.abs(y).max() > 0.1  # the zero controller's commands minus the baseline's, over 0.5
+
+    venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=2)
+    obs, _ = venv.reset(seed=2)
+    feats = Features(venv, AgentConfig(residual=True, base_controller="mpc_friction"), obs.shape[1])
+    ref = make_controller("mpc_friction", venv)
+    for _ in range(5):
+        _f, base = feats(obs)
+        a = feats.action(np.zeros((2, 2), np.float32), base)
+        np.testing.assert_array_equal(a, ref.act(obs))
+        obs, *_ = venv.step(a)
+    venv.close()
