@@ -16,7 +16,7 @@ history about as well as knowing them (RMA's adaptation module, Kumar et al. 202
    own), tested on other plants driven by the baseline and by ``mpc_friction``: R^2 per key
    (0: no better than the range's mean; 1: identified).
 
-Run: ``NUMBA_NUM_THREADS=1 python benchmarks/identifiability.py`` (about 6 minutes on one core).
+Run: ``NUMBA_NUM_THREADS=1 python benchmarks/identifiability.py`` (about 8 minutes on one core).
 Needs torch (the ``agents`` extra).
 """
 
