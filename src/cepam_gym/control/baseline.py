@@ -90,7 +90,7 @@ class InverseStaticController:
         else:
             self._weight[indices] = np.nan
             self._integral[indices] = 0.0
-        if getattr(self, "friction", None) is not None:
+        if self.friction is not None:
             self.friction.reset(indices)
 
     def get_state(self):

@@ -140,5 +140,5 @@ class KnownParamsMPC(ModelPredictiveController):
 
 class KnownParamsFrictionMPC(KnownParamsMPC, FrictionObserverMPC):
     """``mpc_friction`` given each env's true parameter row (its friction elements tracked with
-    the true friction parameters): the student's teacher (configs/student.yaml). On the nominal
-    plant it is ``mpc_friction``."""
+    the true friction parameters): the residual student's teacher (configs/student_residual.yaml).
+    On the nominal plant it is ``mpc_friction``."""
