@@ -29,6 +29,7 @@ def test_every_v2_id_has_suites_mirroring_v1():
     for name in V2_SUITES:
         v1, v2 = SUITES[name.replace("-v2", "-v1")], SUITES[name]
         assert v2.env_id == v1.env_id.replace("-v1", "-v2") and v2.traces == v1.traces and not v2.extra
+        assert v2.seed == v1.seed + 10000 and v2.episodes == v1.episodes, name
         if name != "randomized-v2":
             assert v2.env_kwargs == v1.env_kwargs, name
     # the scoring of a v2 id is v1's (settling allowance), not the v0 fallback

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from .metrics import JOINT, JOINT_V1, RIG, RIG_V1, TraceSpec
@@ -90,189 +90,158 @@ class Suite:
         return stored_ends(self.name, self.episodes, self.seed)
 
 
-SUITES: dict[str, Suite] = {
-    s.name: s
-    for s in (
-        Suite(
-            "nominal",
-            "cepam_gym/CEPAM-v0",
-            {"task_options": {"load_kinds": ["step"]}},
-            seed=1000,
-            doc="default parameters, no noise, load steps",
-        ),
-        Suite(
-            "randomized",
-            "cepam_gym/CEPAM-v0",
-            {
-                "randomize": RANDOMIZE,
-                "supply_drift_kpa": 5.0,
-                "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0},
-            },
-            seed=2000,
-            doc="domain-randomized plant, sensor noise, supply drift, all load profiles",
-        ),
-        Suite(
-            "stiffness-at-fixed-length",
-            "cepam_gym/CEPAMStiffness-v0",
-            {},
-            seed=3000,
-            doc="paper section XII: 17.5 cm, changing stiffness",
-        ),
-        Suite(
-            "stress",
-            "cepam_gym/CEPAM-v0",
-            {
-                "task_options": {
-                    "load_range": [0.0, 0.45],
-                    "load_kinds": ["step", "random"],
-                    "pressure_margin": 0.95,
-                    "segment_duration": [1.0, 2.0],
-                }
-            },
-            seed=4000,
-            doc="large load steps, near-limit targets, fast target changes",
-        ),
-        Suite(
-            "joint",
-            "cepam_gym/CEPAMJoint-v0",
-            {},
-            seed=5000,
-            traces=JOINT,
-            extra="mujoco",
-            doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques",
-        ),
-        # v1: planned references announced 0.2 s ahead; the headline error leaves out 0.5 s after a
-        # jump of the target (RIG_V1); seeds fixed per suite
-        Suite(
-            "nominal-v1",
-            "cepam_gym/CEPAM-v1",
-            {"task_options": {"load_kinds": ["step"]}},
-            seed=11000,
-            traces=RIG_V1,
-            doc="v1 references with preview, default parameters, no noise, load steps",
-        ),
-        Suite(
-            "randomized-v1",
-            "cepam_gym/CEPAM-v1",
-            {"randomize": RANDOMIZE_V1, "supply_drift_kpa": 5.0, "sensor_noise": NOISE},
-            seed=12000,
-            traces=RIG_V1,
-            doc="v1 references with preview, domain-randomized plant, sensor noise, supply drift",
-        ),
-        Suite(
-            "tracking-v1",
-            "cepam_gym/CEPAM-v1",
-            {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
-            seed=13000,
-            traces=RIG_V1,
-            doc="smooth references only (sines, chirps, minimum-jerk moves), constant load",
-        ),
-        Suite(
-            "stiffness-at-fixed-length-v1",
-            "cepam_gym/CEPAMStiffness-v1",
-            {},
-            seed=14000,
-            traces=RIG_V1,
-            doc="paper section XII: 17.5 cm, stiffness ramps and moves",
-        ),
-        Suite(
-            "length-v1",
-            "cepam_gym/CEPAMLength-v1",
-            {"task_options": {"load_kinds": ["step"]}},
-            seed=16000,
-            traces=RIG_V1,
-            doc="the length-only v1 task: v1 length references with preview, load steps",
-        ),
-        Suite(
-            "joint-v1",
-            "cepam_gym/CEPAMJoint-v1",
-            {},
-            seed=17000,
-            traces=JOINT_V1,
-            doc="the batched hinge driven by the CE-PAM: v1 angle and joint-stiffness references, preview",
-        ),
-        Suite(
-            "stress-v1",
-            "cepam_gym/CEPAM-v1",
-            {
-                "task_options": {
-                    "load_range": [0.0, 0.45],
-                    "load_kinds": ["step", "random"],
-                    "pressure_margin": 0.95,
-                    "segment_duration": [1.0, 2.0],
-                }
-            },
-            seed=15000,
-            traces=RIG_V1,
-            doc="v1 with large load steps, near-limit targets, fast changes",
-        ),
-        # v2: the v1 suites on the v2 ids (the v1 tasks on plant v2, preset balloon_v2), same
-        # options, their own seeds (the v1 seed + 10000); randomized-v2 spreads RANDOMIZE_V2
-        Suite(
-            "nominal-v2",
-            "cepam_gym/CEPAM-v2",
-            {"task_options": {"load_kinds": ["step"]}},
-            seed=21000,
-            traces=RIG_V1,
-            doc="v2 plant: v1 references with preview, default parameters, no noise, load steps",
-        ),
-        Suite(
-            "randomized-v2",
-            "cepam_gym/CEPAM-v2",
-            {"randomize": RANDOMIZE_V2, "supply_drift_kpa": 5.0, "sensor_noise": NOISE},
-            seed=22000,
-            traces=RIG_V1,
-            doc="v2 plant: domain-randomized (contact-area friction included), sensor noise, supply drift",
-        ),
-        Suite(
-            "tracking-v2",
-            "cepam_gym/CEPAM-v2",
-            {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
-            seed=23000,
-            traces=RIG_V1,
-            doc="v2 plant: smooth references only (sines, chirps, minimum-jerk moves), constant load",
-        ),
-        Suite(
-            "stiffness-at-fixed-length-v2",
-            "cepam_gym/CEPAMStiffness-v2",
-            {},
-            seed=24000,
-            traces=RIG_V1,
-            doc="v2 plant: paper section XII, 17.5 cm, stiffness ramps and moves",
-        ),
-        Suite(
-            "stress-v2",
-            "cepam_gym/CEPAM-v2",
-            {
-                "task_options": {
-                    "load_range": [0.0, 0.45],
-                    "load_kinds": ["step", "random"],
-                    "pressure_margin": 0.95,
-                    "segment_duration": [1.0, 2.0],
-                }
-            },
-            seed=25000,
-            traces=RIG_V1,
-            doc="v2 plant: large load steps, near-limit targets, fast changes",
-        ),
-        Suite(
-            "length-v2",
-            "cepam_gym/CEPAMLength-v2",
-            {"task_options": {"load_kinds": ["step"]}},
-            seed=26000,
-            traces=RIG_V1,
-            doc="v2 plant: the length-only task, v1 length references with preview, load steps",
-        ),
-        Suite(
-            "joint-v2",
-            "cepam_gym/CEPAMJoint-v2",
-            {},
-            seed=27000,
-            traces=JOINT_V1,
-            doc="v2 plant: the batched hinge, v1 angle and joint-stiffness references, preview",
-        ),
+_SUITES_V0_V1 = (
+    Suite(
+        "nominal",
+        "cepam_gym/CEPAM-v0",
+        {"task_options": {"load_kinds": ["step"]}},
+        seed=1000,
+        doc="default parameters, no noise, load steps",
+    ),
+    Suite(
+        "randomized",
+        "cepam_gym/CEPAM-v0",
+        {
+            "randomize": RANDOMIZE,
+            "supply_drift_kpa": 5.0,
+            "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0},
+        },
+        seed=2000,
+        doc="domain-randomized plant, sensor noise, supply drift, all load profiles",
+    ),
+    Suite(
+        "stiffness-at-fixed-length",
+        "cepam_gym/CEPAMStiffness-v0",
+        {},
+        seed=3000,
+        doc="paper section XII: 17.5 cm, changing stiffness",
+    ),
+    Suite(
+        "stress",
+        "cepam_gym/CEPAM-v0",
+        {
+            "task_options": {
+                "load_range": [0.0, 0.45],
+                "load_kinds": ["step", "random"],
+                "pressure_margin": 0.95,
+                "segment_duration": [1.0, 2.0],
+            }
+        },
+        seed=4000,
+        doc="large load steps, near-limit targets, fast target changes",
+    ),
+    Suite(
+        "joint",
+        "cepam_gym/CEPAMJoint-v0",
+        {},
+        seed=5000,
+        traces=JOINT,
+        extra="mujoco",
+        doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques",
+    ),
+    # v1: planned references announced 0.2 s ahead; the headline error leaves out 0.5 s after a
+    # jump of the target (RIG_V1); seeds fixed per suite
+    Suite(
+        "nominal-v1",
+        "cepam_gym/CEPAM-v1",
+        {"task_options": {"load_kinds": ["step"]}},
+        seed=11000,
+        traces=RIG_V1,
+        doc="v1 references with preview, default parameters, no noise, load steps",
+    ),
+    Suite(
+        "randomized-v1",
+        "cepam_gym/CEPAM-v1",
+        {"randomize": RANDOMIZE_V1, "supply_drift_kpa": 5.0, "sensor_noise": NOISE},
+        seed=12000,
+        traces=RIG_V1,
+        doc="v1 references with preview, domain-randomized plant, sensor noise, supply drift",
+    ),
+    Suite(
+        "tracking-v1",
+        "cepam_gym/CEPAM-v1",
+        {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
+        seed=13000,
+        traces=RIG_V1,
+        doc="smooth references only (sines, chirps, minimum-jerk moves), constant load",
+    ),
+    Suite(
+        "stiffness-at-fixed-length-v1",
+        "cepam_gym/CEPAMStiffness-v1",
+        {},
+        seed=14000,
+        traces=RIG_V1,
+        doc="paper section XII: 17.5 cm, stiffness ramps and moves",
+    ),
+    Suite(
+        "length-v1",
+        "cepam_gym/CEPAMLength-v1",
+        {"task_options": {"load_kinds": ["step"]}},
+        seed=16000,
+        traces=RIG_V1,
+        doc="the length-only v1 task: v1 length references with preview, load steps",
+    ),
+    Suite(
+        "joint-v1",
+        "cepam_gym/CEPAMJoint-v1",
+        {},
+        seed=17000,
+        traces=JOINT_V1,
+        doc="the batched hinge driven by the CE-PAM: v1 angle and joint-stiffness references, preview",
+    ),
+    Suite(
+        "stress-v1",
+        "cepam_gym/CEPAM-v1",
+        {
+            "task_options": {
+                "load_range": [0.0, 0.45],
+                "load_kinds": ["step", "random"],
+                "pressure_margin": 0.95,
+                "segment_duration": [1.0, 2.0],
+            }
+        },
+        seed=15000,
+        traces=RIG_V1,
+        doc="v1 with large load steps, near-limit targets, fast changes",
+    ),
+)
+
+
+def _on_plant_v2(v1: Suite) -> Suite:
+    """A v1 suite on the v2 ids: the v1 task on plant v2 (preset balloon_v2), same options, its own
+    seed (the v1 seed + 10000); a randomized suite spreads :data:`RANDOMIZE_V2` instead."""
+    import copy
+
+    kwargs = copy.deepcopy(v1.env_kwargs)
+    doc = f"v2 plant: {v1.doc}"
+    if "randomize" in kwargs:
+        kwargs["randomize"] = RANDOMIZE_V2
+        doc = "v2 plant: domain-randomized (contact-area friction included), sensor noise, supply drift"
+    return replace(
+        v1,
+        name=v1.name.replace("-v1", "-v2"),
+        env_id=v1.env_id.replace("-v1", "-v2"),
+        env_kwargs=kwargs,
+        seed=v1.seed + 10000,
+        doc=doc,
     )
-}
+
+
+_V1 = {s.name: s for s in _SUITES_V0_V1}
+# the v2 suites, in their order since they were written out by hand (the stored references' order)
+_SUITES_V2 = tuple(
+    _on_plant_v2(_V1[f"{name}-v1"])
+    for name in (
+        "nominal",
+        "randomized",
+        "tracking",
+        "stiffness-at-fixed-length",
+        "stress",
+        "length",
+        "joint",
+    )
+)
+SUITES: dict[str, Suite] = {s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2)}
 
 
 def trace_spec_for(env_id: str) -> TraceSpec:
