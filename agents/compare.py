@@ -88,6 +88,8 @@ def table(configs, seeds, cache: dict) -> str:
 
     from cepam_gym.bench.stats import MIN_SEEDS, iqm_interval
 
+    from .evaluate import gap_closed
+
     lines = [
         "| suite | episodes | controller | score (IQM over seeds, 95 % CI) | gap closed |",
         "|---|---|---|---|---|",
@@ -97,7 +99,7 @@ def table(configs, seeds, cache: dict) -> str:
             base, orc = cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"]
 
             def gap(v, base=base, orc=orc):
-                return f"{100 * (base - v) / (base - orc):.0f} %"
+                return f"{100 * gap_closed(v, base, orc):.0f} %"
 
             names = CONTROLLERS if where == "suite" else UNSEEN_CONTROLLERS
             for name in names:

@@ -5,6 +5,7 @@ of the comparison table."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -254,6 +255,33 @@ def test_comparison_goals_of_the_v1_suites():
     assert got[("randomized-v1", "mpc")]["goal_met"] is False  # worse than the MPC
     assert got[("nominal-v1", "oracle")]["goal_met"] is True  # within 10 %
     assert got[("nominal-v1", "zero")]["goal_met"] is None  # no goal against the zero controller
+
+
+def test_the_gap_closed_against_the_goal_of_issue_26():
+    from cepam_gym_agents.evaluate import comparison_markdown, compare, gaps_closed
+
+    def row(suite, controller, score):
+        return {"suite": suite, "controller": controller, "score": score, "failure_rate": 0.0}
+
+    rows = [
+        row("nominal-v1", "agent", 0.07),
+        row("nominal-v1", "baseline", 0.31),
+        row("nominal-v1", "oracle", 0.01),
+        row("nominal-v1", "mpc", 0.08),
+        row("randomized-v1", "agent", 0.4),
+        row("randomized-v1", "baseline", 0.8),
+        row("randomized-v1", "oracle", 0.0),
+        row("stress", "agent", 1.0),  # no oracle ran: no gap
+        row("stress", "baseline", 2.0),
+    ]
+    got = {g["suite"]: g for g in gaps_closed(rows)}
+    assert set(got) == {"nominal-v1", "randomized-v1"}
+    assert got["nominal-v1"]["gap_closed"] == pytest.approx(0.8)  # (0.31 - 0.07) / 0.30
+    assert got["nominal-v1"]["goal_met"] is True
+    assert got["randomized-v1"]["gap_closed"] == pytest.approx(0.5) and not got["randomized-v1"]["goal_met"]
+    assert {(c["suite"], c["reference"]): c for c in compare(rows)}[("nominal-v1", "mpc")]["goal_met"]
+    md = comparison_markdown(compare(rows), Path("run"), "final", gaps_closed(rows))
+    assert "| nominal-v1 | 80 % | >= 80 % | yes |" in md and "| randomized-v1 | 50 % | >= 80 % | no |" in md
 
 
 @pytest.mark.slow  # trains

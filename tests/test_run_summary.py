@@ -49,3 +49,20 @@ def test_summary_names_a_time_limit_stop_and_the_run_files(tmp_path):
     assert "**stopped_by_time_limit** at step 721000 of 1000000" in text
     assert "time limit" in text and "--resume" in text and "`agent`" in text
     assert "| score | exit code 2 | - |" in text and "nominal agent 1.2" in text
+
+
+def test_summary_of_a_student_names_its_rounds_and_only_the_files_it_has(tmp_path):
+    run = tmp_path / "agent"
+    run.mkdir()
+    rounds = [{"round": k, "labels": 32000 * (k + 1)} for k in range(4)]
+    (run / "run.json").write_text(
+        json.dumps(
+            {"seed": 0, "status": "finished", "sessions": [{"rounds": rounds, "steps": 128000, "wall_s": 468.0}]}
+        )
+    )
+    for name in ("config.yaml", "model.zip"):
+        (run / name).write_text("")
+    text = write_summary(tmp_path, [], datetime.now(UTC), [], run, None).read_text()
+    assert "**finished** after 4 DAgger rounds, 128000 labels (468.0 s of training)" in text
+    assert "`model.zip` (final)" in text and "`config.yaml`" in text
+    assert "best_model" not in text and "checkpoints" not in text and "time limit" not in text

@@ -60,23 +60,7 @@ def write_summary(
         where = "-" if path is None else f"`{_rel(path, out)}`"
         lines.append(f"| {what} | {status} | {where} |")
     if run_dir is not None and (run_dir / "run.json").is_file():
-        run = json.loads((run_dir / "run.json").read_text())
-        last = run.get("sessions", [{}])[-1]
-        lines += [
-            "",
-            "## Training",
-            "",
-            f"Status **{run.get('status')}** at step {last.get('end_step')} of "
-            f"{last.get('total_timesteps', '?')} ({last.get('wall_s', '?')} s of training); "
-            f"seed {run.get('seed')}. Run directory `{_rel(run_dir, out)}`: `config.yaml` (reproduces the "
-            "run), `run.json`, `model.zip` (final), `best_model.zip` (best periodic evaluation), "
-            "`checkpoints/`, `evaluations.json`, `tb/` and `logs/` (TensorBoard, CSV).",
-        ]
-        if run.get("status") == "stopped_by_time_limit":
-            lines.append(
-                "The time limit of the config stopped training early: the scores below are of a "
-                f"shorter run; continue with `cepam-gym train --out {run_dir} --resume`."
-            )
+        lines += ["", "## Training", "", *_training_lines(run_dir, out)]
     if table is not None and table.is_file():
         lines += [
             "",
@@ -94,6 +78,48 @@ def write_summary(
     path = out / "summary.md"
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+# what a run directory may hold (a PPO run all of them; a student no best model, checkpoints or logs)
+_RUN_FILES = {
+    "config.yaml": "reproduces the run",
+    "run.json": "seed, versions, commit, sessions",
+    "model.zip": "final",
+    "best_model.zip": "best periodic evaluation",
+    "checkpoints": "",
+    "evaluations.json": "",
+    "tb": "TensorBoard",
+    "logs": "CSV",
+}
+
+
+def _training_lines(run_dir: Path, out: Path) -> list[str]:
+    """How training ended (steps, or a student's DAgger rounds), and the files the run holds."""
+    run = json.loads((run_dir / "run.json").read_text())
+    last = run.get("sessions", [{}])[-1]
+    if "rounds" in last:  # a student (agents/student.py): DAgger rounds of teacher labels
+        rounds = last["rounds"]
+        how = (
+            f"Status **{run.get('status')}** after {len(rounds)} DAgger rounds, "
+            f"{last.get('steps', '?')} labels ({last.get('wall_s', '?')} s of training)"
+        )
+    else:
+        how = (
+            f"Status **{run.get('status')}** at step {last.get('end_step')} of "
+            f"{last.get('total_timesteps', '?')} ({last.get('wall_s', '?')} s of training)"
+        )
+    files = [
+        f"`{name}`" + (f" ({what})" if what else "")
+        for name, what in _RUN_FILES.items()
+        if (run_dir / name).exists()
+    ]
+    lines = [f"{how}; seed {run.get('seed')}. Run directory `{_rel(run_dir, out)}`: {', '.join(files)}."]
+    if run.get("status") == "stopped_by_time_limit":
+        lines.append(
+            "The time limit of the config stopped training early: the scores below are of a "
+            f"shorter run; continue with `cepam-gym train --out {run_dir} --resume`."
+        )
+    return lines
 
 
 if __name__ == "__main__":  # pragma: no cover
