@@ -258,7 +258,7 @@ def test_comparison_goals_of_the_v1_suites():
 
 
 def test_the_gap_closed_against_the_goal_of_issue_26():
-    from cepam_gym_agents.evaluate import comparison_markdown, compare, gaps_closed
+    from cepam_gym_agents.evaluate import compare, comparison_markdown, gaps_closed
 
     def row(suite, controller, score):
         return {"suite": suite, "controller": controller, "score": score, "failure_rate": 0.0}

@@ -55,11 +55,8 @@ def test_summary_of_a_student_names_its_rounds_and_only_the_files_it_has(tmp_pat
     run = tmp_path / "agent"
     run.mkdir()
     rounds = [{"round": k, "labels": 32000 * (k + 1)} for k in range(4)]
-    (run / "run.json").write_text(
-        json.dumps(
-            {"seed": 0, "status": "finished", "sessions": [{"rounds": rounds, "steps": 128000, "wall_s": 468.0}]}
-        )
-    )
+    session = {"rounds": rounds, "steps": 128000, "wall_s": 468.0}
+    (run / "run.json").write_text(json.dumps({"seed": 0, "status": "finished", "sessions": [session]}))
     for name in ("config.yaml", "model.zip"):
         (run / name).write_text("")
     text = write_summary(tmp_path, [], datetime.now(UTC), [], run, None).read_text()
