@@ -63,3 +63,14 @@ def test_summary_of_a_student_names_its_rounds_and_only_the_files_it_has(tmp_pat
     assert "**finished** after 4 DAgger rounds, 128000 labels (468.0 s of training)" in text
     assert "`model.zip` (final)" in text and "`config.yaml`" in text
     assert "best_model" not in text and "checkpoints" not in text and "time limit" not in text
+
+
+def test_summary_of_a_student_stopped_by_its_time_limit_says_it_cannot_resume(tmp_path):
+    run = tmp_path / "agent"
+    run.mkdir()
+    session = {"rounds": [{"round": 0}, {"round": 1}], "steps": 64000, "wall_s": 910.0}
+    (run / "run.json").write_text(
+        json.dumps({"seed": 0, "status": "stopped_by_time_limit", "sessions": [session]})
+    )
+    text = write_summary(tmp_path, [], datetime.now(UTC), [], run, None).read_text()
+    assert "after 2 DAgger rounds" in text and "cannot be resumed" in text and "--resume" not in text

@@ -115,9 +115,14 @@ def _training_lines(run_dir: Path, out: Path) -> list[str]:
     ]
     lines = [f"{how}; seed {run.get('seed')}. Run directory `{_rel(run_dir, out)}`: {', '.join(files)}."]
     if run.get("status") == "stopped_by_time_limit":
+        more = (
+            "a student cannot be resumed: train it again with a larger `time_limit_minutes`"
+            if "rounds" in last
+            else f"continue with `cepam-gym train --out {run_dir} --resume`"
+        )
         lines.append(
             "The time limit of the config stopped training early: the scores below are of a "
-            f"shorter run; continue with `cepam-gym train --out {run_dir} --resume`."
+            f"shorter run; {more}."
         )
     return lines
 
