@@ -19,7 +19,8 @@ episodes drawn from the run's seed (never the suites' own). The oracle's command
 precise (standard deviation 0.03-0.06 of the valve range), so the fit regresses actions scaled by
 their standard deviation. The student is saved as an SB3 PPO policy with its observation statistics
 (``model.zip``, ``vecnormalize.pkl``), so ``eval``, ``bench``, ``video`` and the datasets load it as
-any trained run; its value head is untrained (no RL fine-tuning here).
+any trained run; its value head is untrained (no RL fine-tuning: PPO continued from the student
+scored worse on nominal-v1 and no better on randomized-v1, README).
 """
 
 from __future__ import annotations
