@@ -23,7 +23,8 @@ def fresh_dir(path):
 def _run(argv: list[str]) -> int:
     """The main job on the default config: the plant's step response, the paper reproduction
     table, then train an agent on the shipped ``student`` config (the student of a privileged
-    teacher, issue 26: about 8 minutes on 2 cores; ``--config quick``: PPO, about 3) and score it
+    teacher, issue 26: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config
+    quick``: PPO, about 3.5 minutes of training) and score it
     beside the zero controller, the inverse-model baseline, the MPC and the oracle on the
     ``nominal-v1`` and ``randomized-v1`` suites, with the normalized score. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,

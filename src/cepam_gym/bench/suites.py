@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -68,6 +69,14 @@ RANDOMIZE_V2: dict[str, list[float]] = {
     "collapse_seal_diameter_mm": [3.5, 5.0],
 }
 NOISE = {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0}
+# the stress suites' task: heavy loads, steps and random loads, targets near the pressure limits,
+# fast target changes (the same on every version)
+STRESS_TASK = {
+    "load_range": [0.0, 0.45],
+    "load_kinds": ["step", "random"],
+    "pressure_margin": 0.95,
+    "segment_duration": [1.0, 2.0],
+}
 
 
 @dataclass(frozen=True)
@@ -119,14 +128,7 @@ _SUITES_V0_V1 = (
     Suite(
         "stress",
         "cepam_gym/CEPAM-v0",
-        {
-            "task_options": {
-                "load_range": [0.0, 0.45],
-                "load_kinds": ["step", "random"],
-                "pressure_margin": 0.95,
-                "segment_duration": [1.0, 2.0],
-            }
-        },
+        {"task_options": STRESS_TASK},
         seed=4000,
         doc="large load steps, near-limit targets, fast target changes",
     ),
@@ -192,14 +194,7 @@ _SUITES_V0_V1 = (
     Suite(
         "stress-v1",
         "cepam_gym/CEPAM-v1",
-        {
-            "task_options": {
-                "load_range": [0.0, 0.45],
-                "load_kinds": ["step", "random"],
-                "pressure_margin": 0.95,
-                "segment_duration": [1.0, 2.0],
-            }
-        },
+        {"task_options": STRESS_TASK},
         seed=15000,
         traces=RIG_V1,
         doc="v1 with large load steps, near-limit targets, fast changes",
@@ -210,8 +205,6 @@ _SUITES_V0_V1 = (
 def _on_plant_v2(v1: Suite) -> Suite:
     """A v1 suite on the v2 ids: the v1 task on plant v2 (preset balloon_v2), same options, its own
     seed (the v1 seed + 10000); a randomized suite spreads :data:`RANDOMIZE_V2` instead."""
-    import copy
-
     kwargs = copy.deepcopy(v1.env_kwargs)
     doc = f"v2 plant: {v1.doc}"
     if "randomize" in kwargs:
