@@ -111,7 +111,8 @@ class Trainer:
         )
         core = raw.unwrapped.venv.core  # SB3 adapter -> CEPAMVectorEnv -> batch
         self.track_stiffness = bool(core.task.track_stiffness)
-        self.info_keys = info_keys()
+        self.contract = core.task.contract
+        self.info_keys = info_keys(self.contract)
         self.eval_id, self.eval_kwargs, self.eval_traces = eval_env_spec(cfg)
         self.record.write("running", self.start_step)
 

@@ -13,13 +13,15 @@ and draws the frames (:class:`~cepam_gym.mujoco.joint_view.BatchJointFrames`).
 
 from __future__ import annotations
 
+from ..tasks.contract import JOINT
 from ..tasks.hinge_task import INFO_KEYS, JOINT_TASKS, REWARD_TERMS
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
 
 __all__ = ["INFO_KEYS", "JOINT_TASKS", "REWARD_TERMS", "CEPAMJointV1Env", "CEPAMJointVectorEnv"]
 
 
-_DOC = """
+_DOC = JOINT.spec_sheet(
+    """
 
     ## Description
 
@@ -75,20 +77,14 @@ _DOC = """
     ``reward = sum of terms``, each reported signed in ``info["reward_<term>"]``; the rig's terms
     (:func:`cepam_gym.tasks.kernel.reward_terms`) with angle for length:
 
-    | term | value | weight kwarg (default) |
-    |---|---|---|
-    | angle | ``-w |theta - theta*| / 10 deg`` (clipped at 5) | ``angle`` (1.0) |
-    | stiffness | ``-w |K_joint - K*| / K*`` (clipped at 2) | ``stiffness`` (5.0) |
-    | effort | ``-w mean(a^2)`` | ``effort`` (0.05) |
-    | air | ``-w (supply air this step) / 10 mg`` | ``air`` (0.05) |
-    | burst | ``-w`` once when a chamber exceeds the burst pressure | ``burst`` (100) |
+{REWARD_TABLE}
 
     ## Episode
 
     Starts at rest on the reference's first point, with the chamber pressures of the inverse
     static model for the first external torque. Truncated after ``max_episode_steps`` (500 =
     10 s at 50 Hz). Terminated only on physical failure: ``info["termination_reason"]`` is an
-    integer code named by ``metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
+    integer code named by ``metadata["termination_reasons"]``: {TERMINATIONS}.
 
     ## Arguments
 
@@ -123,6 +119,7 @@ _DOC = """
       preview. MuJoCo agreement: ``tests/test_joint_v1.py``.
     * v0: ``cepam_gym/CEPAMJoint-v0`` (MuJoCo hinge, plant balloon_v0, set-point targets), unchanged.
 """
+)
 
 
 class CEPAMJointV1Env(CEPAMEnv):

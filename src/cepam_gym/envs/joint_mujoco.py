@@ -30,6 +30,7 @@ from ..mujoco.joint_view import JointView
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode, valve_commands
 from ..tasks import kernel as tk
+from ..tasks.contract import JOINT
 from ..tasks.joint import (
     JointGeometry,
     JointRewardWeights,
@@ -39,7 +40,7 @@ from ..tasks.joint import (
     joint_schedules,
 )
 from ..tasks.randomization import MAX_REDRAWS, sample_params
-from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
+from ..tasks.spec import TERMINATION_NAMES, TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
 from .checks import (
     as_actions,
     check_randomize,
@@ -49,11 +50,12 @@ from .checks import (
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 
-REWARD_TERMS = ("angle", "stiffness", "effort", "air", "burst")  # tasks.kernel.reward_terms, in order
-_TERM_KEYS = tuple(f"reward_{t}" for t in REWARD_TERMS)
+REWARD_TERMS = JOINT.reward_terms  # tasks.kernel.reward_terms, in order
+_TERM_KEYS = JOINT.term_keys
 
 
-_DOC = """
+_DOC = JOINT.spec_sheet(
+    """
 
     ## Description
 
@@ -108,13 +110,7 @@ _DOC = """
     ``reward = sum of terms``, each reported signed in ``info["reward_<term>"]``; the rig envs'
     terms (:func:`cepam_gym.tasks.kernel.reward_terms`) with angle for length:
 
-    | term | value | weight kwarg (default) |
-    |---|---|---|
-    | angle | ``-w |theta - theta*| / 10 deg`` (clipped at 5) | ``angle`` (1.0) |
-    | stiffness | ``-w |K_joint - K*| / K*`` (clipped at 2) | ``stiffness`` (5.0: 20 % weighs like 10 deg, as in the benchmark score) |
-    | effort | ``-w mean(a^2)`` | ``effort`` (0.05) |
-    | air | ``-w (supply air this step) / 10 mg`` | ``air`` (0.05) |
-    | burst | ``-w`` once when a chamber exceeds the burst pressure | ``burst`` (100) |
+{REWARD_TABLE}
 
     ## Starting state
 
@@ -125,7 +121,7 @@ _DOC = """
 
     Truncated after ``max_episode_steps`` (500 = 10 s at 50 Hz). Terminated only on physical
     failure: ``info["termination_reason"]`` is an integer code (0 while running) named by
-    ``metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
+    ``metadata["termination_reasons"]``: {TERMINATIONS}.
 
     ## Arguments
 
@@ -150,6 +146,7 @@ _DOC = """
 
     * v0: initial release.
 """
+)
 
 
 class CEPAMJointEnv(gym.Env, EzPickle):
@@ -157,8 +154,9 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     metadata = {
         "render_modes": ["rgb_array", "human"],
         "render_fps": 50,
-        "termination_reasons": ("none", "burst", "non_finite_state"),
+        "termination_reasons": TERMINATION_NAMES,
     }
+    contract = JOINT  # names of its reward terms, info keys, reset options; what the score reads
 
     def __init__(
         self,

@@ -8,12 +8,9 @@ from typing import Any
 
 from .. import plant as pl
 from ..errors import InputError
-from ..tasks import kernel as tk
+from ..tasks.contract import RIG
+from ..tasks.spec import TERMINATION_NAMES  # noqa: F401  (the env modules' name for them)
 from .core import CEPAMBatch
-
-# names of the integer ``info["termination_reason"]`` codes (index = code; tasks.kernel's order)
-TERMINATION_NAMES = ("none", "burst", "non_finite_state")
-assert len(TERMINATION_NAMES) == len(tk.TERMINATION_REASONS)
 
 
 def check_renderer(core: CEPAMBatch, renderer: str | None) -> str:
@@ -84,8 +81,9 @@ def restore_episode(env, st: dict[str, Any]) -> None:
 def expose(env, core: CEPAMBatch) -> None:
     """What controllers read of an env (the joint's, as of ``CEPAMJoint-v0``,
     :class:`~cepam_gym.control.joint_baseline.JointInverseStaticController`): the nominal plant,
-    the task's spec (and the hinge's geometry), observation layout, action mode and timing."""
-    env.obs_layout, env.task = core.obs_layout, core.task.spec
+    the task's spec (and the hinge's geometry) and contract, observation layout, action mode and
+    timing."""
+    env.obs_layout, env.task, env.contract = core.obs_layout, core.task.spec, core.task.contract
     env.nominal, env.nominal_row = core.nominal, core.nominal.to_array()
     env.setpoint_max, env.action_mode, env.control_dt = (
         core.nominal.pressure_cap,
@@ -97,7 +95,8 @@ def expose(env, core: CEPAMBatch) -> None:
 
 
 # the spec sheet of the rig ids (Gymnasium v5 style), shared by the single and the vector env
-RIG_SPEC_SHEET = """
+RIG_SPEC_SHEET = RIG.spec_sheet(
+    """
 
     ## Description
 
@@ -155,13 +154,7 @@ RIG_SPEC_SHEET = """
 
     ``reward = sum of terms``, each reported signed in ``info["reward_<term>"]``:
 
-    | term | value | weight kwarg (default) |
-    |---|---|---|
-    | length | ``-w |L - L*| / 1 cm`` (error clipped at 5 cm) | ``length`` (1.0) |
-    | stiffness | ``-w |K - K*| / K*`` (clipped at 2); K at constant pressures | ``stiffness`` (2.5: 20 % weighs like 5 mm, as in the benchmark score) |
-    | effort | ``-w mean(a^2)`` | ``effort`` (0.05) |
-    | air | ``-w (air drawn from supply this step) / 10 mg`` | ``air`` (0.05) |
-    | burst | ``-w`` once when a chamber exceeds the burst pressure | ``burst`` (100) |
+{REWARD_TABLE}
 
     ## Episode
 
@@ -169,7 +162,7 @@ RIG_SPEC_SHEET = """
     period ``control_dt`` (default 0.02 s, 50 Hz) with plant sub-steps ``sub_dt`` (0.5 ms; must
     divide it). Truncated after ``max_episode_steps`` (500 = 10 s). Terminated only on physical
     failure: ``info["termination_reason"]`` is an integer code (0 while running), named by
-    ``env.metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
+    ``env.metadata["termination_reasons"]``: {TERMINATIONS}.
 
     ## Arguments
 
@@ -211,3 +204,4 @@ RIG_SPEC_SHEET = """
       ``info["redraws"]``; the vector env's ``autoreset_mode`` (default ``"next_step"``, was
       same-step only) and info masks.
 """
+)
