@@ -83,7 +83,9 @@ def make_callback_class():
             vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
             row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
             trade = self.t.contract.trade  # e.g. length_error_mm, angle_error_deg
-            row[f"{self.t.contract.position}_error_{trade.unit}"] = trade.scale * np.abs(vals[:, 0] - vals[:, 1]).sum()
+            row[f"{self.t.contract.position}_error_{trade.unit}"] = (
+                trade.scale * np.abs(vals[:, 0] - vals[:, 1]).sum()
+            )
             if self.t.track_stiffness:
                 K, Kt = vals[:, 2], vals[:, 3]
                 row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()

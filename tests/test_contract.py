@@ -123,7 +123,9 @@ def test_the_planners_step_cost_is_the_squared_score_of_one_step():
     assert step_error_sq(0.18, 0.17, 900.0, 800.0, 0.0, True, norm, 0.2) == 0.0  # left out: weight 0
 
 
-@pytest.mark.parametrize(("env_id", "c_expected"), [("cepam_gym/CEPAM-v1", 2.0), ("cepam_gym/CEPAMJoint-v1", 1.0)])
+@pytest.mark.parametrize(
+    ("env_id", "c_expected"), [("cepam_gym/CEPAM-v1", 2.0), ("cepam_gym/CEPAMJoint-v1", 1.0)]
+)
 def test_the_scores_step_error_is_the_rewards_tracking_terms_rescaled(env_id, c_expected):
     """The contract's relation: on every step whose errors are below the reward's clips,
     |e_x| / x_norm + |K / K* - 1| / 0.2 = -c (r_x + r_K), c from the declared weights."""

@@ -95,9 +95,14 @@ class TaskContract:
 
     def __post_init__(self):
         terms = self.reward_terms
-        if len(terms) != 5 or terms[0] != self.position or terms[1:] != ("stiffness", "effort", "air", "burst"):
+        if (
+            len(terms) != 5
+            or terms[0] != self.position
+            or terms[1:] != ("stiffness", "effort", "air", "burst")
+        ):
             raise ValueError(f"{self.name}: the kernel's five term slots, got {terms}")
-        if set(self.score_keys) != set(TRACE_COLUMNS) or not set(self.score_keys.values()) <= set(self.info_keys):
+        read = set(self.score_keys.values())
+        if set(self.score_keys) != set(TRACE_COLUMNS) or not read <= set(self.info_keys):
             raise ValueError(f"{self.name}: score_keys must map {TRACE_COLUMNS} to info keys")
         if set(self.term_docs) != set(terms):
             raise ValueError(f"{self.name}: term_docs must describe {terms}")
