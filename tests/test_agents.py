@@ -176,7 +176,6 @@ def test_the_logged_info_keys_are_the_training_tasks_own():
     reward terms are in the infos SB3 hands the callback (not the rig's length)."""
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
     from cepam_gym.tasks.contract import JOINT, RIG
-
     from cepam_gym_agents.envs import info_keys
 
     assert info_keys(RIG)[:2] == ["length", "target_length"] and "reward_length" in info_keys(RIG)
@@ -558,3 +557,12 @@ def test_obs_filters_are_low_passed_observations_restarted_per_episode():
     np.testing.assert_allclose(f2[1, 9:18], a[0] + a[0] * (1 - a[0]), rtol=1e-6)
     with pytest.raises(ConfigError, match="obs_filters_s"):
         _cfg(agent={"obs_filters_s": [0.0]})
+
+
+def test_every_goal_names_a_benchmark_suite():
+    """The training package's goals are keyed by suite: a renamed or removed suite must not drop
+    a goal silently."""
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym_agents.evaluate import GAP_GOALS, GOALS
+
+    assert set(GOALS) | set(GAP_GOALS) <= set(SUITES)
