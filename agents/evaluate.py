@@ -24,12 +24,12 @@ from cepam_gym.errors import InputError
 GOALS = {
     "nominal": [("baseline", 1.05)],  # v0: within 5 % of the baseline
     "randomized": [("baseline", 0.70)],  # v0: 30 % lower combined error
-    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle (issue 16), <= MPC (26)
+    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle, <= MPC
     "randomized-v1": [("baseline", 0.70), ("mpc", 1.00)],  # v1: 30 % below the baseline, <= MPC
 }
 
 # the share of the baseline-to-oracle gap an agent must close, (baseline - agent) / (baseline -
-# oracle), per suite (issue 26: 80 % on both v1 suites)
+# oracle), per suite (80 % on both v1 suites)
 GAP_GOALS = {"nominal-v1": 0.80, "randomized-v1": 0.80}
 
 

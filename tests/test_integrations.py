@@ -1,4 +1,4 @@
-"""Integrations (issue 8): Gymnasium id strings and RL Zoo3 with the shipped hyperparams/."""
+"""Integrations: Gymnasium id strings and RL Zoo3 with the shipped hyperparams/."""
 
 from __future__ import annotations
 
