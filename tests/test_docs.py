@@ -89,6 +89,7 @@ def test_docs_build_fails_on_a_broken_link(tmp_path):
     pytest.importorskip("mkdocs")
     pytest.importorskip("mkdocstrings")
     copy = tmp_path / "repo"
+    copy.mkdir()
     for name in ("mkdocs.yml", "CHANGELOG.md", "docs", "configs", "src"):
         src = ROOT / name
         (shutil.copytree if src.is_dir() else shutil.copy)(src, copy / name)
