@@ -10,3 +10,17 @@ and keeps its traceback.
 
 class InputError(ValueError):
     """Bad user input; the message names the input and what is expected."""
+
+
+class UnexpectedKwargError(InputError, TypeError):
+    """An unknown constructor argument. Worded as Python's own ``TypeError`` ("X.__init__() got an
+    unexpected keyword argument 'k'") and a ``TypeError``, because clients try optional arguments
+    and retry without them on exactly that error (TorchRL's ``GymEnv`` passes ``frameskip`` to
+    ``gym.make``); an :class:`InputError` too, so the command line reports it as one line."""
+
+    def __init__(self, owner: str, unknown: list[str], valid: list[str]):
+        first, rest = unknown[0], unknown[1:]
+        also = f" (and {', '.join(map(repr, rest))})" if rest else ""
+        super().__init__(
+            f"{owner}.__init__() got an unexpected keyword argument {first!r}{also}; valid: {valid}"
+        )
