@@ -179,7 +179,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     ):
         if unknown:  # Python's TypeError wording, and the valid names, in one line
             valid = sorted(inspect.signature(CEPAMJointEnv.__init__).parameters.keys() - {"self", "unknown"})
-            raise UnexpectedKwargError(type(self).__name__, sorted(unknown), valid)
+            raise UnexpectedKwargError.naming(type(self).__name__, sorted(unknown), valid)
         EzPickle.__init__(
             self,
             plant=plant,

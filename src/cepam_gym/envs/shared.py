@@ -54,7 +54,7 @@ def check_kwargs(kwargs: dict, env_kwargs: tuple[str, ...], owner: str = "env") 
     core = set(inspect.signature(CEPAMBatch.__init__).parameters) - {"self", "num_envs", "task"}
     bad = sorted(set(kwargs) - core)
     if bad:
-        raise UnexpectedKwargError(owner, bad, sorted(core | set(env_kwargs)))
+        raise UnexpectedKwargError.naming(owner, bad, sorted(core | set(env_kwargs)))
 
 
 def seed_core(env, seed: int | None) -> None:
