@@ -12,6 +12,7 @@ termination, action mapping and observation machinery as the rig envs. Frames:
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping
 from dataclasses import astuple
@@ -23,7 +24,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from .. import plant as pl
-from ..errors import InputError
+from ..errors import InputError, UnexpectedKwargError
 from ..mujoco._mj import require_mujoco
 from ..mujoco.joint_sim import JointSimulator
 from ..mujoco.joint_view import JointView
@@ -84,7 +85,11 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
+        **unknown: Any,
     ):
+        if unknown:  # Python's TypeError wording, and the valid names, in one line
+            valid = sorted(inspect.signature(CEPAMJointEnv.__init__).parameters.keys() - {"self", "unknown"})
+            raise UnexpectedKwargError.naming(type(self).__name__, sorted(unknown), valid)
         EzPickle.__init__(
             self,
             plant=plant,

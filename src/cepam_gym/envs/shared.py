@@ -7,7 +7,7 @@ import inspect
 from typing import Any
 
 from .. import plant as pl
-from ..errors import InputError
+from ..errors import InputError, UnexpectedKwargError
 from ..tasks import kernel as tk
 from .core import CEPAMBatch
 
@@ -47,13 +47,14 @@ ENV_KWARGS = ("task", "render_mode", "renderer")
 VECTOR_KWARGS = ("num_envs", "max_episode_steps", "autoreset_mode")
 
 
-def check_kwargs(kwargs: dict, env_kwargs: tuple[str, ...]) -> None:
-    """Unknown kwargs named in one line with the valid ones (not a TypeError of an inner class)."""
+def check_kwargs(kwargs: dict, env_kwargs: tuple[str, ...], owner: str = "env") -> None:
+    """Unknown kwargs of the env class ``owner`` named in one line with the valid ones, as
+    Python's ``TypeError`` words it (:class:`~cepam_gym.errors.UnexpectedKwargError`), not the
+    ``TypeError`` of an inner class."""
     core = set(inspect.signature(CEPAMBatch.__init__).parameters) - {"self", "num_envs", "task"}
     bad = sorted(set(kwargs) - core)
     if bad:
-        valid = sorted(core | set(env_kwargs))
-        raise InputError(f"unknown env kwarg(s) {bad}; valid: {valid}")
+        raise UnexpectedKwargError.naming(owner, bad, sorted(core | set(env_kwargs)))
 
 
 def seed_core(env, seed: int | None) -> None:
