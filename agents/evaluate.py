@@ -24,12 +24,12 @@ from cepam_gym.errors import InputError
 GOALS = {
     "nominal": [("baseline", 1.05)],  # v0: within 5 % of the baseline
     "randomized": [("baseline", 0.70)],  # v0: 30 % lower combined error
-    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle (issue 16), <= MPC (26)
+    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle, <= MPC
     "randomized-v1": [("baseline", 0.70), ("mpc", 1.00)],  # v1: 30 % below the baseline, <= MPC
 }
 
 # the share of the baseline-to-oracle gap an agent must close, (baseline - agent) / (baseline -
-# oracle), per suite (issue 26: 80 % on both v1 suites)
+# oracle), per suite (80 % on both v1 suites)
 GAP_GOALS = {"nominal-v1": 0.80, "randomized-v1": 0.80}
 
 
@@ -124,6 +124,20 @@ def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict]
     return "\n".join(lines) + "\n"
 
 
+def trained_env_id(files, given: str | None) -> str:
+    """The env id a model was trained on: its record's (our ``config.yaml``, RL Zoo3's
+    ``args.yml``) or ``given`` (``--env-id``); ``InputError`` when neither names one or they differ."""
+    recorded = files.env_id()
+    if given is not None and recorded is not None and given != recorded:
+        raise InputError(f"--env-id {given}: {files.model} was trained on {recorded}")
+    if given is None and recorded is None:
+        raise InputError(
+            f"--env-id is needed: nothing beside {files.model} names the env it was trained on "
+            "(no config.yaml of cepam-gym train, no args.yml of RL Zoo3)"
+        )
+    return given or recorded
+
+
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
     from cepam_gym.bench.cli import add_normalized
@@ -134,7 +148,16 @@ def main(argv: list[str] | None = None) -> int:
     from cepam_gym.control.registry import controller_names
 
     ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--run", required=True, help="run directory written by cepam-gym train")
+    ap.add_argument(
+        "--run",
+        required=True,
+        help="run directory written by cepam-gym train, an RL Zoo3 run folder, or an SB3 model .zip",
+    )
+    ap.add_argument(
+        "--env-id",
+        help="the env id the model was trained on (needed for a model .zip without a run's config.yaml "
+        "or RL Zoo3's args.yml beside it)",
+    )
     ap.add_argument(
         "--suite",
         action="append",
@@ -161,11 +184,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out-dir", help="where the table and plots go (default <run>/eval)")
     args = ap.parse_args(argv)
     run = Path(args.run)
-    if not (run / "config.yaml").is_file():
-        raise InputError(f"--run {run}: not a training run directory (no config.yaml)")
-    from .policy import load_run_config
+    from .policy import locate
 
-    env_id = load_run_config(run).env.id
+    files = locate(run, args.model)
+    env_id = trained_env_id(files, args.env_id)
     v1 = env_id.endswith("-v1")
     if "Joint" in env_id:  # the batched joint (v1): its own suite
         default = ["joint-v1"]
@@ -183,14 +205,10 @@ def main(argv: list[str] | None = None) -> int:
     bad = [c for c in against if c not in controller_names()]
     if bad:
         raise InputError(f"--against: unknown controller(s) {bad}; choose from {list(controller_names())}")
-    from .policy import _files
-
-    try:
-        model_path, _ = _files(run, args.model)
-    except FileNotFoundError as e:
-        raise InputError(str(e)) from None
-    spec = str(model_path) if args.model != "auto" else str(run)
-    out = Path(args.out_dir) if args.out_dir else run / "eval"
+    model_path = files.model
+    spec = str(model_path) if args.model != "auto" or not run.is_dir() else str(run)
+    default_out = run / "eval" if run.is_dir() else run.with_name(f"{run.stem}_eval")
+    out = Path(args.out_dir) if args.out_dir else default_out
     out.mkdir(parents=True, exist_ok=True)
     rows, traces = [], {}
     for s in suites:

@@ -51,7 +51,7 @@ JOINT_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10, itera
 
 # the v0 suites score every step, the transients after unannounced jumps included: looking 0.2 s
 # ahead lets the oracle start before a jump (nominal, 4 episodes: 0.660 against 0.748 at 0.1 s and
-# 0.667 for the CEM oracle before issue 22)
+# 0.667 for a cross-entropy oracle without iCEM's refinements)
 V0_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10)
 # plant v2 (the v2 rig ids): 0.1 s was not enough on one randomized-v2 episode of four (0.11
 # against 0.0075 at 0.2 s; more iterations at 0.1 s did not help), 0.16 s is the shortest tried

@@ -13,8 +13,8 @@ A :class:`TaskContract` holds the names and facts every layer reads:
   trade (:class:`ScoreTrade`: the errors that score 1, the weight of a failure).
 
 The kernel names its term slots from it, the envs their info masks and metadata, the agents'
-logging its keys, :mod:`cepam_gym.control.objective` its trade and columns, and the env docstrings
-print its reward table (:meth:`TaskContract.rewards_table`).
+logging its keys, :mod:`cepam_gym.control.objective` its trade and columns, and the docs build
+(``docs/gen_env_pages.py``) its reset options and termination names.
 
 Reward and score
 ----------------
@@ -90,7 +90,6 @@ class TaskContract:
     pin_keys: tuple[str, ...]  # reset(options=...) keys
     score_keys: dict  # trace column (TRACE_COLUMNS) -> info key
     trade: ScoreTrade
-    term_docs: dict  # term -> (value formula, what the default weight means), for the spec sheets
     termination_names: tuple[str, ...] = TERMINATION_NAMES
 
     def __post_init__(self):
@@ -104,8 +103,6 @@ class TaskContract:
         read = set(self.score_keys.values())
         if set(self.score_keys) != set(TRACE_COLUMNS) or not read <= set(self.info_keys):
             raise ValueError(f"{self.name}: score_keys must map {TRACE_COLUMNS} to info keys")
-        if set(self.term_docs) != set(terms):
-            raise ValueError(f"{self.name}: term_docs must describe {terms}")
 
     @property
     def reward_terms(self) -> tuple[str, ...]:
@@ -138,33 +135,6 @@ class TaskContract:
             )
         return c_x
 
-    def rewards_table(self) -> str:
-        """The spec sheet's reward table (markdown rows, indented for a docstring)."""
-        defaults = self.weights()
-        rows = ["| term | value | weight kwarg (default) |", "|---|---|---|"]
-        for t in self.reward_terms:
-            value, why = self.term_docs[t]
-            w = f"{getattr(defaults, t):g}"
-            rows.append(f"| {t} | {value} | ``{t}`` ({w}{': ' + why if why else ''}) |")
-        return "\n".join("    " + r for r in rows)
-
-    def termination_text(self) -> str:
-        """The spec sheet's naming of the nonzero termination codes."""
-        return ", ".join(f'{i} ``"{n}"``' for i, n in enumerate(self.termination_names) if i)
-
-    def spec_sheet(self, template: str) -> str:
-        """An env docstring's spec sheet ``template`` with this contract's reward table and
-        termination names in place of ``{REWARD_TABLE}`` and ``{TERMINATIONS}``."""
-        return template.replace("{REWARD_TABLE}", self.rewards_table()).replace(
-            "{TERMINATIONS}", self.termination_text()
-        )
-
-
-_SHARED_TERMS = {
-    "effort": ("``-w mean(a^2)``", ""),
-    "air": ("``-w (air drawn from supply this step) / 10 mg``", ""),
-    "burst": ("``-w`` once when a chamber exceeds the burst pressure", ""),
-}
 
 RIG = TaskContract(
     name="rig",
@@ -191,14 +161,6 @@ RIG = TaskContract(
     pin_keys=("target_length", "target_stiffness", "load_mass"),
     score_keys={k: k for k in TRACE_COLUMNS},
     trade=ScoreTrade(unit="mm", scale=1000.0, score_norm=5.0),
-    term_docs={
-        "length": ("``-w |L - L*| / 1 cm`` (error clipped at 5 cm)", ""),
-        "stiffness": (
-            "``-w |K - K*| / K*`` (clipped at 2); K at constant pressures",
-            "20 % weighs like 5 mm, as in the benchmark score",
-        ),
-        **_SHARED_TERMS,
-    },
 )
 
 JOINT = TaskContract(
@@ -236,14 +198,6 @@ JOINT = TaskContract(
         "air_used": "air_used",
     },
     trade=ScoreTrade(unit="deg", scale=180.0 / math.pi, score_norm=10.0),
-    term_docs={
-        "angle": ("``-w |theta - theta*| / 10 deg`` (clipped at 5)", ""),
-        "stiffness": (
-            "``-w |K_joint - K*| / K*`` (clipped at 2)",
-            "20 % weighs like 10 deg, as in the benchmark score",
-        ),
-        **_SHARED_TERMS,
-    },
 )
 
 CONTRACTS = {c.name: c for c in (RIG, JOINT)}
