@@ -14,9 +14,9 @@ as the id exists. One number covers the whole env, so the steps do not all chang
 Each row says which: :attr:`Version.task_version` and :attr:`Version.plant_version`.
 
 Status. ``recommended``: the id to start from (the newest plant, the best calibrated: docs/
-calibration.md "Plant v2"); Gymnasium's notice that an id "is out of date" names it. ``supported``:
-kept and benchmarked, its suites and stored references maintained. ``legacy``: kept so published
-figures reproduce; Gymnasium warns on ``make``.
+calibration.md "Plant v2"); Gymnasium's notice on ``make`` that an id "is out of date" names it
+(it shows on the v0 and v1 ids). ``supported``: kept and benchmarked, its suites and stored
+references maintained. ``legacy``: kept so published figures reproduce.
 
 Everything that depends on the version reads this table rather than guessing it from an id's
 suffix, a preview count or a plant's friction law: the registration (:mod:`cepam_gym.registration`),
