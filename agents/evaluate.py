@@ -4,8 +4,10 @@ controllers (default: the inverse-static baseline).
     cepam-gym eval --run runs/quick-s0 [--episodes 20] [--suite nominal-v1 --suite randomized-v1]
                    [--against zero --against baseline --against mpc --against oracle] [--model best]
 
-The suites default to the nominal and randomized ones of the agent's version (v1 ids:
-``nominal-v1``, ``randomized-v1``). Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
+The suites default to the headline suites of the id the agent was trained on (the version
+table, :mod:`cepam_gym.versions`: ``CEPAM-v2``: ``nominal-v2``, ``randomized-v2``;
+``CEPAMJoint-v2``: ``joint-v2``); ``--suite all`` scores every suite of its version whose env
+observes what it does. Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
 (benchmark table with the normalized score), ``results.json`` (every metric), ``comparison.md``
 (agent / reference ratios, the goals of :data:`GOALS`, and the share of the baseline-to-oracle gap
 the agent closes against :data:`GAP_GOALS`), ``scores.png`` and ``traces_<suite>_<controller>.png``.
@@ -138,11 +140,22 @@ def trained_env_id(files, given: str | None) -> str:
     return given or recorded
 
 
+def default_suites(env_id: str, asked: list[str] | None = None) -> list[str]:
+    """The suites an agent trained on ``env_id`` is scored on: ``asked`` (``--suite``), else the
+    id's headline suites from the version table; ``all``: every suite whose env observes what the
+    agent's does (its version's suites on the ids of the same observation)."""
+    from cepam_gym.bench.suites import headline_suites, version_suites
+
+    suites = asked or headline_suites(env_id)
+    if "all" in suites:
+        suites = version_suites(env_id)
+    return suites
+
+
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
     from cepam_gym.bench.cli import add_normalized
     from cepam_gym.bench.harness import run_suite
-    from cepam_gym.bench.metrics import RIG, RIG_V1
     from cepam_gym.bench.suites import SUITES
     from cepam_gym.control.baseline import UnsupportedEnvError
     from cepam_gym.control.registry import controller_names
@@ -162,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         "--suite",
         action="append",
         default=None,
-        help=f"one of {list(SUITES)} or 'all' (repeatable; default nominal and randomized)",
+        help=f"one of {list(SUITES)} or 'all' (repeatable; default: the headline suites of the agent's id)",
     )
     ap.add_argument(
         "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
@@ -188,14 +201,7 @@ def main(argv: list[str] | None = None) -> int:
 
     files = locate(run, args.model)
     env_id = trained_env_id(files, args.env_id)
-    v1 = env_id.endswith("-v1")
-    if "Joint" in env_id:  # the batched joint (v1): its own suite
-        default = ["joint-v1"]
-    else:
-        default = ["nominal-v1", "randomized-v1"] if v1 else ["nominal", "randomized"]
-    suites = args.suite or default
-    if "all" in suites:  # the rig suites of the agent's version: it is trained on their observations
-        suites = [s for s in SUITES if SUITES[s].traces is (RIG_V1 if v1 else RIG)]
+    suites = default_suites(env_id, args.suite)
     bad = [s for s in suites if s not in SUITES]
     if bad:
         raise InputError(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")

@@ -8,6 +8,7 @@ import re
 import sys
 from pathlib import Path
 
+from .. import versions
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
 from .metrics import normalized_score
@@ -53,16 +54,19 @@ def missing_ends(rows: list[dict]) -> list[tuple[str, str]]:
 
 
 def expand_version(name: str) -> list[str]:
-    """A version ``vN`` as the suites of its ids (names ending in ``-vN``), so one command
-    re-measures exactly one version's references after its plant changes; any other name as is."""
+    """A version ``vN`` as the suites of its ids (the version table, :mod:`cepam_gym.versions`), so
+    one command re-measures exactly one version's references after its plant changes; any other
+    name as is."""
     if re.fullmatch(r"v\d+", name):
-        return [s for s in SUITES if s.endswith(f"-{name}")] or [name]
+        n = int(name[1:])
+        return [s for s, suite in SUITES.items() if versions.get(suite.env_id).version == n] or [name]
     return [name]
 
 
 def _oracle_drives(suite: str) -> bool:
-    """Whether the oracle drives the suite's env (every batched env; not the MuJoCo joint)."""
-    return "CEPAMJoint-v0" not in SUITES[suite].env_id
+    """Whether the oracle drives the suite's env (the version table names its setting: every
+    batched env; not the MuJoCo joint)."""
+    return versions.get(SUITES[suite].env_id).oracle is not None
 
 
 def _run_into(rows: list, traces: dict, controller: str, suite: str, episodes: int | None) -> None:
@@ -171,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         "--suite",
         action="append",
         default=None,
-        help=f"one of {list(SUITES)}, 'all', or a version such as 'v2' (its suites: *-v2) (repeatable; "
+        help=f"one of {list(SUITES)}, 'all', or a version such as 'v2' (the suites of its ids) (repeatable; "
         "default all)",
     )
     ap.add_argument(

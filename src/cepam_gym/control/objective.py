@@ -87,14 +87,32 @@ JOINT = TraceSpec(
 JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
 
 
+def version_of_core(core):
+    """The row of the version table (:mod:`cepam_gym.versions`) whose env ``core`` (a
+    ``CEPAMBatch``) runs, read from the task and plant it was built with (a plant given as the
+    parameters of a preset counts as that preset); None for a task or plant of one's own."""
+    from .. import versions
+    from ..plant.params import PlantParams, preset
+
+    args = getattr(core, "_init_args", {})
+    plant = args.get("plant")
+    if isinstance(plant, PlantParams):
+        plant = next((name for name in versions.PLANT_PRESETS.values() if preset(name) == plant), plant)
+    return versions.of_kwargs(args.get("task"), plant)
+
+
 def spec_of_core(core) -> TraceSpec:
-    """How the benchmark scores the envs of ``core`` (a ``CEPAMBatch``): the joint's spec on a
-    hinge, the rig's otherwise; with the v1 settling allowance where the env announces its
-    reference (``preview_steps > 0``: every v1 id), as the suites of :mod:`cepam_gym.bench.suites`."""
+    """How the benchmark scores the envs of ``core`` (a ``CEPAMBatch``), as the suites of
+    :mod:`cepam_gym.bench.suites` do: the joint's spec on a hinge, the rig's otherwise; with the
+    settling allowance on the planned-reference tasks (task version 1 in the version table,
+    :mod:`cepam_gym.versions`: every v1 and v2 id). A task of one's own (a Task object) is scored
+    on every step, as the v0 tasks."""
     from .. import plant as pl
+    from .. import versions
 
     joint = getattr(core, "mech", pl.RIG) == pl.HINGE
-    if getattr(core, "preview_steps", 0) > 0:
+    task = getattr(core, "_init_args", {}).get("task")
+    if (versions.task_version(task) or 0) >= 1:
         return JOINT_V1 if joint else RIG_V1
     return JOINT if joint else RIG
 
