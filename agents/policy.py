@@ -10,30 +10,17 @@ from __future__ import annotations
 
 import pickle
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cepam_gym._cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
+from .bc_policy import BCPolicy, is_bc_run, load_bc_policy
 from .config import TrainConfig, algorithm_class
-from .features import Features
-
-if TYPE_CHECKING:
-    from .bc_policy import BCPolicy
+from .features import Features, obs_batch
 
 MODEL_CHOICES = ("best", "final", "latest")
-
-
-def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
-    """``(batch (N, obs_dim) float32, was a single observation)``; ``InputError`` naming the shape
-    otherwise. Every policy a run loads checks its input here."""
-    single = np.ndim(obs) == 1
-    o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
-    if o.shape[1] != obs_dim:
-        raise InputError(f"observation must have shape ({obs_dim},) or (N, {obs_dim}), got {np.shape(obs)}")
-    return o, single
 
 
 class AgentPolicy:
@@ -136,8 +123,6 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
     else final, else the latest checkpoint), ``best``, ``final`` or ``latest``. A behaviour-cloning
     run directory (:mod:`cepam_gym_agents.bc`) gives its :class:`~cepam_gym_agents.bc_policy.BCPolicy`."""
     import torch
-
-    from .bc_policy import is_bc_run, load_bc_policy
 
     spec = Path(spec)
     if is_bc_run(spec):  # a behaviour-cloning run (python -m cepam_gym_agents.bc): its own files
