@@ -5,12 +5,13 @@ moves the progress bar, and stops the session at the config's time limit."""
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .trainer import Trainer
+from .config import TrainConfig
+from .progress import ProgressBar
 
 FIRST_CHECKPOINT_FRACTION = 0.1  # of the session's steps
 FIRST_CHECKPOINT_MINUTES = 2.0
@@ -22,6 +23,24 @@ def _next(n: int, due: int, every: int) -> int:
     return due + every * max(1, (n - due) // every + 1)
 
 
+class Session(Protocol):
+    """What the callback reads and drives of its training session (the trainer's ``Trainer``)."""
+
+    cfg: TrainConfig
+    progress: ProgressBar
+    info_keys: list[str]
+    track_stiffness: bool
+    last_score: float | None
+    best_score: float
+    stopped_by_time: bool
+
+    def evaluate(self, n: int) -> dict: ...
+
+    def save_checkpoint(self, n: int, interrupted: bool = False) -> Path: ...
+
+    def wall(self) -> float: ...
+
+
 def make_callback_class():
     """The callback class (built on first use: SB3 is imported only when training)."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -30,9 +49,9 @@ def make_callback_class():
         """Logs the env's reward terms and errors, evaluates, keeps the best model, checkpoints,
         and draws the progress bar (with the latest evaluation score)."""
 
-        def __init__(self, trainer: Trainer):
+        def __init__(self, session: Session):
             super().__init__(verbose=0)
-            self.t = trainer
+            self.t = session
             self._sums: dict[str, float] = {}
             self._count = 0
 

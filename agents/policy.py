@@ -12,15 +12,15 @@ import pickle
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cepam_gym._cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
+from .bc_policy import BCPolicy, is_bc_run, load_bc_policy
 from .config import AgentConfig, TrainConfig, algorithm_class
-from .features import Features
+from .features import Features, obs_batch  # noqa: F401  (obs_batch: still importable from here)
 from .model_files import (
     NORMALIZER_NAMES,
     ZOO_RECORD,
@@ -31,20 +31,7 @@ from .model_files import (
     zoo_record,
 )
 
-if TYPE_CHECKING:
-    from .bc_policy import BCPolicy
-
 MODEL_CHOICES = ("best", "final", "latest")
-
-
-def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
-    """``(batch (N, obs_dim) float32, was a single observation)``; ``InputError`` naming the shape
-    otherwise. Every policy a run loads checks its input here."""
-    single = np.ndim(obs) == 1
-    o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
-    if o.shape[1] != obs_dim:
-        raise InputError(f"observation must have shape ({obs_dim},) or (N, {obs_dim}), got {np.shape(obs)}")
-    return o, single
 
 
 class AgentPolicy:
@@ -226,8 +213,6 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
     :class:`~cepam_gym_agents.bc_policy.BCPolicy`. A model without a ``config.yaml`` drives the
     valves directly (no baseline features), as RL Zoo3 and plain SB3 train."""
     import torch
-
-    from .bc_policy import is_bc_run, load_bc_policy
 
     if is_bc_run(Path(spec)):  # a behaviour-cloning run (python -m cepam_gym_agents.bc): its own files
         return load_bc_policy(Path(spec), env)
