@@ -62,8 +62,9 @@ def machine() -> dict:
     out: dict = {"cpu_llvm": None, "torch_cpu_capability": None}
     try:
         import llvmlite.binding as llvm
+        import numba
 
-        out["cpu_llvm"] = llvm.get_host_cpu_name()
+        out["cpu_llvm"] = numba.config.CPU_NAME or llvm.get_host_cpu_name()  # NUMBA_CPU_NAME overrides
     except Exception:  # provenance is best effort: it never fails a run
         pass
     try:

@@ -77,7 +77,10 @@ def _eval(suite: str) -> np.ndarray:
     return np.asarray(rows, dtype=np.float64)
 
 
-def stages() -> dict[str, np.ndarray]:
+STAGES = ("env", "teacher", "fit", "eval")
+
+
+def stages(which=STAGES) -> dict[str, np.ndarray]:
     from cepam_gym_agents.config import load_config
     from cepam_gym_agents.student import collect
 
@@ -89,23 +92,28 @@ def stages() -> dict[str, np.ndarray]:
         out[name] = np.asarray(fn())
         print(f"{name}: {_digest(out[name])} ({time.perf_counter() - t:.1f} s)", flush=True)
 
-    for suite in SUITES:
-        timed(f"env_{suite}", lambda s=suite: _env_obs(s))
+    if "env" in which:
+        for suite in SUITES:
+            timed(f"env_{suite}", lambda s=suite: _env_obs(s))
     labels = {}
-    for suite in SUITES:
-        x, y = collect(cfg, suite, NUM_ENVS, seed=1_000_003)
-        labels[suite] = (x, y)
-        timed(f"teacher_x_{suite}", lambda x=x: x)
-        timed(f"teacher_y_{suite}", lambda y=y: y)
-    rng = np.random.default_rng(0)
-    xf = rng.standard_normal((4096, labels[SUITES[0]][0].shape[1])).astype(np.float32)
-    yf = np.tanh(xf[:, :2] - 0.5 * xf[:, 2:4]).astype(np.float32)
-    timed("fit_fixed", lambda: _fit(xf, yf))
-    x = np.concatenate([labels[s][0] for s in SUITES])
-    y = np.concatenate([labels[s][1] for s in SUITES])
-    timed("fit_teacher", lambda: _fit(x, y))
-    for suite in SUITES:
-        timed(f"eval_{suite}", lambda s=suite: _eval(s))
+    if "teacher" in which:
+        for suite in SUITES:
+            x, y = collect(cfg, suite, NUM_ENVS, seed=1_000_003)
+            labels[suite] = (x, y)
+            timed(f"teacher_x_{suite}", lambda x=x: x)
+            timed(f"teacher_y_{suite}", lambda y=y: y)
+    if "fit" in which:
+        rng = np.random.default_rng(0)
+        xf = rng.standard_normal((4096, 124)).astype(np.float32)  # the student's feature count
+        yf = np.tanh(xf[:, :2] - 0.5 * xf[:, 2:4]).astype(np.float32)
+        timed("fit_fixed", lambda: _fit(xf, yf))
+        if labels:
+            x = np.concatenate([labels[s][0] for s in SUITES])
+            y = np.concatenate([labels[s][1] for s in SUITES])
+            timed("fit_teacher", lambda: _fit(x, y))
+    if "eval" in which:
+        for suite in SUITES:
+            timed(f"eval_{suite}", lambda s=suite: _eval(s))
     return out
 
 
@@ -117,24 +125,28 @@ def compare(a_path: str, b_path: str) -> None:
     a, b = np.load(a_path), np.load(b_path)
     print(json.dumps({"a": str(a["versions"]), "b": str(b["versions"])}, indent=1))
     for k in a.files:
-        if k == "versions":
+        if k == "versions" or k not in b.files:
             continue
         x, y = a[k], b[k]
         if x.shape != y.shape:
             print(f"{k}: shapes differ {x.shape} vs {y.shape}")
             continue
-        diff = np.abs(x.astype(np.float64) - y.astype(np.float64))
-        n = int((x != y).sum())
-        if n == 0:
+        if x.tobytes() == y.tobytes():
             print(f"{k}: identical bit for bit")
             continue
-        first = np.unravel_index(int(np.argmax((x != y).ravel())), x.shape)
-        print(f"{k}: {n} of {x.size} values differ, max |diff| {diff.max():.3g}, first at index {first}")
+        differ = (x != y) & ~(np.isnan(x) & np.isnan(y))
+        diff = np.abs(x.astype(np.float64) - y.astype(np.float64))[differ]
+        first = tuple(int(i) for i in np.unravel_index(int(np.argmax(differ.ravel())), x.shape))
+        print(
+            f"{k}: {int(differ.sum())} of {x.size} values differ, max |diff| {diff.max():.3g}, "
+            f"max relative {(diff / np.abs(x[differ]).clip(1e-30)).max():.3g}, first at index {first}"
+        )
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="fingerprint.npz")
+    p.add_argument("--stages", default=",".join(STAGES), help=f"a comma-separated subset of {STAGES}")
     p.add_argument("--compare", nargs=2, metavar=("A", "B"))
     args = p.parse_args(argv)
     if args.compare:
@@ -142,7 +154,10 @@ def main(argv=None) -> int:
         return 0
     from cepam_gym_agents.provenance import package_versions
 
-    out = stages()
+    which = args.stages.split(",")
+    if unknown := set(which) - set(STAGES):
+        p.error(f"unknown stages {sorted(unknown)}: choose from {STAGES}")
+    out = stages(which)
     np.savez(args.out, versions=json.dumps(package_versions()), **out)
     print(f"saved {args.out}")
     return 0
