@@ -8,29 +8,38 @@ RAY_VENV ?= .venv-ray
 RAY_PY := $(RAY_VENV)/bin/python
 TORCH := torch==2.13.0
 
-.PHONY: install install-distributed run test test-fast lint docs bench clean
+.PHONY: install install-distributed run test test-fast lint docs bench lock clean
 
 install: $(VENV)/.installed
 
 install-distributed: $(RAY_VENV)/.installed
 
-# $(call venv,DIR,EXTRAS): a venv with the CPU torch wheel first, then the package and its extras
+# $(call venv,DIR,EXTRAS,CONSTRAINTS): a venv with the CPU torch wheel first, then the package and
+# its extras at the versions the constraints file pins (the ones the README's figures were measured
+# with; `make lock` re-resolves them, docs/reproducibility.md)
 define venv
 	python3 -m venv $(1)
 	$(1)/bin/python -m pip install -q --upgrade pip
-	$(1)/bin/python -m pip install -q $(TORCH)
-	$(1)/bin/python -m pip install -q -e ".[$(2)]"
+	$(1)/bin/python -m pip install -q -c $(3) $(TORCH)
+	$(1)/bin/python -m pip install -q -c $(3) -e ".[$(2)]"
 	touch $(1)/.installed
 endef
 
 MAIN_EXTRAS := train,test,mujoco,zoo,offline,docs
 RAY_EXTRAS := train,test,distributed
+LOCK := requirements/constraints.txt
+RAY_LOCK := requirements/constraints-ray.txt
 
-$(VENV)/.installed: pyproject.toml
-	$(call venv,$(VENV),$(MAIN_EXTRAS))
+$(VENV)/.installed: pyproject.toml $(LOCK)
+	$(call venv,$(VENV),$(MAIN_EXTRAS),$(LOCK))
 
-$(RAY_VENV)/.installed: pyproject.toml
-	$(call venv,$(RAY_VENV),$(RAY_EXTRAS))
+$(RAY_VENV)/.installed: pyproject.toml $(RAY_LOCK)
+	$(call venv,$(RAY_VENV),$(RAY_EXTRAS),$(RAY_LOCK))
+
+# re-pin every package to what a fresh install resolves today (both constraints files; nothing is
+# installed); then rebuild the venvs and re-measure the README's figures before committing
+lock:
+	python3 requirements/lock.py --torch "$(TORCH)" $(LOCK)=$(MAIN_EXTRAS) $(RAY_LOCK)=$(RAY_EXTRAS)
 
 run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run

@@ -23,15 +23,56 @@ def write_json(path: Path, data) -> None:
     os.replace(tmp, path)
 
 
+# the packages a run's numbers depend on: the compiled plant and tasks (numba and its LLVM, numpy),
+# the teachers' and the metrics' numerics (scipy), the training and the saved policies (torch, SB3,
+# sb3-contrib, cloudpickle), the envs' API (gymnasium); docs/reproducibility.md
+_PACKAGES = (
+    "cepam-gym",
+    "numpy",
+    "numba",
+    "llvmlite",
+    "scipy",
+    "gymnasium",
+    "torch",
+    "stable-baselines3",
+    "sb3-contrib",
+    "cloudpickle",
+    "pyyaml",
+)
+
+
 def package_versions() -> dict:
+    """The versions of :data:`_PACKAGES` (None: not installed), Python's, and the machine facts that
+    move floating-point results between machines (:func:`machine`)."""
     from importlib import metadata
 
     out = {"python": platform.python_version(), "platform": platform.platform()}
-    for name in ("cepam-gym", "stable-baselines3", "torch", "numpy", "gymnasium", "numba", "scipy", "pyyaml"):
+    for name in _PACKAGES:
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             out[name] = None
+    return {**out, **machine()}
+
+
+def machine() -> dict:
+    """What the compiled code was built for: numba compiles the kernels for the host CPU as LLVM
+    names it (its vector width and instructions), torch picks its kernels by the CPU's capability
+    (AVX2, AVX512); the same versions on another CPU may round differently."""
+    out: dict = {"cpu_llvm": None, "torch_cpu_capability": None}
+    try:
+        import llvmlite.binding as llvm
+        import numba
+
+        out["cpu_llvm"] = numba.config.CPU_NAME or llvm.get_host_cpu_name()  # NUMBA_CPU_NAME overrides
+    except Exception:  # provenance is best effort: it never fails a run
+        pass
+    try:
+        import torch
+
+        out["torch_cpu_capability"] = torch.backends.cpu.get_cpu_capability()
+    except Exception:  # the same
+        pass
     return out
 
 
