@@ -157,11 +157,14 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
             raise InputError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
         model_path, norm_path = _files(run, which)
     cfg = load_run_config(run)
-    core = _core(env)
+    from cepam_gym.envs.model import model_of
+
+    env_model = model_of(env)
     trained_mode = cfg.env.kwargs.get("action_mode", "valve")
-    if core.action_mode != trained_mode:
+    if env_model.action_mode != trained_mode:
         raise InputError(
-            f"agent {run} was trained with action_mode={trained_mode!r}, the env uses {core.action_mode!r}"
+            f"agent {run} was trained with action_mode={trained_mode!r}, "
+            f"the env uses {env_model.action_mode!r}"
         )
     torch.set_num_threads(max(1, cfg.torch_threads))
     model = guarded_load(
@@ -171,14 +174,8 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
         str(model_path),
         device="cpu",
     )
-    features = Features(env, cfg.agent, core.obs_dim)
+    features = Features(env, cfg.agent, env_model.obs_dim)
     return AgentPolicy(model, features, load_normalizer(norm_path))
-
-
-def _core(env):
-    from cepam_gym.control.baseline import find_core
-
-    return find_core(env)
 
 
 # --------------------------------------------------------------------------- evaluation

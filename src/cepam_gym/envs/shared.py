@@ -10,6 +10,7 @@ from .. import plant as pl
 from ..errors import InputError
 from ..tasks import kernel as tk
 from .core import CEPAMBatch
+from .model import EnvModel
 
 # names of the integer ``info["termination_reason"]`` codes (index = code; tasks.kernel's order)
 TERMINATION_NAMES = ("none", "burst", "non_finite_state")
@@ -84,7 +85,9 @@ def restore_episode(env, st: dict[str, Any]) -> None:
 def expose(env, core: CEPAMBatch) -> None:
     """What controllers read of an env (the joint's, as of ``CEPAMJoint-v0``,
     :class:`~cepam_gym.control.joint_baseline.JointInverseStaticController`): the nominal plant,
-    the task's spec (and the hinge's geometry), observation layout, action mode and timing."""
+    the task's spec (and the hinge's geometry), observation layout, action mode and timing; and
+    the plant model of the batched kernel's envs (``env.env_model``, :mod:`cepam_gym.envs.model`)."""
+    env.env_model = EnvModel.of(core)
     env.obs_layout, env.task = core.obs_layout, core.task.spec
     env.nominal, env.nominal_row = core.nominal, core.nominal.to_array()
     env.setpoint_max, env.action_mode, env.control_dt = (
