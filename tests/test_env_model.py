@@ -16,7 +16,7 @@ import cepam_gym  # noqa: F401  (registers the ids)
 from cepam_gym import plant as pl
 from cepam_gym.control import make_controller
 from cepam_gym.control.baseline import UnsupportedEnvError
-from cepam_gym.envs.model import EnvModel, NoModelError, model_of
+from cepam_gym.envs import EnvModel, NoModelError, model_of
 from cepam_gym.plant.params import PlantParams
 from cepam_gym.tasks import kernel as tk
 
