@@ -75,15 +75,19 @@ def make_callback_class():
             return True
 
         def _accumulate(self, infos) -> None:
-            if not infos or "length" not in infos[0]:
-                return
+            # the keys: position, its target, stiffness, its target, then the reward terms
+            # (envs.info_keys, by the task's contract)
             keys = self.t.info_keys
+            if not infos or keys[0] not in infos[0]:
+                return
             vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
-            L, Lt = vals[:, keys.index("length")], vals[:, keys.index("target_length")]
             row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
-            row["length_error_mm"] = 1000.0 * np.abs(L - Lt).sum()
+            trade = self.t.contract.trade  # e.g. length_error_mm, angle_error_deg
+            row[f"{self.t.contract.position}_error_{trade.unit}"] = (
+                trade.scale * np.abs(vals[:, 0] - vals[:, 1]).sum()
+            )
             if self.t.track_stiffness:
-                K, Kt = vals[:, keys.index("stiffness")], vals[:, keys.index("target_stiffness")]
+                K, Kt = vals[:, 2], vals[:, 3]
                 row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
             for k, v in row.items():
                 self._sums[k] = self._sums.get(k, 0.0) + float(v)

@@ -110,8 +110,10 @@ class Trainer:
                 ],
             )
         )
-        self.track_stiffness = model_of(raw).track_stiffness
-        self.info_keys = info_keys()
+        env_model = model_of(raw)  # through the SB3 adapter to the vector env's plant model
+        self.track_stiffness = env_model.track_stiffness
+        self.contract = env_model.contract
+        self.info_keys = info_keys(self.contract)
         self.eval_id, self.eval_kwargs, self.eval_traces = eval_env_spec(cfg)
         self.record.write("running", self.start_step)
 

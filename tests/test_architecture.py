@@ -193,7 +193,16 @@ FOLDER_LAYERS = (
     "identify",  # fitting the plant's dynamics to a rig's logs (on the fitting core)
     "integrations",  # adapters to SB3 and RLlib
 )
-ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "viewer", "_cli_errors", "run_summary"}
+ROOT_FOUNDATION = {
+    "_jit",
+    "errors",
+    "units",
+    "registration",
+    "versions",
+    "viewer",
+    "_cli_errors",
+    "run_summary",
+}
 ROOT_TOP = {"cli", "demo", "video", "rllib"}
 LAYERS = ["foundation", *FOLDER_LAYERS, "top"]
 # the package's face (``cepam_gym/__init__``: the PlantParams re-export and the registration)

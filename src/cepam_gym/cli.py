@@ -23,7 +23,7 @@ def fresh_dir(path):
 def _run(argv: list[str]) -> int:
     """The main job on the default config: the plant's step response, the paper reproduction
     table, then train an agent on the shipped ``student`` config (the student of a privileged
-    teacher, issue 26: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config
+    teacher, distilled by DAgger: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config
     quick``: PPO, about 3.5 minutes of training) and score it
     beside the zero controller, the inverse-model baseline, the MPC and the oracle on the
     ``nominal-v1`` and ``randomized-v1`` suites, with the normalized score. Everything
@@ -195,12 +195,10 @@ def _rollout(argv: list[str]) -> int:
 
 
 def _version() -> str:
-    from importlib import metadata
+    """The package's version: :data:`cepam_gym.__version__`, the one source pyproject.toml reads."""
+    from . import __version__
 
-    try:
-        return metadata.version("cepam-gym")
-    except metadata.PackageNotFoundError:  # a source tree on PYTHONPATH, not installed
-        return "unknown (not installed)"
+    return __version__
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -34,10 +34,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..plant.params import PlantParams
+from .. import versions
+from ..plant.params import PlantParams, preset
 from ..tasks import kernel as tk
 
 if TYPE_CHECKING:  # types only: this module imports no env class
+    from ..tasks.contract import TaskContract
     from ..tasks.layout import ObsLayout
     from ..tasks.spec import TaskSpec
 
@@ -69,7 +71,13 @@ class EnvModel:
     * ``track_stiffness``: whether the task scores stiffness; ``task_spec``: its
       :class:`~cepam_gym.tasks.spec.TaskSpec`; ``obs_layout``: the observation's named columns
       (``decode(obs)`` in SI), ``obs_dim`` its width; ``preview_steps``: reference steps
-      announced in the observation.
+      announced in the observation; ``contract``: the task's
+      :class:`~cepam_gym.tasks.contract.TaskContract` (reward terms, info keys, what the score
+      reads);
+    * ``version``: the row of the version table (:mod:`cepam_gym.versions`) of the id the env
+      runs, read from the task and plant it was built with (a plant given as a preset's
+      parameters counts as that preset), None for a task or plant of one's own;
+      ``task_version``: the version of its task (None for a Task object of one's own).
 
     Privileged, live, read-only (properties): :attr:`params`, :attr:`state`, :attr:`aux`,
     :attr:`target_l`, :attr:`target_k`, :attr:`load`, :attr:`t_idx`, :meth:`current_targets`.
@@ -89,6 +97,9 @@ class EnvModel:
     task_spec: TaskSpec = field(repr=False)
     obs_layout: ObsLayout = field(repr=False)
     obs_dim: int
+    contract: TaskContract = field(repr=False)
+    version: versions.Version | None = field(repr=False)
+    task_version: int | None
     preview_steps: int
     _core: Any = field(repr=False)
 
@@ -111,6 +122,9 @@ class EnvModel:
             task_spec=core.task.spec,
             obs_layout=core.obs_layout,
             obs_dim=int(core.obs_dim),
+            contract=core.task.contract,
+            version=_version(core),
+            task_version=versions.task_version(core._init_args.get("task")),
             preview_steps=int(core.preview_steps),
             _core=core,
         )
@@ -168,6 +182,14 @@ class EnvModel:
         """Privileged: ``(target_l, target_k, load)`` each (num_envs,), what each env is asked
         for at its current step (the last column past the episode's end)."""
         return self._core.current_targets()
+
+
+def _version(core) -> versions.Version | None:
+    args = core._init_args
+    plant = args.get("plant")
+    if isinstance(plant, PlantParams):
+        plant = next((name for name in versions.PLANT_PRESETS.values() if preset(name) == plant), plant)
+    return versions.of_kwargs(args.get("task"), plant)
 
 
 def model_of(env) -> EnvModel:

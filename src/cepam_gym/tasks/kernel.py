@@ -21,6 +21,7 @@ from .._jit import jit, row_of, row_view, vec_view
 from ..physics import layout as ix
 from ..physics.hinge import H_R, N_HINGE
 from ..plant.actions import valve_commands
+from .contract import RIG
 from .layout import OBS_FIELDS, ObsLayout
 from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
 
@@ -66,9 +67,9 @@ T_PREVIEW = T_OBS + 3 * MAX_OBS
 T_PREV_L_OFF, T_PREV_L_SCALE, T_PREV_K_SCALE = T_PREVIEW + 1, T_PREVIEW + 2, T_PREVIEW + 3
 N_TASK = T_PREVIEW + 4
 
-# the first term tracks the mechanism's position (the joint env names it "angle")
-REWARD_TERMS = ("length", "stiffness", "effort", "air", "burst")
-N_TERMS = 5
+# the names of the term slots, the rig's (tasks.contract; the joint names the first "angle")
+REWARD_TERMS = RIG.reward_terms
+N_TERMS = len(REWARD_TERMS)
 # noise columns: length [m], velocity [m/s], pressure_c, pressure_e, supply [Pa]
 N_NOISE = 5
 
