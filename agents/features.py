@@ -81,9 +81,9 @@ class Features:
             + self.raw_dim * len(cfg.obs_filters_s)
         )
         if cfg.obs_filters_s:
-            from cepam_gym.control.baseline import find_core
+            from cepam_gym.envs.model import model_of
 
-            dt = find_core(env).control_dt
+            dt = model_of(env).control_dt
             self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None
@@ -91,11 +91,11 @@ class Features:
         self.privileged = None  # the view the columns are read from: set for training only
         self.priv_dim = 0
         if cfg.privileged_critic:
-            from cepam_gym.control.baseline import core_of
+            from cepam_gym.control.baseline import rig_model_of
 
             from .privileged import PrivilegedView
 
-            self._view = PrivilegedView(core_of(env))
+            self._view = PrivilegedView(rig_model_of(env))
             self.priv_dim = self._view.dim
         self.actor_dim = self.frame_dim * cfg.history
         self.dim = self.actor_dim + self.priv_dim

@@ -218,15 +218,18 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
         return load_bc_policy(Path(spec), env)
     files = locate(spec, which)
     cfg = load_run_config(files.run) if files.run is not None else None
-    core = _core(env)
+    from cepam_gym.envs.model import model_of
+
+    env_model = model_of(env)
     if cfg is not None:
         trained_mode = cfg.env.kwargs.get("action_mode", "valve")
     else:
         trained_mode = zoo_record(files.zoo, "config.yml").get("env_kwargs", {}) if files.zoo else {}
         trained_mode = (trained_mode or {}).get("action_mode", "valve")
-    if core.action_mode != trained_mode:
+    if env_model.action_mode != trained_mode:
         raise InputError(
-            f"agent {spec} was trained with action_mode={trained_mode!r}, the env uses {core.action_mode!r}"
+            f"agent {spec} was trained with action_mode={trained_mode!r}, "
+            f"the env uses {env_model.action_mode!r}"
         )
     algorithm = cfg.algorithm if cfg is not None else algorithm_of(files.model)
     torch.set_num_threads(max(1, cfg.torch_threads if cfg is not None else 1))
@@ -238,14 +241,8 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
         device="cpu",
     )
     normalizer = _normalizer(files, cfg)
-    features = Features(env, cfg.agent if cfg is not None else AgentConfig(), core.obs_dim)
+    features = Features(env, cfg.agent if cfg is not None else AgentConfig(), env_model.obs_dim)
     return AgentPolicy(model, features, normalizer)
-
-
-def _core(env):
-    from cepam_gym.control.baseline import find_core
-
-    return find_core(env)
 
 
 # --------------------------------------------------------------------------- evaluation

@@ -2,8 +2,8 @@
 critic for image-based robot learning"): the critic of a training run may condition its value on
 the true plant and load, the actor never does (:mod:`agents.asymmetric`).
 
-One row per env, read from the batched env's arrays (:class:`cepam_gym.envs.core.CEPAMBatch`) after
-a step, all scaled to order one:
+One row per env, read from the privileged facts of the env's plant model
+(:class:`cepam_gym.envs.model.EnvModel`) after a step, all scaled to order one:
 
 * the plant parameters as ``log(value / nominal)`` (0 for the nominal plant; every column with a
   positive nominal value, so a randomized key, the supply drift and friction all show);
@@ -26,13 +26,13 @@ _SLIP_UNIT_M = 1e-3
 
 
 class PrivilegedView:
-    """``view()`` -> (N, dim) float32 of the env ``core`` (a ``CEPAMBatch``) as it is now."""
+    """``view()`` -> (N, dim) float32 of the envs of ``model`` (their ``EnvModel``) as they are now."""
 
-    def __init__(self, core):
+    def __init__(self, model):
         from cepam_gym import plant as pl
 
-        self.core = core
-        nominal = core.nominal.to_array()
+        self.model = model
+        nominal = model.nominal.to_array()
         self._cols = np.flatnonzero(nominal > 0)
         self._log_nominal = np.log(nominal[self._cols])
         self._slip = [pl.S_Z1, pl.S_Z2, pl.S_Z3]
@@ -40,11 +40,11 @@ class PrivilegedView:
         self.dim = len(self._cols) + 1 + 2 + len(self._slip)
 
     def view(self) -> np.ndarray:
-        c = self.core
+        c = self.model
         p = np.clip(np.log(np.maximum(c.params[:, self._cols], 1e-300)) - self._log_nominal, -5.0, 5.0)
         target_l, target_k, load = c.current_targets()
         length_err = (c.state[:, self._length] - target_l) / _LENGTH_UNIT_M
-        if c.task.track_stiffness:
+        if c.track_stiffness:
             k = np.maximum(c.aux[:, self._stiff], 1e-3)
             stiff_err = np.log(k / np.maximum(target_k, 1e-3))
         else:

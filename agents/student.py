@@ -112,16 +112,18 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
 
     from cepam_gym.bench.suites import SUITES
     from cepam_gym.control import make_controller
+    from cepam_gym.envs.model import model_of
 
     s = SUITES[suite]
     venv = gym.make_vec(s.env_id, num_envs=num_envs, **s.env_kwargs)
     try:
         teacher = make_controller(cfg.student.teacher, venv)
-        features = Features(venv, cfg.agent, venv.unwrapped.core.obs_dim)
+        env_model = model_of(venv)
+        features = Features(venv, cfg.agent, env_model.obs_dim)
         rng = np.random.default_rng(seed)
         obs, info = venv.reset(seed=seed)
         teacher.reset()
-        n_steps = venv.unwrapped.core.n_steps
+        n_steps = env_model.n_steps
         xs, ys = [], []
         residual = cfg.agent.residual
         for _ in range(n_steps):

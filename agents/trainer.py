@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from cepam_gym._cli_errors import guarded_load
+from cepam_gym.envs.model import model_of
 
 from .algorithm import collection_why, hyperparameters, policy, steps_per_collection
 from .callbacks import make_callback_class
@@ -108,9 +109,9 @@ class Trainer:
                 ],
             )
         )
-        core = raw.unwrapped.venv.core  # SB3 adapter -> CEPAMVectorEnv -> batch
-        self.track_stiffness = bool(core.task.track_stiffness)
-        self.contract = core.task.contract
+        env_model = model_of(raw)  # through the SB3 adapter to the vector env's plant model
+        self.track_stiffness = env_model.track_stiffness
+        self.contract = env_model.contract
         self.info_keys = info_keys(self.contract)
         self.eval_id, self.eval_kwargs, self.eval_traces = eval_env_spec(cfg)
         self.record.write("running", self.start_step)
@@ -140,7 +141,7 @@ class Trainer:
         normalizer = self.vecnorm if (self.vecnorm is not None and cfg.normalize.obs) else None
 
         def make(venv):
-            return AgentPolicy(self.model, Features(venv, cfg.agent, venv.unwrapped.core.obs_dim), normalizer)
+            return AgentPolicy(self.model, Features(venv, cfg.agent, model_of(venv).obs_dim), normalizer)
 
         t = time.perf_counter()
         m = evaluate(make, self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed, self.eval_traces)

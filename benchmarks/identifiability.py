@@ -34,8 +34,8 @@ from cepam_gym.bench.harness import record
 from cepam_gym.bench.metrics import score_traces
 from cepam_gym.bench.suites import RANDOMIZE_V1, SUITES
 from cepam_gym.control import make_controller
-from cepam_gym.control.baseline import find_core
 from cepam_gym.control.mpc import FrictionObserverMPC
+from cepam_gym.envs.model import model_of
 from cepam_gym.physics import layout as ix
 from cepam_gym.plant.params import PlantParams
 
@@ -89,7 +89,7 @@ class SubsetMPC(FrictionObserverMPC):
 
     def __init__(self, env, **kwargs):
         super().__init__(env, **kwargs)
-        self.core, self._rows = find_core(env), {}
+        self.model, self._rows = model_of(env), {}
         if self.centre:
             mid = {k: 0.5 * (lo + hi) for k, (lo, hi) in RANDOMIZE_V1.items()}
             self.params = PlantParams.from_dict(mid, base=self.nominal).to_array()
@@ -97,7 +97,7 @@ class SubsetMPC(FrictionObserverMPC):
     def model_rows(self, n: int) -> np.ndarray:
         if not self.subset:  # the model's own row: nominal, or the ranges' centres
             return self.params[None]
-        rows = np.asarray(self.core.params)
+        rows = np.array(self.model.params)
         if set(self.subset) == set(KEYS):
             return rows
         out = []
@@ -136,12 +136,12 @@ def histories(suite_name: str, driver: str, plants: int, seed: int):
         ctrl = make_controller(driver, venv)
         ctrl.reset()
         balance = FrictionObserverMPC(venv)  # its friction-aware force balance, not its plan
-        core, lay = find_core(venv), balance.layout
+        model, lay = model_of(venv), balance.layout
         lo, hi = np.array([RANDOMIZE_V1[k] for k in KEYS]).T
-        y = np.array([[true_values(r, balance.nominal)[k] for k in KEYS] for r in core.params])
+        y = np.array([[true_values(r, balance.nominal)[k] for k in KEYS] for r in model.params])
         y = 2 * (y - lo) / (hi - lo) - 1
         frames = []
-        for _ in range(core.n_steps):
+        for _ in range(model.n_steps):
             a = ctrl.act(obs)
             v = lay.decode(obs)
             force = balance.measured_force(

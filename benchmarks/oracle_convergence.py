@@ -31,8 +31,8 @@ from cepam_gym.bench.harness import record
 from cepam_gym.bench.metrics import score_traces
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.control import make_controller
-from cepam_gym.control.baseline import find_core
 from cepam_gym.control.oracle import OracleController, oracle_config
+from cepam_gym.envs.model import model_of
 
 V1_SUITES = ("nominal-v1", "length-v1", "stiffness-at-fixed-length-v1", "randomized-v1", "joint-v1")
 
@@ -63,13 +63,13 @@ def run(name: str, episodes: int, horizons, efforts) -> list[dict]:
     box = {}
 
     def shipped_of(venv):
-        box["core"] = find_core(venv)
+        box["model"] = model_of(venv)
         return make_controller("zero", venv)
 
     score(shipped_of, suite, 1)  # only to read the env's timing and mechanism
-    core = box["core"]
+    model = box["model"]
     rows = []
-    for label, cfg in settings(oracle_config(core), core.control_dt, horizons, efforts):
+    for label, cfg in settings(oracle_config(model), model.control_dt, horizons, efforts):
         s, sec = score(lambda v, c=cfg: OracleController(v, config=c), suite, episodes)
         rows.append({"suite": name, "setting": label, "score": s, "zero": zero, "seconds": sec})
         print(f"{name:30s} {label:24s} {s:.5f}  ({sec:.0f} s)", flush=True)

@@ -41,9 +41,9 @@ from cepam_gym.bench.harness import record
 from cepam_gym.bench.metrics import score_traces
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.control import make_controller
-from cepam_gym.control.baseline import find_core
 from cepam_gym.control.mpc import ModelPredictiveController
 from cepam_gym.control.oracle import ORACLE_CONFIG
+from cepam_gym.envs.model import model_of
 from cepam_gym.physics import layout as ix
 
 AIR = (pl.S_MC, pl.S_UC, pl.S_ME, pl.S_UE)
@@ -57,18 +57,18 @@ class _TrueColumnsMPC(ModelPredictiveController):
 
     def __init__(self, env, columns: tuple[int, ...], true_load: bool = False):
         super().__init__(env, config=ORACLE_CONFIG)
-        self.columns, self.core, self.true_load = list(columns), find_core(env), true_load
+        self.columns, self.model, self.true_load = list(columns), model_of(env), true_load
 
     def _filtered(self, load_now):
         if not self.true_load:
             return super()._filtered(load_now)
-        core, p = self.core, self.params
-        load = core.load[np.arange(core.num_envs), core.t_idx]
+        m, p = self.model, self.params
+        load = m.load[np.arange(m.num_envs), m.t_idx]
         return (load + p[ix.M_END]) * p[ix.GRAV]  # the weight the act turns back into the load
 
     def estimate_state(self, obs, L, pc, pe, params=None):
         x = super().estimate_state(obs, L, pc, pe, params)
-        x[:, self.columns] = self.core.state[:, self.columns]
+        x[:, self.columns] = self.model.state[:, self.columns]
         return x
 
 

@@ -123,6 +123,7 @@ def test_privileged_view_holds_the_true_errors_load_and_plant():
     import gymnasium as gym
 
     from cepam_gym import plant as pl
+    from cepam_gym.envs.model import model_of
     from cepam_gym_agents.privileged import PrivilegedView
 
     venv = gym.make_vec(V1, num_envs=3, randomize={"end_mass_g": [15.0, 25.0]})
@@ -130,7 +131,7 @@ def test_privileged_view_holds_the_true_errors_load_and_plant():
     core = venv.unwrapped.core
     for _ in range(20):
         venv.step(np.full((3, 2), 0.3, dtype=np.float32))
-    view = PrivilegedView(core)
+    view = PrivilegedView(model_of(venv))  # the env's plant model; the core checks it below
     rows = view.view()
     assert rows.shape == (3, view.dim) and np.isfinite(rows).all()
     tl, tk, load = core.current_targets()

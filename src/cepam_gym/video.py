@@ -103,11 +103,13 @@ def _rows(env, is_joint: bool, n_steps: int):
             ("joint angle", "deg", deg, "angle", u.target_angle[:n_steps], (0.0, u.angle_max * deg * 1.05)),
             ("joint stiffness K r^2", "N m/rad", 1.0, "joint_stiffness", kt, (0.0, max(1.0, 1.3 * kt.max()))),
         ]
-    core = u.core
-    kt = core.target_k[0, :n_steps]
-    lo, hi = core.nominal.min_length, core.nominal.max_length
-    rows = [("muscle length", "cm", 100.0, "length", core.target_l[0, :n_steps], (lo * 95, hi * 102))]
-    if core.task.track_stiffness:
+    from .envs.model import model_of
+
+    model = model_of(env)
+    kt = model.target_k[0, :n_steps]
+    lo, hi = model.nominal.min_length, model.nominal.max_length
+    rows = [("muscle length", "cm", 100.0, "length", model.target_l[0, :n_steps], (lo * 95, hi * 102))]
+    if model.track_stiffness:
         rows.append(("stiffness", "N/m", 1.0, "stiffness", kt, (0.0, max(2500.0, 1.3 * kt.max()))))
     else:
         rows.append(("stiffness (free)", "N/m", 1.0, "stiffness", None, (0.0, 2500.0)))
@@ -163,14 +165,14 @@ def record(
     # the loop below stops after `seconds`; the registered time limit must not stop it earlier
     env = gym.make(env_id, render_mode="rgb_array", max_episode_steps=10**9, **kwargs)
     u = env.unwrapped
-    dt = u.control_dt if is_joint else u.core.control_dt
+    dt = u.control_dt  # the rig's and the joint's envs both expose their timing and nominal plant
     n_steps = max(1, round(seconds / dt))
     ctl = make_controller(controller, env)  # the joint's variant on the joint env
     stride = max(1, round(1.0 / (fps * dt)))
     fps_out = 1.0 / (stride * dt)
     obs, info = env.reset(seed=seed)
     ctl.reset()
-    supply = (u.nominal if is_joint else u.core.nominal).supply_pressure / 1e3
+    supply = u.nominal.supply_pressure / 1e3
     view = env.render()
     h = view.shape[0]
     panel = TracePanel(

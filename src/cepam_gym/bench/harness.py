@@ -6,6 +6,7 @@ import numpy as np
 
 from ..control import make_controller
 from ..control.trivial import RandomController, ZeroController  # noqa: F401  (their old home)
+from ..envs.model import NoModelError, model_of
 from .metrics import RIG, TraceSpec, score_traces
 from .suites import SUITES, Suite
 
@@ -13,11 +14,15 @@ TRACE_KEYS = tuple(RIG.info_keys)  # the trace columns (a suite's TraceSpec maps
 
 
 def _env_facts(venv) -> tuple[int, float, bool]:
-    """``(n_steps, control_dt, tracks_stiffness)`` of a native batched rig env (its ``core``) or
-    of a gymnasium vector env of single envs (``get_attr``: ``n_steps``, ``control_dt``, ``task``)."""
-    core = getattr(venv.unwrapped, "core", None)
-    if core is not None:
-        return core.n_steps, core.control_dt, core.task.track_stiffness
+    """``(n_steps, control_dt, tracks_stiffness)`` of an env on the batched kernel (its plant
+    model, :func:`~cepam_gym.envs.model.model_of`) or of a gymnasium vector env of single envs
+    (``get_attr``: ``n_steps``, ``control_dt``, ``task``; the MuJoCo joint)."""
+    try:
+        model = model_of(venv)
+    except NoModelError:
+        pass
+    else:
+        return model.n_steps, model.control_dt, model.track_stiffness
     n_steps, dt, task = (venv.get_attr(k)[0] for k in ("n_steps", "control_dt", "task"))
     return int(n_steps), float(dt), bool(getattr(task, "track_stiffness", True))
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import plant as pl
+from ..envs.model import EnvModel, NoModelError, model_of
 from ..physics import api
 from ..physics import layout as ix
 from ..plant.actions import pressure_actions
@@ -56,14 +57,14 @@ class InverseStaticController:
         # friction_observer: the load estimate balances the friction elements' force too
         # (:mod:`.friction_observer`); off, the air's force alone (the registered baseline)
         self.friction = FrictionObserver() if friction_observer else None
-        core = core_of(env)
-        self.task = core.task.spec
-        self.layout = core.obs_layout
+        model = rig_model_of(env)
+        self.task = model.task_spec
+        self.layout = model.obs_layout
         self._configure(
-            core.nominal,
-            core.nominal.to_array(),
-            core.action_mode,
-            core.control_dt,
+            model.nominal,
+            model.nominal.to_array(),
+            model.action_mode,
+            model.control_dt,
             gap_fraction,
             kp,
             ki,
@@ -224,33 +225,19 @@ class UnsupportedEnvError(TypeError):
     controllers on the joint): the benchmark skips such pairs and says so."""
 
 
-def core_of(env):
-    """The :class:`~cepam_gym.envs.core.CEPAMBatch` inside a rig env (single, vector, wrapped or
-    the SB3 adapter): its task, observation layout, nominal plant and timing. ``TypeError`` when
-    there is none, or when it drives the joint (``cepam_gym/CEPAMJoint-v1``: the rig's model
-    and task do not apply; its controller is ``joint_baseline``)."""
-    core = find_core(env)
-    if core.mech != pl.RIG:
+def rig_model_of(env) -> EnvModel:
+    """The plant model (:class:`~cepam_gym.envs.model.EnvModel`) of a rig env (single, vector,
+    wrapped or the SB3 adapter): its task, observation layout, nominal plant and timing.
+    :class:`UnsupportedEnvError` when the env has none (the MuJoCo joint) or drives the hinge
+    (``cepam_gym/CEPAMJoint-v1``): the rig's model and task do not apply; the joint's controller
+    is ``joint_baseline``."""
+    try:
+        model = model_of(env)
+    except NoModelError as e:
+        raise UnsupportedEnvError(f"this controller drives the rig envs only ({e})") from None
+    if model.mech != pl.RIG:
         raise UnsupportedEnvError(
             "this controller drives the rig envs only; on the joint env use 'baseline' "
             "(make_controller resolves it to joint_baseline), 'zero' or 'random'"
         )
-    return core
-
-
-def find_core(env):
-    """The batched core (:class:`~cepam_gym.envs.core.CEPAMBatch`, whatever its task) inside
-    any env that runs on the batched kernel; ``TypeError`` when there is none (the MuJoCo joint)."""
-    for attr in ("core", "unwrapped", "venv", "env"):
-        obj = getattr(env, attr, None)
-        if attr == "core" and obj is not None:
-            return obj
-        if obj is not None and obj is not env:
-            try:
-                return find_core(obj)
-            except TypeError:
-                pass
-    raise TypeError(f"cannot find the CE-PAM env inside {env!r}")
-
-
-_core_of = core_of  # the earlier private name
+    return model

@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import plant as pl
 from ..physics import layout as ix
-from .baseline import InverseStaticController, core_of
+from .baseline import InverseStaticController, rig_model_of
 from .planner import CEMConfig, planner_for
 
 
@@ -36,10 +36,10 @@ class ModelPredictiveController(InverseStaticController):
 
     def __init__(self, env, config: CEMConfig | None = None, friction_observer: bool = False, **overrides):
         super().__init__(env, friction_observer=friction_observer)
-        core = core_of(env)
-        self.planner = planner_for(core, config, **overrides)
+        model = rig_model_of(env)
+        self.planner = planner_for(model, config, **overrides)
         self.cfg = self.planner.cfg
-        self._mode_id = core.mode
+        self._mode_id = model.mode
 
     def reset(self, indices=None) -> None:
         super().reset(indices)
@@ -127,14 +127,15 @@ class KnownParamsMPC(ModelPredictiveController):
     load are still estimated from the sensors. Not a practical controller: the ceiling of adapting
     to the plant by identifying its parameters, the yardstick of an agent that must infer them
     (docs/benchmark.md, "What the oracle's privileges are worth"), and the shipped student's
-    teacher (configs/student.yaml)."""
+    teacher (configs/student.yaml). Privileged: it reads the true rows of the env's model
+    (:attr:`cepam_gym.envs.model.EnvModel.params`)."""
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
         super().__init__(env, config, **overrides)
-        self.core = core_of(env)
+        self.model = rig_model_of(env)
 
     def model_rows(self, n: int) -> np.ndarray:
-        rows = np.asarray(self.core.params)
+        rows = np.array(self.model.params)  # writable: a read-only array is another numba type
         return rows if len(rows) == n else np.broadcast_to(rows, (n, rows.shape[1]))
 
 

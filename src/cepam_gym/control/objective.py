@@ -87,32 +87,32 @@ JOINT = TraceSpec(
 JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
 
 
-def version_of_core(core):
-    """The row of the version table (:mod:`cepam_gym.versions`) whose env ``core`` (a
-    ``CEPAMBatch``) runs, read from the task and plant it was built with (a plant given as the
-    parameters of a preset counts as that preset); None for a task or plant of one's own."""
-    from .. import versions
-    from ..plant.params import PlantParams, preset
+def _model_of(core):
+    """The :class:`~cepam_gym.envs.model.EnvModel` given, or that of a ``CEPAMBatch``."""
+    from ..envs.model import EnvModel
 
-    args = getattr(core, "_init_args", {})
-    plant = args.get("plant")
-    if isinstance(plant, PlantParams):
-        plant = next((name for name in versions.PLANT_PRESETS.values() if preset(name) == plant), plant)
-    return versions.of_kwargs(args.get("task"), plant)
+    return core if isinstance(core, EnvModel) else EnvModel.of(core)
+
+
+def version_of_core(core):
+    """The row of the version table (:mod:`cepam_gym.versions`) whose env ``core`` (the envs'
+    :class:`~cepam_gym.envs.model.EnvModel`, or their ``CEPAMBatch``) runs
+    (:attr:`EnvModel.version <cepam_gym.envs.model.EnvModel>`); None for a task or plant of
+    one's own."""
+    return _model_of(core).version
 
 
 def spec_of_core(core) -> TraceSpec:
-    """How the benchmark scores the envs of ``core`` (a ``CEPAMBatch``), as the suites of
-    :mod:`cepam_gym.bench.suites` do: the joint's spec on a hinge, the rig's otherwise; with the
-    settling allowance on the planned-reference tasks (task version 1 in the version table,
-    :mod:`cepam_gym.versions`: every v1 and v2 id). A task of one's own (a Task object) is scored
-    on every step, as the v0 tasks."""
+    """How the benchmark scores the envs of ``core`` (their ``EnvModel``, or their
+    ``CEPAMBatch``), as the suites of :mod:`cepam_gym.bench.suites` do: the joint's spec on a
+    hinge, the rig's otherwise; with the settling allowance on the planned-reference tasks (task
+    version 1 in the version table, :mod:`cepam_gym.versions`: every v1 and v2 id). A task of
+    one's own (a Task object) is scored on every step, as the v0 tasks."""
     from .. import plant as pl
-    from .. import versions
 
-    joint = getattr(core, "mech", pl.RIG) == pl.HINGE
-    task = getattr(core, "_init_args", {}).get("task")
-    if (versions.task_version(task) or 0) >= 1:
+    model = _model_of(core)
+    joint = model.mech == pl.HINGE
+    if (model.task_version or 0) >= 1:
         return JOINT_V1 if joint else RIG_V1
     return JOINT if joint else RIG
 

@@ -25,9 +25,10 @@ import dataclasses
 import numpy as np
 
 from .. import plant as pl
+from ..envs.model import NoModelError, model_of
 from ..physics import layout as ix
 from ..tasks import kernel as tk
-from .baseline import UnsupportedEnvError, find_core
+from .baseline import UnsupportedEnvError
 from .objective import scored_steps, spec_of_core, version_of_core
 from .planner import CEMConfig, planner_for
 
@@ -70,36 +71,39 @@ ORACLE_CONFIGS: dict[str, CEMConfig] = {
 }
 
 
-def oracle_config(core) -> CEMConfig:
-    """The shipped search settings for the envs of ``core``: those the version table names for
-    the id it runs (:mod:`cepam_gym.versions`). With a task or plant of one's own: the hinge's on
-    a hinge, else the rig's for how the task is scored (every step: v0's; with a settling
+def oracle_config(model) -> CEMConfig:
+    """The shipped search settings for the envs of ``model`` (their
+    :class:`~cepam_gym.envs.model.EnvModel`, or their core): those the version table names for
+    the id they run (:mod:`cepam_gym.versions`). With a task or plant of one's own: the hinge's
+    on a hinge, else the rig's for how the task is scored (every step: v0's; with a settling
     allowance: v1's); ``config=`` chooses others."""
-    row = version_of_core(core)
+    row = version_of_core(model)
     if row is not None and row.oracle is not None:
         return ORACLE_CONFIGS[row.oracle]
-    if core.mech == pl.HINGE:
+    if model.mech == pl.HINGE:
         return JOINT_ORACLE_CONFIG
-    return V0_ORACLE_CONFIG if spec_of_core(core).allowance_s <= 0 else ORACLE_CONFIG
+    return V0_ORACLE_CONFIG if spec_of_core(model).allowance_s <= 0 else ORACLE_CONFIG
 
 
 class OracleController:
     """``reset(indices=None)`` / ``act(obs, info=None)`` like every controller; built from a
     native CE-PAM env (single, vector or SB3 adapter; rig or batched hinge), whose true state it
-    reads every step. ``config`` replaces the shipped settings (:func:`oracle_config`),
-    ``overrides`` replace some of their fields."""
+    reads every step: privileged, it reads every live fact of the env's
+    :class:`~cepam_gym.envs.model.EnvModel` (state, parameter rows, schedules, current step).
+    ``config`` replaces the shipped settings (:func:`oracle_config`), ``overrides`` replace some
+    of their fields."""
 
     def __init__(self, env, config: CEMConfig | None = None, **overrides):
         try:
-            self.core = core = find_core(env)
-        except TypeError as e:  # the MuJoCo joint (v0): no batched kernel to plan through
+            self.model = model = model_of(env)
+        except NoModelError as e:  # the MuJoCo joint (v0): no batched kernel to plan through
             raise UnsupportedEnvError(
                 f"the oracle plans through the batched kernel; this env has none ({e})"
             ) from None
-        self.spec = spec_of_core(core)
-        self.planner = planner_for(core, config or oracle_config(core), self.spec, **overrides)
+        self.spec = spec_of_core(model)
+        self.planner = planner_for(model, config or oracle_config(model), self.spec, **overrides)
         self.cfg = self.planner.cfg
-        self.hinge = core.mech == pl.HINGE
+        self.hinge = model.mech == pl.HINGE
 
     def reset(self, indices=None) -> None:
         self.planner.reset(indices)
@@ -108,24 +112,23 @@ class OracleController:
         """True targets, loads and step weights over the planning horizon from each env's current
         step in muscle coordinates: ``(target_l, target_k, load, weight)``, each (N, H); the
         last value holds past the episode end."""
-        core, cfg = self.core, self.cfg
-        k = np.minimum(core.t_idx[:, None] + np.arange(cfg.horizon_steps), core.n_steps - 1)
-        rows = np.arange(core.num_envs)[:, None]
-        scored = scored_steps(
-            core.target_l.T, core.target_k.T, core.task.track_stiffness, self.spec, core.control_dt
-        ).T
+        m, cfg = self.model, self.cfg
+        k = np.minimum(m.t_idx[:, None] + np.arange(cfg.horizon_steps), m.n_steps - 1)
+        rows = np.arange(m.num_envs)[:, None]
+        target_l, target_k = m.target_l, m.target_k
+        scored = scored_steps(target_l.T, target_k.T, m.track_stiffness, self.spec, m.control_dt).T
         weight = np.where(scored[rows, k], 1.0, cfg.allowance_weight)
-        tl, tkk, load = core.target_l[rows, k], core.target_k[rows, k], core.load[rows, k]
+        tl, tkk, load = target_l[rows, k], target_k[rows, k], m.load[rows, k]
         if self.hinge:  # angle, joint stiffness, torque -> muscle length, stiffness, force
-            r = core.hinge[:, tk.H_R][:, None] if core.hinge.shape[0] > 1 else core.hinge[0, tk.H_R]
-            l_max = core.params[:, ix.L_MAX][:, None]
+            hinge = m.hinge
+            r = hinge[:, tk.H_R][:, None] if hinge.shape[0] > 1 else hinge[0, tk.H_R]
+            l_max = m.params[:, ix.L_MAX][:, None]
             tl, tkk, load = l_max - r * tl, tkk / r**2, load / r
         return tl, tkk, load, weight
 
     def act(self, obs, info=None) -> np.ndarray:
-        core = self.core
         tl, tkk, load, w = self.horizon()
-        a = self.planner.plan(core.state, core.params, tl, tkk, load, w).astype(np.float32)
+        a = self.planner.plan(self.model.state, self.model.params, tl, tkk, load, w).astype(np.float32)
         return a[0] if np.ndim(obs) == 1 else a
 
 

@@ -225,28 +225,28 @@ class CEMPlanner:
 
 
 def planner_for(
-    core, config: CEMConfig | None = None, spec: TraceSpec | None = None, **overrides
+    model, config: CEMConfig | None = None, spec: TraceSpec | None = None, **overrides
 ) -> CEMPlanner:
-    """A planner for the envs of ``core`` (a :class:`~cepam_gym.envs.core.CEPAMBatch`): its valve
-    mode, integration, pressure range, task and mechanism; ``spec`` the benchmark's scoring of
-    it (:func:`~cepam_gym.control.objective.spec_of_core` by default); ``overrides`` replace fields
-    of ``config``."""
+    """A planner for the envs of ``model`` (their :class:`~cepam_gym.envs.model.EnvModel`): its
+    valve mode, integration, pressure range, task and mechanism; ``spec`` the benchmark's scoring
+    of it (:func:`~cepam_gym.control.objective.spec_of_core` by default); ``overrides`` replace
+    fields of ``config``."""
     from .objective import spec_of_core
 
-    spec = spec or spec_of_core(core)
+    spec = spec or spec_of_core(model)
     cfg = dataclasses.replace(config or CEMConfig(), **overrides)
-    hinge = np.asarray(core.hinge, dtype=float)
+    hinge = np.array(model.hinge, dtype=float)  # the planner's own (writable) copy of the constants
     norm = spec.position_norm
-    if core.mech == pl.HINGE:
+    if model.mech == pl.HINGE:
         norm *= float(hinge[0, tk.H_R])  # an angle error of theta is a length error of r theta
     return CEMPlanner(
         cfg,
-        core.mode,
-        core.sub_dt,
-        core.n_sub,
-        float(core.task_vec[tk.T_SETPOINT_MAX]),
-        track_stiffness=core.task.track_stiffness,
-        mech=core.mech,
+        model.mode,
+        model.sub_dt,
+        model.n_sub,
+        model.setpoint_max,
+        track_stiffness=model.track_stiffness,
+        mech=model.mech,
         hinge=hinge,
         length_norm=norm,
     )

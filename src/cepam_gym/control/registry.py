@@ -177,12 +177,12 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
 
 
 def _batched(env) -> bool:
-    """Whether ``env`` runs on the batched kernel (it holds a ``CEPAMBatch``): what agents train on."""
-    from .baseline import find_core
+    """Whether ``env`` runs on the batched kernel (it has an ``EnvModel``): what agents train on."""
+    from ..envs.model import NoModelError, model_of
 
     try:
-        find_core(env)
-    except TypeError:
+        model_of(env)
+    except NoModelError:
         return False
     return True
 

@@ -10,6 +10,7 @@ from .. import plant as pl
 from ..errors import InputError, UnexpectedKwargError
 from ..tasks.spec import TERMINATION_NAMES  # noqa: F401  (the env modules' name for them)
 from .core import CEPAMBatch
+from .model import EnvModel
 
 
 def check_renderer(core: CEPAMBatch, renderer: str | None) -> str:
@@ -82,7 +83,9 @@ def expose(env, core: CEPAMBatch) -> None:
     """What controllers read of an env (the joint's, as of ``CEPAMJoint-v0``,
     :class:`~cepam_gym.control.joint_baseline.JointInverseStaticController`): the nominal plant,
     the task's spec (and the hinge's geometry) and contract, observation layout, action mode and
-    timing."""
+    timing; and the plant model of the batched kernel's envs (``env.env_model``,
+    :mod:`cepam_gym.envs.model`)."""
+    env.env_model = EnvModel.of(core)
     env.obs_layout, env.task, env.contract = core.obs_layout, core.task.spec, core.task.contract
     env.nominal, env.nominal_row = core.nominal, core.nominal.to_array()
     env.setpoint_max, env.action_mode, env.control_dt = (
