@@ -244,7 +244,7 @@ def planner_for(
         core.mode,
         core.sub_dt,
         core.n_sub,
-        float(core.task_vec[tk.T_SETPOINT_MAX]),
+        core.task_params.setpoint_max,
         track_stiffness=core.task.track_stiffness,
         mech=core.mech,
         hinge=hinge,
