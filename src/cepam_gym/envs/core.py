@@ -15,15 +15,15 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
+from .._jit import bound
 from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
-from .._jit import bound
 from ..tasks import kernel as tk
 from ..tasks.planner import PARALLEL_MIN_ENVS
 from ..tasks.randomization import MAX_REDRAWS
-from ..tasks.registry import make_task
 from ..tasks.records import allocate, build
+from ..tasks.registry import make_task
 from ..tasks.rng import Streams
 from ..tasks.single import single_slabs
 from ..tasks.state import EnvState, StepSettings, dims
@@ -109,7 +109,9 @@ class CEPAMBatch:
         # (tasks.single.env_step_single) on slabs its state's arrays are views of
         self.fast_single = n == 1 and not self.latency and not self.supply_drift
         if n == 1:
-            self.slabs, self.s, extras = single_slabs(self.n_steps, self.obs_dim, self.settings, self.task_params)
+            self.slabs, self.s, extras = single_slabs(
+                self.n_steps, self.obs_dim, self.settings, self.task_params
+            )
             self.info_row = extras.info
         else:
             self.s = allocate(EnvState, dims(n, self.n_steps, self.obs_dim, self.has_noise))

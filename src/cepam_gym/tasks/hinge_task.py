@@ -148,7 +148,8 @@ class HingeTask(Task):
         n = s.state.shape[0]
         for i in range(n):
             sched = (s.target_l[i], s.target_k[i], s.load[i])
-            s.initial[i] = apply_reset_options(options, sched, tuple(s.initial[i]), self.geometry, s.params[i])
+            start = tuple(s.initial[i])
+            s.initial[i] = apply_reset_options(options, sched, start, self.geometry, s.params[i])
         self.start(s, np.arange(n), s.initial.copy())
 
     def pin(self, s, values: dict, idx: np.ndarray) -> None:

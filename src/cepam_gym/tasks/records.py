@@ -197,11 +197,12 @@ class Slabs:
                 arrs = [make_array(signature.args[k])(context, builder, args[k]) for k in range(3)]
                 nF = builder.extract_value(arrs[0].shape, 0)
                 if per_step:
-                    n_steps = builder.sdiv(builder.sub(nF, ir.Constant(intp, fixed_f)), ir.Constant(intp, per_step))
+                    rest = builder.sub(nF, ir.Constant(intp, fixed_f))
+                    n_steps = builder.sdiv(rest, ir.Constant(intp, per_step))
                 else:
                     n_steps = ir.Constant(intp, 0)
                 vals = []
-                for f, p, mt in zip(fields, places, member_types):
+                for p, mt in zip(places, member_types):
                     if p.slab == 2:
                         context.nrt.incref(builder, signature.args[2], args[2])
                         vals.append(args[2])

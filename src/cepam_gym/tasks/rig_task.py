@@ -11,10 +11,10 @@ import numpy as np
 from .. import plant as pl
 from ..errors import InputError
 from . import kernel as tk
-from .single import AUX_INFO, N_INFO
 from .layout import rig_layout
 from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
+from .single import AUX_INFO, N_INFO
 from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
 from .task import Task
 
