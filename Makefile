@@ -8,7 +8,7 @@ RAY_VENV ?= .venv-ray
 RAY_PY := $(RAY_VENV)/bin/python
 TORCH := torch==2.13.0
 
-.PHONY: install install-distributed run test test-fast lint bench clean
+.PHONY: install install-distributed run test test-fast lint docs bench clean
 
 install: $(VENV)/.installed
 
@@ -23,7 +23,7 @@ define venv
 	touch $(1)/.installed
 endef
 
-MAIN_EXTRAS := train,test,mujoco,zoo,offline
+MAIN_EXTRAS := train,test,mujoco,zoo,offline,docs
 RAY_EXTRAS := train,test,distributed
 
 $(VENV)/.installed: pyproject.toml
@@ -35,9 +35,10 @@ $(RAY_VENV)/.installed: pyproject.toml
 run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run
 
-test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray
+test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray; the docs
 	$(PY) -m pytest -q
 	$(RAY_PY) -m pytest -q tests/test_rllib.py
+	$(MAKE) docs
 
 # the inner loop: everything but the tests marked slow (training, wheel builds, videos, golden
 # trajectories), on every core when pytest-xdist is there
@@ -48,9 +49,13 @@ lint: install  ## ruff lint and format check (configured in pyproject.toml; test
 	$(PY) -m ruff check .
 	$(PY) -m ruff format --check .
 
+# the documentation site (mkdocs.yml) into site/; strict: a broken link, a missing page or a warning fails
+docs: install
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
+
 bench: install
 	$(PY) benchmarks/throughput.py
 	$(PY) benchmarks/plant_throughput.py
 
 clean:
-	rm -rf $(VENV) $(RAY_VENV) runs
+	rm -rf $(VENV) $(RAY_VENV) runs site

@@ -1,17 +1,14 @@
 """The SB3 algorithm a config names: its class (SAC, PPO, TD3, or sb3-contrib's RecurrentPPO), its
 policy, which hyperparameters and policy kwargs it accepts (checked against its constructor when a
-config is read), the constructor arguments built from a checked config, and the number of steps
-its ``learn`` advances by at a time."""
+config is read), the constructor arguments built from those checked values, and the number of
+steps its ``learn`` advances by at a time. It knows nothing of the config's schema, which reads it."""
 
 from __future__ import annotations
 
 import inspect
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from .config_checks import ConfigError, as_bool, as_float, as_int, as_mapping
-
-if TYPE_CHECKING:
-    from .config_schema import TrainConfig
 
 ALGORITHMS = ("SAC", "PPO", "TD3", "RecurrentPPO")
 ON_POLICY = ("PPO", "RecurrentPPO")
@@ -127,11 +124,12 @@ def check_policy_kwargs(algorithm: str, pk: dict) -> dict:
 
 
 # --------------------------------------------------------------------------- constructor arguments
-def hyperparameters(cfg: TrainConfig) -> dict:
-    """The config's hyperparameters as the constructor takes them (action noise as an object)."""
+def hyperparameters(hp: dict) -> dict:
+    """Checked hyperparameters (:func:`check_hyperparameters`) as the constructor takes them
+    (action noise as an object)."""
     import numpy as np
 
-    hp = dict(cfg.hyperparameters)
+    hp = dict(hp)
     noise = hp.pop("action_noise", None)
     if noise is not None:
         from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
@@ -143,8 +141,8 @@ def hyperparameters(cfg: TrainConfig) -> dict:
     return hp
 
 
-def _policy_kwargs(cfg: TrainConfig) -> dict:
-    pk = dict(cfg.policy_kwargs)
+def _policy_kwargs(pk: dict) -> dict:
+    pk = dict(pk)
     if "activation_fn" in pk:
         import torch.nn
 
@@ -152,12 +150,13 @@ def _policy_kwargs(cfg: TrainConfig) -> dict:
     return pk
 
 
-def policy(cfg: TrainConfig, env) -> tuple:
-    """(policy, policy_kwargs) for the algorithm's constructor: the asymmetric actor-critic when
-    the critic is privileged (it is told how many input columns the actor may see)."""
-    pk = _policy_kwargs(cfg)
-    if not cfg.agent.privileged_critic:
-        return policy_name(cfg.algorithm), pk
+def policy(algorithm: str, policy_kwargs: dict, privileged_critic: bool, env) -> tuple:
+    """(policy, policy_kwargs) for the algorithm's constructor, from checked policy kwargs
+    (:func:`check_policy_kwargs`): the asymmetric actor-critic when the critic is privileged (it
+    is told how many input columns the actor may see)."""
+    pk = _policy_kwargs(policy_kwargs)
+    if not privileged_critic:
+        return policy_name(algorithm), pk
     from .asymmetric import AsymmetricActorCriticPolicy
 
     return AsymmetricActorCriticPolicy, {**pk, "actor_dim": env.features.actor_dim}

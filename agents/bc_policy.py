@@ -17,6 +17,8 @@ import numpy as np
 from cepam_gym._cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
+from .features import obs_batch
+
 WEIGHTS = "bc_policy.pt"
 INFO = "bc.json"
 # a column nearly constant in the dataset (the supply pressure of a nominal plant) would be blown
@@ -73,8 +75,6 @@ class BCPolicy:
 
     def act(self, obs, info=None) -> np.ndarray:
         import torch
-
-        from .policy import obs_batch
 
         o, single = obs_batch(obs, self.obs_dim)
         with torch.no_grad():

@@ -5,12 +5,13 @@ moves the progress bar, and stops the session at the config's time limit."""
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
+from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .trainer import Trainer
+from .config import TrainConfig
+from .progress import ProgressBar
 
 FIRST_CHECKPOINT_FRACTION = 0.1  # of the session's steps
 FIRST_CHECKPOINT_MINUTES = 2.0
@@ -22,6 +23,24 @@ def _next(n: int, due: int, every: int) -> int:
     return due + every * max(1, (n - due) // every + 1)
 
 
+class Session(Protocol):
+    """What the callback reads and drives of its training session (the trainer's ``Trainer``)."""
+
+    cfg: TrainConfig
+    progress: ProgressBar
+    info_keys: list[str]
+    track_stiffness: bool
+    last_score: float | None
+    best_score: float
+    stopped_by_time: bool
+
+    def evaluate(self, n: int) -> dict: ...
+
+    def save_checkpoint(self, n: int, interrupted: bool = False) -> Path: ...
+
+    def wall(self) -> float: ...
+
+
 def make_callback_class():
     """The callback class (built on first use: SB3 is imported only when training)."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -30,9 +49,9 @@ def make_callback_class():
         """Logs the env's reward terms and errors, evaluates, keeps the best model, checkpoints,
         and draws the progress bar (with the latest evaluation score)."""
 
-        def __init__(self, trainer: Trainer):
+        def __init__(self, session: Session):
             super().__init__(verbose=0)
-            self.t = trainer
+            self.t = session
             self._sums: dict[str, float] = {}
             self._count = 0
 
@@ -75,15 +94,19 @@ def make_callback_class():
             return True
 
         def _accumulate(self, infos) -> None:
-            if not infos or "length" not in infos[0]:
-                return
+            # the keys: position, its target, stiffness, its target, then the reward terms
+            # (envs.info_keys, by the task's contract)
             keys = self.t.info_keys
+            if not infos or keys[0] not in infos[0]:
+                return
             vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
-            L, Lt = vals[:, keys.index("length")], vals[:, keys.index("target_length")]
             row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
-            row["length_error_mm"] = 1000.0 * np.abs(L - Lt).sum()
+            trade = self.t.contract.trade  # e.g. length_error_mm, angle_error_deg
+            row[f"{self.t.contract.position}_error_{trade.unit}"] = (
+                trade.scale * np.abs(vals[:, 0] - vals[:, 1]).sum()
+            )
             if self.t.track_stiffness:
-                K, Kt = vals[:, keys.index("stiffness")], vals[:, keys.index("target_stiffness")]
+                K, Kt = vals[:, 2], vals[:, 3]
                 row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
             for k, v in row.items():
                 self._sums[k] = self._sums.get(k, 0.0) + float(v)

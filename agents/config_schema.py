@@ -10,6 +10,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from cepam_gym.versions import RECOMMENDED_ID
+
 from .algorithm import ALGORITHMS, ON_POLICY, check_hyperparameters, check_policy_kwargs
 from .config_checks import (
     ConfigError,
@@ -29,7 +31,7 @@ class EnvConfig:
     same plant spread, noise and drift); ``kwargs`` are then merged over them, key by key. The
     resolved config stores the merged kwargs."""
 
-    id: str = "cepam_gym/CEPAM-v0"
+    id: str = RECOMMENDED_ID
     num_envs: int = 8
     suite: str | None = None
     kwargs: dict = field(default_factory=dict)

@@ -32,15 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym.versions import VERSIONS
+
 from .config import ConfigError, dump_config, load_config
 
-# each v1 id and the suite it is trained and scored on
-SUITE_OF = {
-    "cepam_gym/CEPAM-v1": "nominal-v1",
-    "cepam_gym/CEPAMLength-v1": "length-v1",
-    "cepam_gym/CEPAMStiffness-v1": "stiffness-at-fixed-length-v1",
-    "cepam_gym/CEPAMJoint-v1": "joint-v1",
-}
+# each v1 id and the suite it is trained and scored on: its first headline suite (the version table)
+SUITE_OF = {row.env_id: row.suites[0] for row in VERSIONS.values() if row.version == 1}
 CONFIG_OF = {"PPO": "v1_ppo", "SAC": "v1_sac", "TD3": "v1_td3", "RecurrentPPO": "v1_recurrentppo"}
 # scored beside the agents in table.md (the MPC plans through the rig's kernel only)
 MODEL_CONTROLLERS = {"joint-v1": ("baseline",)}

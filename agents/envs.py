@@ -52,10 +52,10 @@ def eval_env_spec(cfg: TrainConfig) -> tuple[str, dict, object]:
     return s.env_id, dict(s.env_kwargs), s.traces
 
 
-def info_keys() -> list[str]:
-    """The per-env info entries the session averages into its log: lengths, stiffnesses, reward terms."""
-    from cepam_gym.tasks.kernel import REWARD_TERMS
-
-    return ["length", "target_length", "stiffness", "target_stiffness"] + [
-        f"reward_{t}" for t in REWARD_TERMS
-    ]
+def info_keys(contract) -> list[str]:
+    """The per-env info entries the session averages into its log, by the training task's
+    contract (:mod:`cepam_gym.tasks.contract`): its tracked position, stiffness and their targets
+    (the columns the benchmark scores: the rig's length, the joint's angle and joint stiffness),
+    then its reward terms."""
+    cols = ("length", "target_length", "stiffness", "target_stiffness")
+    return [contract.score_keys[c] for c in cols] + list(contract.term_keys)

@@ -4,8 +4,10 @@ controllers (default: the inverse-static baseline).
     cepam-gym eval --run runs/quick-s0 [--episodes 20] [--suite nominal-v1 --suite randomized-v1]
                    [--against zero --against baseline --against mpc --against oracle] [--model best]
 
-The suites default to the nominal and randomized ones of the agent's version (v1 ids:
-``nominal-v1``, ``randomized-v1``). Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
+The suites default to the headline suites of the id the agent was trained on (the version
+table, :mod:`cepam_gym.versions`: ``CEPAM-v2``: ``nominal-v2``, ``randomized-v2``;
+``CEPAMJoint-v2``: ``joint-v2``); ``--suite all`` scores every suite of its version whose env
+observes what it does. Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
 (benchmark table with the normalized score), ``results.json`` (every metric), ``comparison.md``
 (agent / reference ratios, the goals of :data:`GOALS`, and the share of the baseline-to-oracle gap
 the agent closes against :data:`GAP_GOALS`), ``scores.png`` and ``traces_<suite>_<controller>.png``.
@@ -24,12 +26,12 @@ from cepam_gym.errors import InputError
 GOALS = {
     "nominal": [("baseline", 1.05)],  # v0: within 5 % of the baseline
     "randomized": [("baseline", 0.70)],  # v0: 30 % lower combined error
-    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle (issue 16), <= MPC (26)
+    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle, <= MPC
     "randomized-v1": [("baseline", 0.70), ("mpc", 1.00)],  # v1: 30 % below the baseline, <= MPC
 }
 
 # the share of the baseline-to-oracle gap an agent must close, (baseline - agent) / (baseline -
-# oracle), per suite (issue 26: 80 % on both v1 suites)
+# oracle), per suite (80 % on both v1 suites)
 GAP_GOALS = {"nominal-v1": 0.80, "randomized-v1": 0.80}
 
 
@@ -124,22 +126,56 @@ def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict]
     return "\n".join(lines) + "\n"
 
 
+def trained_env_id(files, given: str | None) -> str:
+    """The env id a model was trained on: its record's (our ``config.yaml``, RL Zoo3's
+    ``args.yml``) or ``given`` (``--env-id``); ``InputError`` when neither names one or they differ."""
+    recorded = files.env_id()
+    if given is not None and recorded is not None and given != recorded:
+        raise InputError(f"--env-id {given}: {files.model} was trained on {recorded}")
+    if given is None and recorded is None:
+        raise InputError(
+            f"--env-id is needed: nothing beside {files.model} names the env it was trained on "
+            "(no config.yaml of cepam-gym train, no args.yml of RL Zoo3)"
+        )
+    return given or recorded
+
+
+def default_suites(env_id: str, asked: list[str] | None = None) -> list[str]:
+    """The suites an agent trained on ``env_id`` is scored on: ``asked`` (``--suite``), else the
+    id's headline suites from the version table; ``all``: every suite whose env observes what the
+    agent's does (its version's suites on the ids of the same observation)."""
+    from cepam_gym.bench.suites import headline_suites, version_suites
+
+    suites = asked or headline_suites(env_id)
+    if "all" in suites:
+        suites = version_suites(env_id)
+    return suites
+
+
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
     from cepam_gym.bench.cli import add_normalized
     from cepam_gym.bench.harness import run_suite
-    from cepam_gym.bench.metrics import RIG, RIG_V1
     from cepam_gym.bench.suites import SUITES
     from cepam_gym.control.baseline import UnsupportedEnvError
     from cepam_gym.control.registry import controller_names
 
     ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--run", required=True, help="run directory written by cepam-gym train")
+    ap.add_argument(
+        "--run",
+        required=True,
+        help="run directory written by cepam-gym train, an RL Zoo3 run folder, or an SB3 model .zip",
+    )
+    ap.add_argument(
+        "--env-id",
+        help="the env id the model was trained on (needed for a model .zip without a run's config.yaml "
+        "or RL Zoo3's args.yml beside it)",
+    )
     ap.add_argument(
         "--suite",
         action="append",
         default=None,
-        help=f"one of {list(SUITES)} or 'all' (repeatable; default nominal and randomized)",
+        help=f"one of {list(SUITES)} or 'all' (repeatable; default: the headline suites of the agent's id)",
     )
     ap.add_argument(
         "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
@@ -161,19 +197,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out-dir", help="where the table and plots go (default <run>/eval)")
     args = ap.parse_args(argv)
     run = Path(args.run)
-    if not (run / "config.yaml").is_file():
-        raise InputError(f"--run {run}: not a training run directory (no config.yaml)")
-    from .policy import load_run_config
+    from .policy import locate
 
-    env_id = load_run_config(run).env.id
-    v1 = env_id.endswith("-v1")
-    if "Joint" in env_id:  # the batched joint (v1): its own suite
-        default = ["joint-v1"]
-    else:
-        default = ["nominal-v1", "randomized-v1"] if v1 else ["nominal", "randomized"]
-    suites = args.suite or default
-    if "all" in suites:  # the rig suites of the agent's version: it is trained on their observations
-        suites = [s for s in SUITES if SUITES[s].traces is (RIG_V1 if v1 else RIG)]
+    files = locate(run, args.model)
+    env_id = trained_env_id(files, args.env_id)
+    suites = default_suites(env_id, args.suite)
     bad = [s for s in suites if s not in SUITES]
     if bad:
         raise InputError(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
@@ -183,14 +211,10 @@ def main(argv: list[str] | None = None) -> int:
     bad = [c for c in against if c not in controller_names()]
     if bad:
         raise InputError(f"--against: unknown controller(s) {bad}; choose from {list(controller_names())}")
-    from .policy import _files
-
-    try:
-        model_path, _ = _files(run, args.model)
-    except FileNotFoundError as e:
-        raise InputError(str(e)) from None
-    spec = str(model_path) if args.model != "auto" else str(run)
-    out = Path(args.out_dir) if args.out_dir else run / "eval"
+    model_path = files.model
+    spec = str(model_path) if args.model != "auto" or not run.is_dir() else str(run)
+    default_out = run / "eval" if run.is_dir() else run.with_name(f"{run.stem}_eval")
+    out = Path(args.out_dir) if args.out_dir else default_out
     out.mkdir(parents=True, exist_ok=True)
     rows, traces = [], {}
     for s in suites:

@@ -19,15 +19,30 @@
 
 The baseline (:class:`cepam_gym.control.InverseStaticController`) keeps filter and integrator
 state per env; :meth:`Features.reset` forgets it for finished episodes. Pure numpy.
+
+:func:`obs_batch` is the check of the observation every deployed policy (a trained agent's, a
+behaviour-cloning one's) makes before acting.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from cepam_gym.errors import InputError
+
 from .config import AgentConfig
 
 _GAP_UNIT_PA = 1e5  # the set-point gaps' unit: 100 kPa, the order of the chambers' working range
+
+
+def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
+    """``(batch (N, obs_dim) float32, was a single observation)``; ``InputError`` naming the shape
+    otherwise. Every policy a run loads checks its input here."""
+    single = np.ndim(obs) == 1
+    o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
+    if o.shape[1] != obs_dim:
+        raise InputError(f"observation must have shape ({obs_dim},) or (N, {obs_dim}), got {np.shape(obs)}")
+    return o, single
 
 
 class Features:

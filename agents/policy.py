@@ -9,31 +9,29 @@ A run directory (written by ``cepam-gym train``) holds ``config.yaml`` and the m
 from __future__ import annotations
 
 import pickle
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from cepam_gym._cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
-from .config import TrainConfig, algorithm_class
-from .features import Features
-
-if TYPE_CHECKING:
-    from .bc_policy import BCPolicy
+from .bc_policy import BCPolicy, is_bc_run, load_bc_policy
+from .config import AgentConfig, TrainConfig, algorithm_class
+from .features import Features, obs_batch  # noqa: F401  (obs_batch: still importable from here)
+from .model_files import (
+    NORMALIZER_NAMES,
+    ZOO_RECORD,
+    algorithm_of,
+    normalizer_beside,
+    zoo_normalizes_obs,
+    zoo_params_dir,
+    zoo_record,
+)
 
 MODEL_CHOICES = ("best", "final", "latest")
-
-
-def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
-    """``(batch (N, obs_dim) float32, was a single observation)``; ``InputError`` naming the shape
-    otherwise. Every policy a run loads checks its input here."""
-    single = np.ndim(obs) == 1
-    o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
-    if o.shape[1] != obs_dim:
-        raise InputError(f"observation must have shape ({obs_dim},) or (N, {obs_dim}), got {np.shape(obs)}")
-    return o, single
 
 
 class AgentPolicy:
@@ -130,49 +128,118 @@ def load_normalizer(path: Path | None):
     return vn if vn.norm_obs else None
 
 
+@dataclass(frozen=True)
+class ModelFiles:
+    """A model to load and what came with it: its VecNormalize statistics (``None`` if none was
+    found), the ``cepam-gym train`` run directory holding its ``config.yaml`` and RL Zoo3's
+    ``<env name>/`` folder (each ``None`` when absent: a bare SB3 model has neither)."""
+
+    model: Path
+    normalizer: Path | None
+    run: Path | None = None
+    zoo: Path | None = None
+
+    def env_id(self) -> str | None:
+        """The env id the model was trained on, where its record names it."""
+        if self.run is not None:
+            return load_run_config(self.run).env.id
+        if self.zoo is not None:
+            return zoo_record(self.zoo, ZOO_RECORD).get("env")
+        return None
+
+
+def locate(spec: str | Path, which: str = "auto") -> ModelFiles:
+    """The files of the agent ``spec`` names: a run directory of ``cepam-gym train`` (``which``
+    model), an RL Zoo3 run folder, or a model ``.zip`` (with the run directory around it, if any)."""
+    spec = Path(spec)
+    if which not in (*MODEL_CHOICES, "auto"):
+        raise InputError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
+    if spec.suffix == ".zip":
+        if not spec.is_file():
+            raise InputError(f"model file {spec} does not exist")
+        runs = [d for d in (spec.parent, spec.parent.parent) if (d / "config.yaml").is_file()]
+        run = runs[0] if runs and (runs[0] == spec.parent or spec.parent.name == "checkpoints") else None
+        return ModelFiles(spec, normalizer_beside(spec), run, zoo_params_dir(spec.parent))
+    if not spec.is_dir():
+        raise InputError(
+            f"unknown controller {str(spec)!r}: not a run directory or model .zip "
+            f"(use baseline, zero, random, or a trained agent's run directory)"
+        )
+    if (spec / "config.yaml").is_file():
+        model, norm = _files(spec, which)
+        return ModelFiles(model, norm or normalizer_beside(model), spec, zoo_params_dir(spec))
+    if (zoo := zoo_params_dir(spec)) is not None:  # RL Zoo3: best_model.zip, <env name>.zip
+        names = {"best": "best_model.zip", "final": f"{zoo.name}.zip"}
+        for key in ["best", "final"] if which == "auto" else [which]:
+            if key in names and (spec / names[key]).is_file():
+                model = spec / names[key]
+                return ModelFiles(model, normalizer_beside(model), None, zoo)
+        raise InputError(f"no {which} model in RL Zoo3 run {spec} (looked for {sorted(names.values())})")
+    raise InputError(f"{spec} is not a training run directory: no config.yaml (nor an RL Zoo3 run)")
+
+
+def _normalizer(files: ModelFiles, cfg: TrainConfig | None):
+    """The observation normalizer the model was trained with; refused (``InputError``) when its
+    record says it normalised observations and no statistics are found, never dropped silently."""
+    if cfg is not None:
+        wants, record = cfg.normalize.obs, f"normalize.obs in {files.run / 'config.yaml'}"
+    elif files.zoo is not None:
+        wants, record = zoo_normalizes_obs(files.zoo), f"normalize in {files.zoo / 'config.yml'}"
+    else:
+        wants, record = None, None
+    if files.normalizer is not None:
+        return load_normalizer(files.normalizer)
+    if wants:
+        raise InputError(
+            f"{files.model} was trained on normalised observations ({record}) but no VecNormalize "
+            f"statistics are beside it (looked for: {'; '.join(NORMALIZER_NAMES)}): refusing to score "
+            "it without them"
+        )
+    if wants is None:
+        warnings.warn(
+            f"no VecNormalize statistics beside {files.model} (looked for: {'; '.join(NORMALIZER_NAMES)}) "
+            "and no record says it was trained without: scoring it on raw observations",
+            stacklevel=3,
+        )
+    return None
+
+
 def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCPolicy:
-    """The agent of a run directory (or ``run_dir/<file>.zip``), ready to act on ``env`` (a
-    Gymnasium single or vector CE-PAM env, or the SB3 adapter). ``which``: ``auto`` (best model,
-    else final, else the latest checkpoint), ``best``, ``final`` or ``latest``. A behaviour-cloning
-    run directory (:mod:`cepam_gym_agents.bc`) gives its :class:`~cepam_gym_agents.bc_policy.BCPolicy`."""
+    """The agent of a run directory (or ``run_dir/<file>.zip``, an RL Zoo3 run, a bare SB3 model
+    ``.zip``), ready to act on ``env`` (a Gymnasium single or vector CE-PAM env, or the SB3
+    adapter), with the observation normalisation it was trained with (:func:`_normalizer`).
+    ``which``: ``auto`` (best model, else final, else the latest checkpoint), ``best``, ``final``
+    or ``latest``. A behaviour-cloning run directory (:mod:`cepam_gym_agents.bc`) gives its
+    :class:`~cepam_gym_agents.bc_policy.BCPolicy`. A model without a ``config.yaml`` drives the
+    valves directly (no baseline features), as RL Zoo3 and plain SB3 train."""
     import torch
 
-    from .bc_policy import is_bc_run, load_bc_policy
-
-    spec = Path(spec)
-    if is_bc_run(spec):  # a behaviour-cloning run (python -m cepam_gym_agents.bc): its own files
-        return load_bc_policy(spec, env)
-    if spec.suffix == ".zip":
-        run, model_path = spec.parent, spec
-        norm = spec.with_name(spec.name.replace("model", "vecnormalize").replace(".zip", ".pkl"))
-        norm_path = norm if norm.is_file() and norm != spec else None
-    else:
-        run = spec
-        if not run.is_dir():
-            raise InputError(
-                f"unknown controller {str(spec)!r}: not a run directory or model .zip "
-                f"(use baseline, zero, random, or a trained agent's run directory)"
-            )
-        if which not in (*MODEL_CHOICES, "auto"):
-            raise InputError(f"which must be one of {('auto',) + MODEL_CHOICES}, got {which!r}")
-        model_path, norm_path = _files(run, which)
-    cfg = load_run_config(run)
+    if is_bc_run(Path(spec)):  # a behaviour-cloning run (python -m cepam_gym_agents.bc): its own files
+        return load_bc_policy(Path(spec), env)
+    files = locate(spec, which)
+    cfg = load_run_config(files.run) if files.run is not None else None
     core = _core(env)
-    trained_mode = cfg.env.kwargs.get("action_mode", "valve")
+    if cfg is not None:
+        trained_mode = cfg.env.kwargs.get("action_mode", "valve")
+    else:
+        trained_mode = zoo_record(files.zoo, "config.yml").get("env_kwargs", {}) if files.zoo else {}
+        trained_mode = (trained_mode or {}).get("action_mode", "valve")
     if core.action_mode != trained_mode:
         raise InputError(
-            f"agent {run} was trained with action_mode={trained_mode!r}, the env uses {core.action_mode!r}"
+            f"agent {spec} was trained with action_mode={trained_mode!r}, the env uses {core.action_mode!r}"
         )
-    torch.set_num_threads(max(1, cfg.torch_threads))
+    algorithm = cfg.algorithm if cfg is not None else algorithm_of(files.model)
+    torch.set_num_threads(max(1, cfg.torch_threads if cfg is not None else 1))
     model = guarded_load(
-        model_path,
-        f"{cfg.algorithm} model",
-        algorithm_class(cfg.algorithm).load,
-        str(model_path),
+        files.model,
+        f"{algorithm} model",
+        algorithm_class(algorithm).load,
+        str(files.model),
         device="cpu",
     )
-    features = Features(env, cfg.agent, core.obs_dim)
-    return AgentPolicy(model, features, load_normalizer(norm_path))
+    normalizer = _normalizer(files, cfg)
+    features = Features(env, cfg.agent if cfg is not None else AgentConfig(), core.obs_dim)
+    return AgentPolicy(model, features, normalizer)
 
 
 def _core(env):

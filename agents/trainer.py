@@ -87,10 +87,9 @@ class Trainer:
         else:
             env = normalize(env, cfg)
             try:
-                pol, pk = policy(cfg, raw)
-                self.model = algo(
-                    pol, env, seed=cfg.seed, verbose=0, device="cpu", policy_kwargs=pk, **hyperparameters(cfg)
-                )
+                pol, pk = policy(cfg.algorithm, cfg.policy_kwargs, cfg.agent.privileged_critic, raw)
+                hp = hyperparameters(cfg.hyperparameters)
+                self.model = algo(pol, env, seed=cfg.seed, verbose=0, device="cpu", policy_kwargs=pk, **hp)
             except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
                 raise ConfigError(
                     f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
@@ -111,7 +110,8 @@ class Trainer:
         )
         core = raw.unwrapped.venv.core  # SB3 adapter -> CEPAMVectorEnv -> batch
         self.track_stiffness = bool(core.task.track_stiffness)
-        self.info_keys = info_keys()
+        self.contract = core.task.contract
+        self.info_keys = info_keys(self.contract)
         self.eval_id, self.eval_kwargs, self.eval_traces = eval_env_spec(cfg)
         self.record.write("running", self.start_step)
 

@@ -2,7 +2,7 @@
 
 On ``randomized-v1`` the MPC given each plant's true parameters closes 78-82 % of the baseline-to-
 oracle gap and without them 22-23 % (``benchmarks/oracle_privileges.py``): a student that sees
-only the rig's sensors reaches issue 26's 80 % there only if it infers the parameters from its
+only the rig's sensors reaches the agents' goal of 80 % there only if it infers the parameters from its
 history about as well as knowing them (RMA's adaptation module, Kumar et al. 2021). Two parts:
 
 1. **Which parameters carry the gap**: ``mpc_friction`` given the true values of a subset of the

@@ -9,7 +9,7 @@ normalized scale. Per setting it prints the raw score, its difference from the s
 of the shipped score, and in normalized points, ``100 (score - shipped) / (zero - shipped)``
 (what moves a normalized score), and the wall time.
 
-Criteria (issue 22): the shipped setting within 2 % of the best setting found, and doubling the
+Criteria: the shipped setting within 2 % of the best setting found, and doubling the
 effort changing the score by less than 2 %. Near a score of zero a raw % is dominated by the
 search's sampling noise (the oracle's errors are hundredths of a millimetre), so both are printed.
 

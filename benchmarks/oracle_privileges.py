@@ -3,9 +3,10 @@
 The oracle (the 100 of every normalized score) reads four things no rig has: the future of the
 load, the plant's hidden state (air temperatures, spool positions, friction slips), its true
 parameters (randomized plants), and it searches harder than the practical MPC. An agent that sees
-only the sensors is asked to close 80 % of the baseline-to-oracle gap (issue 26); this script
-measures how much of that gap each privilege carries, by giving the MPC one privilege at a time
-and taking the foresight away from the oracle, all on the same seeded episodes of a suite:
+only the sensors is asked to close 80 % of the baseline-to-oracle gap (the agents' goal,
+``GAP_GOALS`` in agents/evaluate.py); this script measures how much of that gap each privilege
+carries, by giving the MPC one privilege at a time and taking the foresight away from the oracle,
+all on the same seeded episodes of a suite:
 
 * ``mpc``: the nominal model, state from the sensors (air at ambient temperature, spools where the
   last command put them, friction relaxed), load from the static balance;
@@ -21,7 +22,7 @@ and taking the foresight away from the oracle, all on the same seeded episodes o
 * ``oracle``.
 
 Per row: the score, its 95 % interval and the share of the baseline-to-oracle gap it closes
-(``(baseline - score) / (baseline - oracle)``, the yardstick of issue 26's goal).
+(``(baseline - score) / (baseline - oracle)``, the yardstick of the agents' goal).
 
 Run: ``NUMBA_NUM_THREADS=1 python benchmarks/oracle_privileges.py [--suite nominal-v1] [--episodes 20]``
 (about 12 minutes for both default suites on one core of a busy 2-core machine).

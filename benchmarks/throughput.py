@@ -2,7 +2,8 @@
 
 Usage: python benchmarks/throughput.py [--repeats 5] [--all] [--busy-core]
 
-The default prints the table of issue 25, every row a median of ``--repeats`` runs that take turns
+The default prints the speed table of docs/results/speed.md, every row a median of ``--repeats``
+runs that take turns
 (so a burst of load from another process on a shared machine hits all of them alike):
 
 * ``CEPAM-v1`` batched (1024 envs, zero actions, whole 500-step episodes, the autoreset step

@@ -1,7 +1,6 @@
-"""The reset's planning as it was before it was compiled (issue 25): per-env NumPy code, kept
-verbatim as the judge of the compiled planner (``tests/test_reset_kernels.py``). Not used by the
-library. Its physics goes through :mod:`cepam_gym.physics.api` (NumPy arrays over the scalar
-kernels), as it did."""
+"""The reset's planning in Python: per-env NumPy code, kept verbatim as the judge of the compiled
+planner (``tests/test_reset_kernels.py``). Not used by the library. Its physics goes through
+:mod:`cepam_gym.physics.api` (NumPy arrays over the scalar kernels)."""
 
 from __future__ import annotations
 

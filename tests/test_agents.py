@@ -171,6 +171,40 @@ def test_tiny_run_writes_model_config_and_logs(tiny_run):
     assert SAC.load(str(run / "model.zip")).num_timesteps == 300
 
 
+def test_the_logged_info_keys_are_the_training_tasks_own():
+    """The session logs what the task's contract names: the joint's angle, joint stiffness and
+    reward terms are in the infos SB3 hands the callback (not the rig's length)."""
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
+    from cepam_gym.tasks.contract import JOINT, RIG
+    from cepam_gym_agents.envs import info_keys
+
+    assert info_keys(RIG)[:2] == ["length", "target_length"] and "reward_length" in info_keys(RIG)
+    keys = info_keys(JOINT)
+    assert keys[:4] == ["angle", "target_angle", "joint_stiffness", "target_stiffness"]
+    assert {f"reward_{t}" for t in JOINT.reward_terms} <= set(keys)
+    env = make_sb3_vec_env("cepam_gym/CEPAMJoint-v1", num_envs=2, seed=0)
+    env.reset()
+    _, _, _, infos = env.step(np.zeros((2, 2), np.float32))
+    assert all(set(keys) <= set(inf) for inf in infos)
+    env.close()
+
+
+@pytest.mark.slow  # trains
+def test_joint_training_logs_its_env_terms(tmp_path):
+    from cepam_gym_agents.train import train
+
+    cfg = _cfg(
+        env={"id": "cepam_gym/CEPAMJoint-v1", "num_envs": 2, "kwargs": {"max_episode_steps": 100}},
+        agent={},
+        total_timesteps=100,
+        eval={"every_steps": 100, "episodes": 1},
+    )
+    assert train(cfg, tmp_path / "joint", quiet=True) == 0
+    header = (tmp_path / "joint" / "logs" / "progress_0.csv").read_text().splitlines()[0].split(",")
+    for key in ("env/reward_angle", "env/reward_stiffness", "env/angle_error_deg", "env/stiffness_error_pct"):
+        assert key in header, key
+
+
 @pytest.mark.slow  # trains
 def test_load_policy_acts_deterministically(tiny_run):
     import gymnasium as gym
@@ -523,3 +557,12 @@ def test_obs_filters_are_low_passed_observations_restarted_per_episode():
     np.testing.assert_allclose(f2[1, 9:18], a[0] + a[0] * (1 - a[0]), rtol=1e-6)
     with pytest.raises(ConfigError, match="obs_filters_s"):
         _cfg(agent={"obs_filters_s": [0.0]})
+
+
+def test_every_goal_names_a_benchmark_suite():
+    """The training package's goals are keyed by suite: a renamed or removed suite must not drop
+    a goal silently."""
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym_agents.evaluate import GAP_GOALS, GOALS
+
+    assert set(GOALS) | set(GAP_GOALS) <= set(SUITES)

@@ -1,9 +1,10 @@
-"""The package's shape, read from its source: no import cycles, no training code, layers that
-only look down.
+"""The packages' shape, read from their source: no import cycles, no training code in the library,
+layers that only look down.
 
-Every ``import`` statement of every module of ``src/cepam_gym`` counts, wherever it stands (module
-level, inside functions, under ``if TYPE_CHECKING``): an import hidden in a function still ties
-two modules together, it only defers the failure. An edge goes to the module that is named
+Every ``import`` statement of every module of ``src/cepam_gym`` and of the training package
+(``agents/``, installed as ``cepam_gym_agents``) counts, wherever it stands (module level, inside
+functions, under ``if TYPE_CHECKING``): an import hidden in a function still ties two modules
+together, it only defers the failure. An edge goes to the module that is named
 (``from ..control import make_controller`` -> ``cepam_gym.control``, the package's ``__init__``;
 ``from .. import plant`` -> ``cepam_gym.plant``); the parent packages that Python runs first are
 not edges, since a submodule always runs after its parents' ``__init__`` has started, whichever
@@ -17,30 +18,39 @@ import ast
 import re
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
 PKG = "cepam_gym"
+AGENTS = "cepam_gym_agents"  # the training package: the folder agents/, installed under this name
 
 
-def _module_name(path: Path) -> str:
-    parts = path.relative_to(SRC).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+def _modules(folder: Path, package: str) -> dict[str, Path]:
+    """module name -> file, for every module of the package whose source is ``folder``."""
+    out = {}
+    for path in sorted(folder.rglob("*.py")):
+        parts = path.relative_to(folder).with_suffix("").parts
+        out[".".join((package, *(parts[:-1] if parts[-1] == "__init__" else parts)))] = path
+    return out
 
 
-MODULES = {_module_name(p): p for p in sorted((SRC / PKG).rglob("*.py"))}
+MODULES = _modules(SRC / PKG, PKG)
+AGENT_MODULES = _modules(ROOT / "agents", AGENTS)
+ALL_MODULES = {**MODULES, **AGENT_MODULES}
 
 
 def _is_package(name: str) -> bool:
-    return MODULES[name].name == "__init__.py"
+    return ALL_MODULES[name].name == "__init__.py"
 
 
 def _imports(name: str) -> list[tuple[str, int]]:
     """``(absolute module name, line)`` of every import in module ``name`` (names as written,
     relative ones resolved; ``from X import y`` gives ``X.y`` when that is a module, else ``X``)."""
-    tree = ast.parse(MODULES[name].read_text(), filename=str(MODULES[name]))
+    tree = ast.parse(ALL_MODULES[name].read_text(), filename=str(ALL_MODULES[name]))
     package = name if _is_package(name) else name.rpartition(".")[0]
     out = []
     for node in ast.walk(tree):
@@ -55,27 +65,31 @@ def _imports(name: str) -> list[tuple[str, int]]:
                 mod = node.module
             for alias in node.names:
                 sub = f"{mod}.{alias.name}"
-                out.append((sub if sub in MODULES else mod, node.lineno))
+                out.append((sub if sub in ALL_MODULES else mod, node.lineno))
     return out
 
 
 def _internal_target(mod: str) -> str | None:
-    """The module of ``cepam_gym`` that an import of ``mod`` names (the longest known prefix)."""
+    """The module of ``cepam_gym`` or of the training package that an import of ``mod`` names (the
+    longest known prefix)."""
     parts = mod.split(".")
     for k in range(len(parts), 0, -1):
         cand = ".".join(parts[:k])
-        if cand in MODULES:
+        if cand in ALL_MODULES:
             return cand
     return None
 
 
-def _graph() -> dict[str, dict[str, int]]:
-    """module -> {imported module of cepam_gym: line of the first such import}."""
+def _graph(package: str = PKG) -> dict[str, dict[str, int]]:
+    """module of ``package`` -> {imported module of cepam_gym or of the training package: line of
+    the first such import}."""
     graph: dict[str, dict[str, int]] = {}
-    for name in MODULES:
+    for name in ALL_MODULES:
+        if name.split(".")[0] != package:
+            continue
         edges: dict[str, int] = {}
         for mod, line in _imports(name):
-            target = _internal_target(mod) if mod.split(".")[0] == PKG else None
+            target = _internal_target(mod)
             if target is not None and target != name:
                 edges.setdefault(target, line)
         graph[name] = edges
@@ -112,12 +126,17 @@ def test_the_graph_reader_sees_imports_inside_functions():
     # the check below is only as good as this reader: a known import inside a function
     assert "cepam_gym.control" in _graph()["cepam_gym.video"]
     assert "cepam_gym.mujoco.rig" in _graph()["cepam_gym.envs.shared"]  # inside mujoco_frames()
+    agents = _graph(AGENTS)
+    assert "cepam_gym_agents.student" in agents["cepam_gym_agents.trainer"]  # inside train()
+    assert "cepam_gym.bench.suites" in agents["cepam_gym_agents.config_schema"]  # inside a method
+    assert set(agents) == set(AGENT_MODULES) and "cepam_gym_agents.main_job" in agents
     assert _find_cycle({"a": {"b": 1}, "b": {"c": 1}, "c": {"a": 1}}) == ["a", "b", "c", "a"]
     assert _find_cycle({"a": {"b": 1}, "b": {}}) is None
 
 
 def test_no_import_cycle_between_modules():
-    graph = _graph()
+    """Among the modules of the library and of the training package, across the two included."""
+    graph = {**_graph(PKG), **_graph(AGENTS)}
     cycle = _find_cycle(graph)
     if cycle:
         steps = [f"{a} (line {graph[a][b]}) -> {b}" for a, b in zip(cycle, cycle[1:])]
@@ -176,6 +195,53 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
     assert r.returncode == 0, r.stderr
 
 
+# --------------------------------------------------------------------------- the training package
+# It stands on the library: it imports cepam_gym (never the other way round, tested above) and is
+# reached from cepam_gym.cli only through the entry points it declares in pyproject.toml.
+COMMANDS = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"][
+    "cepam_gym.commands"
+]
+
+
+def test_the_training_package_imports_itself_by_its_installed_name():
+    """``agents/`` installs as ``cepam_gym_agents``: an ``import agents.x`` works in a checkout only."""
+    bad = [
+        f"{AGENT_MODULES[name].relative_to(ROOT)}:{line} imports {mod}"
+        for name in AGENT_MODULES
+        for mod, line in _imports(name)
+        if mod.split(".")[0] == "agents"
+    ]
+    assert not bad, bad
+
+
+def test_the_training_package_never_imports_the_command_line_that_dispatches_to_it():
+    """``cepam_gym.cli`` runs the training package's commands (``run``, ``train``, ``eval``) by their
+    entry points; importing the command line back would close a circle through them."""
+    bad = [
+        f"{name} imports cepam_gym.cli at line {edges['cepam_gym.cli']}"
+        for name, edges in _graph(AGENTS).items()
+        if "cepam_gym.cli" in edges
+    ]
+    assert not bad, bad
+
+
+def test_the_commands_of_the_training_package_load_without_torch():
+    """The command line loads a command's module to run it, ``--help`` included; the main job runs
+    without the [train] extra with ``--no-train``: torch and SB3 are imported only to train or
+    to load a model."""
+    assert set(COMMANDS) == {"run", "train", "eval"}
+    modules = sorted({target.partition(":")[0] for target in COMMANDS.values()})
+    code = (
+        "import importlib, sys\n"
+        f"for m in {modules!r}:\n"
+        "    importlib.import_module(m)\n"
+        "bad = [m for m in sys.modules if m.split('.')[0] in ('torch', 'stable_baselines3', 'sb3_contrib')]\n"
+        "assert not bad, bad\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+
+
 # --------------------------------------------------------------------------- layers
 # The folders are the layers, bottom-up; a module imports nothing of a higher layer, and a module
 # of a folder imports nothing of a folder above its own. The package root's own modules are either
@@ -193,7 +259,7 @@ FOLDER_LAYERS = (
     "identify",  # fitting the plant's dynamics to a rig's logs (on the fitting core)
     "integrations",  # adapters to SB3 and RLlib
 )
-ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "viewer", "_cli_errors", "run_summary"}
+ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "versions", "viewer", "_cli_errors"}
 ROOT_TOP = {"cli", "demo", "video", "rllib"}
 LAYERS = ["foundation", *FOLDER_LAYERS, "top"]
 # the package's face (``cepam_gym/__init__``: the PlantParams re-export and the registration)

@@ -91,7 +91,7 @@ def test_joint_reset_options_name_the_key(key):
         env.reset(seed=0, options={key: "x"})
 
 
-@pytest.mark.parametrize("env_id", [RIG, JOINT])
+@pytest.mark.parametrize("env_id", [RIG, JOINT, "cepam_gym/CEPAM-v2"])
 def test_unknown_kwargs_name_the_key_and_list_the_valid_ones(env_id):
     with pytest.raises(InputError) as e:
         gym.make(env_id, episode_secs=5.0)
@@ -99,6 +99,34 @@ def test_unknown_kwargs_name_the_key_and_list_the_valid_ones(env_id):
     assert "episode_secs" in msg and "episode_seconds" in msg and "CEPAMBatch" not in msg
     with pytest.raises(InputError, match="episode_secs"):
         gym.make_vec(env_id, num_envs=2, episode_secs=5.0)
+
+
+@pytest.mark.parametrize("make", ["single", "vector", "mujoco"])
+def test_unknown_kwarg_is_pythons_type_error_in_one_line(make, capsys):
+    """Clients retry without an optional argument on Python's own TypeError wording (TorchRL's
+    GymEnv with ``frameskip``); the command line still prints the error as one line."""
+    if make == "mujoco":
+        pytest.importorskip("mujoco")
+
+        def build():
+            return gym.make("cepam_gym/CEPAMJoint-v0", frameskip=4)
+    elif make == "vector":
+
+        def build():
+            return gym.make_vec("cepam_gym/CEPAM-v2", num_envs=2, frameskip=4)
+    else:
+
+        def build():
+            return gym.make("cepam_gym/CEPAM-v2", frameskip=4)
+
+    with pytest.raises(TypeError, match=r"__init__\(\) got an unexpected keyword argument 'frameskip'") as e:
+        build()
+    assert isinstance(e.value, InputError) and "valid: [" in str(e.value) and "sub_dt" in str(e.value)
+    assert run_guarded("cepam-gym x", lambda argv: build(), [], debug=False) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "frameskip" in err
+    with pytest.raises(TypeError, match=r"argument 'frameskip' \(and 'skip'\); valid"):
+        gym.make("cepam_gym/CEPAM-v2", frameskip=4, skip=1)
 
 
 def test_only_the_projects_input_error_is_a_one_line_cli_error(capsys):

@@ -294,3 +294,72 @@ def test_bench_skips_a_controller_the_env_does_not_take_and_says_so(capsys):
     rows = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
     assert [r["controller"] for r in rows] == ["zero"] and rows[0]["suite"] == "joint-v1"
     assert "skipped mpc on joint-v1" in err
+
+
+def test_a_failing_suite_is_named_and_the_finished_ones_are_kept(tmp_path, monkeypatch):
+    """A multi-suite run writes each suite's results as it finishes; the one that fails is named
+    in one line (a user error) or in a note on the traceback (a bug), and the run exits non-zero."""
+    from cepam_gym.bench import cli
+    from cepam_gym.errors import InputError
+
+    real = cli.run_suite
+
+    def failing_on(name, exc):
+        def run(controller, suite, episodes=None):
+            if suite == name:
+                raise exc
+            return real(controller, suite, episodes=episodes)
+
+        return run
+
+    args = ["--controller", "zero", "--suite", "nominal-v2", "--suite", "randomized-v2", "--episodes", "1"]
+    monkeypatch.setattr(
+        cli, "run_suite", failing_on("randomized-v2", InputError("observation must have shape"))
+    )
+    with pytest.raises(InputError, match=r"suite randomized-v2 failed: observation must.*nominal-v2") as e:
+        cli.main([*args, "--out-dir", str(tmp_path / "a")])
+    assert "\n" not in str(e.value)
+    rows = json.loads((tmp_path / "a" / "results.json").read_text())
+    assert [r["suite"] for r in rows] == ["nominal-v2"] and np.isfinite(rows[0]["score"])
+    assert "nominal-v2" in (tmp_path / "a" / "table.txt").read_text()
+
+    monkeypatch.setattr(cli, "run_suite", failing_on("randomized-v2", RuntimeError("a bug")))
+    with pytest.raises(RuntimeError, match="a bug") as e:
+        cli.main([*args, "--out-dir", str(tmp_path / "b")])
+    assert any("suite randomized-v2 failed" in n for n in e.value.__notes__)
+    assert [r["suite"] for r in json.loads((tmp_path / "b" / "results.json").read_text())] == ["nominal-v2"]
+
+
+def test_an_agent_that_does_not_fit_a_suite_is_refused_before_any_suite_runs(tmp_path, monkeypatch):
+    """A v2 rig agent on --suite v2: the length suite's observations differ; said before running."""
+    pytest.importorskip("stable_baselines3")
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from cepam_gym.bench import cli
+    from cepam_gym.errors import InputError
+
+    PPO("MlpPolicy", gym.make("cepam_gym/CEPAM-v2"), n_steps=8, batch_size=8).save(str(tmp_path / "agent"))
+    ran = []
+    monkeypatch.setattr(cli, "run_suite", lambda *a, **k: ran.append(a))
+    with pytest.raises(InputError, match=r"does not fit suite length-v2 \(cepam_gym/CEPAMLength-v2") as e:
+        cli.main(["--controller", str(tmp_path / "agent.zip"), "--suite", "v2", "--out-dir", str(tmp_path)])
+    assert "--suite nominal-v2" in str(e.value) and "--suite length-v2" not in str(e.value)
+    assert ran == []
+
+
+def test_bench_env_id_picks_that_ids_suites(monkeypatch):
+    from cepam_gym.bench import cli
+
+    asked = []
+
+    def stop(controllers, suites):
+        asked.extend(suites)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(cli, "check_agents_fit", stop)
+    with pytest.raises(SystemExit):
+        cli.main(["--env-id", "cepam_gym/CEPAMLength-v2"])
+    assert asked == ["length-v2"]
+    with pytest.raises(SystemExit, match="2"):
+        cli.main(["--env-id", "cepam_gym/Nope-v9"])

@@ -1,4 +1,4 @@
-"""CleanRL-style single-file PPO (examples/cleanrl_ppo.py) on the native batched env (issue 8)."""
+"""CleanRL-style single-file PPO (examples/cleanrl_ppo.py) on the native batched env."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""The fast paths of issue 25 change speed, never results: the thread choice of the batched kernel
-(it picks the faster count, stops a slow trial at once, tries again when the machine changes), the
-single env's one-call step (a refused action leaves the episode untouched)."""
+"""The fast paths change speed, never results: the thread choice of the batched kernel (it picks
+the faster count, stops a slow trial at once, tries again when the machine changes), the single
+env's one-call step (a refused action leaves the episode untouched)."""
 
 from __future__ import annotations
 

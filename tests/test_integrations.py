@@ -1,4 +1,4 @@
-"""Integrations (issue 8): Gymnasium id strings and RL Zoo3 with the shipped hyperparams/."""
+"""Integrations: Gymnasium id strings and RL Zoo3 with the shipped hyperparams/."""
 
 from __future__ import annotations
 
@@ -159,3 +159,9 @@ def test_rl_zoo3_train_ppo(tmp_path):
     run = tmp_path / "ppo" / "cepam_gym-CEPAM-v0_1"
     assert (run / "cepam_gym-CEPAM-v0.zip").is_file()
     assert (run / "cepam_gym-CEPAM-v0" / "vecnormalize.pkl").is_file()
+    # the benchmark's loader finds RL Zoo3's statistics and env id in its layout
+    from cepam_gym_agents.policy import load_policy, locate
+
+    assert locate(run).env_id() == "cepam_gym/CEPAM-v0"
+    venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
+    assert load_policy(run, venv).normalizer is not None

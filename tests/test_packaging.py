@@ -38,7 +38,7 @@ def test_entry_points_name_existing_functions():
     """The plug-ins the library finds by name: each ``module:function`` exists in the source."""
     eps = PYPROJECT["project"]["entry-points"]
     assert set(eps) == {"cepam_gym.controllers", "cepam_gym.commands"}
-    assert set(eps["cepam_gym.commands"]) == {"train", "eval"}
+    assert set(eps["cepam_gym.commands"]) == {"run", "train", "eval"}
     for group in eps.values():
         for target in group.values():
             module, _, func = target.partition(":")
@@ -160,13 +160,13 @@ def test_installed_wheel_runs_from_any_directory(wheel, tmp_path):
     assert "shipped configs" in r.stderr and "'quick'" in r.stderr
 
 
-def test_cli_reaches_train_and_eval_only_through_entry_points(monkeypatch, capsys):
+def test_cli_reaches_run_train_and_eval_only_through_entry_points(monkeypatch, capsys):
     import importlib.metadata
 
     from cepam_gym import cli
 
     monkeypatch.setattr(importlib.metadata, "entry_points", lambda **kw: [])  # no training package
-    for cmd in ("train", "eval"):
+    for cmd in ("run", "train", "eval"):
         assert cli.main([cmd, "--help"]) == 2
         err = capsys.readouterr().err
         assert f"cepam-gym {cmd}: no package provides the command '{cmd}'" in err

@@ -1,5 +1,5 @@
-"""The compiled reset (issue 25) against the code it replaced: NumPy's generator draw for draw, and
-the former per-env NumPy planning (``legacy_planner``) episode for episode, bit for bit, on many
+"""The compiled reset against NumPy's generator draw for draw, and against the per-env NumPy
+planning of ``tests/legacy_planner.py`` episode for episode, bit for bit, on many
 seeds, tasks, plants and the fallback paths; the generators end in the same state."""
 
 from __future__ import annotations

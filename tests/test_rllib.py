@@ -1,4 +1,4 @@
-"""Ray RLlib integration (issue 8): cepam_gym.rllib's env creator and examples/rllib_ppo.py.
+"""Ray RLlib integration: cepam_gym.rllib's env creator and examples/rllib_ppo.py.
 
 The seeding and validation tests need no Ray (the creator is plain Gymnasium); the EnvContext,
 registry and end-to-end tests skip without the [distributed] extra."""

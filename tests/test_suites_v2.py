@@ -1,5 +1,5 @@
 """The v2 suites: one per v2 id, the v1 suites' options on plant v2, their stored references, and
-the randomization of what plant v2 actually uses (issue 23, item 4)."""
+the randomization of what plant v2 actually uses."""
 
 from __future__ import annotations
 

@@ -137,7 +137,7 @@ def test_rig_reward_terms_are_the_shared_function():
 
 
 def test_termination_codes_have_names():
-    assert TERMINATION_REASONS[tk.termination(True, False)] == ""
+    assert TERMINATION_REASONS[tk.termination(True, False)] == "none"
     assert TERMINATION_REASONS[tk.termination(True, True)] == "burst"
     assert TERMINATION_REASONS[tk.termination(False, True)] == "non_finite_state"
 

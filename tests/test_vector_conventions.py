@@ -133,8 +133,7 @@ def test_sb3_adapter_keeps_terminal_observation_semantics():
 
 def test_torchrl_batched_gym_env_and_wrapper():
     """TorchRL's batched reader failed on the string termination reason; its GymWrapper reads
-    ``autoreset_mode`` from a vector env."""
-    pytest.importorskip("torchrl")
+    ``autoreset_mode`` from a vector env. (torchrl comes with the [test] extra: no skip.)"""
     from torchrl.envs import GymEnv, GymWrapper
 
     env = GymEnv("cepam_gym:cepam_gym/CEPAM-v0", num_envs=2)  # subprocesses of single envs
@@ -146,6 +145,36 @@ def test_torchrl_batched_gym_env_and_wrapper():
     td = wrapped.rollout(7, break_when_any_done=False)
     assert tuple(td.batch_size) == (4, 7)
     assert td["next", "done"].any()
+
+
+_TORCHRL_USER_SCRIPT = """
+import cepam_gym  # registers the ids (TorchRL's subprocesses are spawned: they re-import this script)
+from torchrl.envs import GymEnv
+
+if __name__ == "__main__":
+    for n in (0, 2):
+        env = GymEnv("cepam_gym/CEPAM-v2", num_envs=n)
+        td = env.rollout(4)
+        print("rollout", tuple(td.batch_size), td["next", "observation"].shape[-1])
+        env.close()
+"""
+
+
+@pytest.mark.slow  # spawns processes that import cepam_gym
+def test_torchrl_gym_env_makes_the_recommended_id_by_name(tmp_path):
+    """TorchRL's GymEnv passes ``frameskip`` to ``gym.make`` and retries without it only on
+    Python's own "unexpected keyword argument 'frameskip'" TypeError: the recommended id by its
+    name, single and batched (TorchRL spawns the batch's processes), run as a user's script."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "torchrl_cepam.py"
+    script.write_text(_TORCHRL_USER_SCRIPT)
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    n_obs = gym.make("cepam_gym/CEPAM-v2").observation_space.shape[0]
+    rollouts = [line for line in out.stdout.splitlines() if line.startswith("rollout ")]
+    assert rollouts == [f"rollout (4,) {n_obs}", f"rollout (2, 4) {n_obs}"]
 
 
 def test_num_threads_gives_the_same_steps_and_is_checked():

@@ -1,154 +1,34 @@
-"""``cepam-gym`` command line: ``run`` (the main job), ``demo``, ``validate``, ``rollout``."""
+"""``cepam-gym`` command line: the library's commands (``demo``, ``validate``, ``bench``, ``rollout``...)
+and the hook of the training package's (``run``, the main job; ``train``; ``eval``)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
-from datetime import UTC
 
-
-def fresh_dir(path):
-    """``path`` if it does not exist yet, else ``path-2``, ``path-3``...: the main job never
-    overwrites (or refuses to run over) an earlier run."""
-    from pathlib import Path
-
-    path = Path(path)
-    candidate, k = path, 2
-    while candidate.exists():
-        candidate = path.with_name(f"{path.name}-{k}")
-        k += 1
-    return candidate
-
-
-def _run(argv: list[str]) -> int:
-    """The main job on the default config: the plant's step response, the paper reproduction
-    table, then train an agent on the shipped ``student`` config (the student of a privileged
-    teacher, issue 26: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config
-    quick``: PPO, about 3.5 minutes of training) and score it
-    beside the zero controller, the inverse-model baseline, the MPC and the oracle on the
-    ``nominal-v1`` and ``randomized-v1`` suites, with the normalized score. Everything
-    lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
-    ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs), ``agent/eval/``
-    (table.txt, results.json, plots) and ``summary.md`` (what ran, versions, where everything is,
-    the scores)."""
-    from pathlib import Path
-
-    ap = argparse.ArgumentParser(prog="cepam-gym run", description=_run.__doc__)
-    ap.add_argument("--out-dir", default="runs/main")
-    ap.add_argument(
-        "--config",
-        default="student",
-        help="training config: a shipped one by name (student, quick, cepam_ppo, ...) or a YAML file",
-    )
-    ap.add_argument("--episodes", type=int, default=20, help="benchmark episodes per suite")
-    ap.add_argument(
-        "--no-train",
-        action="store_true",
-        help="skip training: plant, reproduction, and the model-based controllers on the v1 suites",
-    )
-    args = ap.parse_args(argv)
-    out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    from datetime import datetime
-
-    from .run_summary import write_summary
-
-    started, steps = datetime.now(UTC), []
-    where = {"run_dir": None, "table": None}
-    try:
-        return _run_steps(args, out, steps, where)
-    finally:
-        path = write_summary(out, argv, started, steps, where["run_dir"], where["table"])
-        print(f"summary: {path}", flush=True)
-
-
-def _run_steps(args, out, steps: list, where: dict) -> int:
-    """The steps of :func:`_run`, each recorded in ``steps`` for the summary."""
-
-    from . import demo
-    from .validation.cli import validate_main
-
-    if not args.no_train:  # a bad --config fails now, not after the steps before training
-        try:
-            code = _plugin_command("train")(["--config", args.config, "--check"])
-        except ImportError:
-            code = 0  # reported at step 3, with the extra to install
-        if code:
-            return code
-    steps.append(["plant step response", "failed", None])
-    steps[-1][1:] = ["done", demo.step_response(out_dir=out)]
-    print(f"[1/3] plant step response: {steps[-1][2]}", flush=True)
-    print("[2/3] the paper's reported numbers beside the model's", flush=True)
-    steps.append(["the paper's numbers beside the model's", "failed", out / "validate"])
-    validate_main(["--out-dir", str(out / "validate")])
-    steps[-1][1] = "done"
-    if args.no_train:
-        from .bench import cli as bench_cli
-
-        steps.append(
-            [
-                "zero, baseline, mpc and oracle on the nominal-v1 and randomized-v1 suites",
-                "failed",
-                out / "bench",
-            ]
-        )
-        against = [a for c in REFERENCE_CONTROLLERS for a in ("--controller", c)]
-        suites = ["--suite", "nominal-v1", "--suite", "randomized-v1"]
-        code = bench_cli.main(
-            [*against, *suites, "--episodes", str(args.episodes), "--out-dir", str(out / "bench")]
-        )
-        steps[-1][1] = "done" if not code else f"exit code {code}"
-        where["table"] = out / "bench" / "table.txt"
-        return code
-    try:
-        train, evaluate = _plugin_command("train"), _plugin_command("eval")
-    except ImportError as e:
-        print(
-            f"cepam-gym run: training needs the [train] extra ({e}); `make run` installs it", file=sys.stderr
-        )
-        return 2
-    print(f"[3/3] train {args.config}, then score it beside {', '.join(REFERENCE_CONTROLLERS)}", flush=True)
-    run_dir = fresh_dir(out / "agent")
-    where["run_dir"] = run_dir
-    steps.append([f"train an agent ({args.config})", "failed", run_dir])
-    code = train(["--config", args.config, "--out", str(run_dir)])
-    steps[-1][1] = "done" if not code else f"exit code {code}"
-    if code:
-        return code
-    steps.append(
-        [
-            "score the agent beside zero, baseline, mpc and oracle (its version's suites)",
-            "failed",
-            run_dir / "eval",
-        ]
-    )
-    against = [a for c in REFERENCE_CONTROLLERS for a in ("--against", c)]
-    code = evaluate(["--run", str(run_dir), *against, "--episodes", str(args.episodes)])
-    steps[-1][1] = "done" if not code else f"exit code {code}"
-    where["table"] = run_dir / "eval" / "table.txt"
-    return code
-
-
-# scored beside the trained agent by the main job: the ends of the normalized score (zero, oracle)
-# and the two model-based controllers an agent must beat
-REFERENCE_CONTROLLERS = ("zero", "baseline", "mpc", "oracle")
-
-PLUGIN_GROUP = "cepam_gym.commands"  # commands of other packages: the training package's train, eval
+# commands of other packages, found by name: the training package's run (the main job, with its
+# default config and summary), train and eval
+PLUGIN_GROUP = "cepam_gym.commands"
+PLUGIN_COMMANDS = ("run", "train", "eval")
+PLUGIN_EXTRA = "pip install 'cepam-gym[train]'"  # what installs them and what they need
 
 
 def _plugin_command(name: str):
     """The ``main(argv)`` of the command ``name`` that an installed package declares in the
-    entry-point group :data:`PLUGIN_GROUP` (``train`` and ``eval`` come with the training package):
-    the command line reaches the training code by name, never by an import."""
+    entry-point group :data:`PLUGIN_GROUP` (``run``, ``train`` and ``eval`` come with the training
+    package): the command line reaches the training code by name, never by an import. An
+    ``ImportError`` names the extra to install."""
     from importlib.metadata import entry_points
 
     found = entry_points(group=PLUGIN_GROUP, name=name)
     if not found:
         raise ImportError(
-            f"no package provides the command {name!r} (entry-point group {PLUGIN_GROUP}); "
-            "pip install 'cepam-gym[train]'"
+            f"no package provides the command {name!r} (entry-point group {PLUGIN_GROUP}); {PLUGIN_EXTRA}"
         )
-    return next(iter(found)).load()
+    try:
+        return next(iter(found)).load()
+    except ImportError as e:
+        raise ImportError(f"the command {name!r} cannot be loaded ({e}); {PLUGIN_EXTRA}") from e
 
 
 def _rollout(argv: list[str]) -> int:
@@ -195,12 +75,10 @@ def _rollout(argv: list[str]) -> int:
 
 
 def _version() -> str:
-    from importlib import metadata
+    """The package's version: :data:`cepam_gym.__version__`, the one source pyproject.toml reads."""
+    from . import __version__
 
-    try:
-        return metadata.version("cepam-gym")
-    except metadata.PackageNotFoundError:  # a source tree on PYTHONPATH, not installed
-        return "unknown (not installed)"
+    return __version__
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -216,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _dispatch(argv: list[str]) -> int:
-    commands = {"run": _run, "rollout": _rollout}
+    commands = {"rollout": _rollout}
     lazy = {
         "demo": "cepam_gym.demo",
         "validate": "cepam_gym.validation.cli:validate_main",
@@ -227,7 +105,6 @@ def _dispatch(argv: list[str]) -> int:
         "identify": "cepam_gym.identify.cli:identify_main",
         "excite": "cepam_gym.identify.cli:excite_main",
     }
-    plugins = ("train", "eval")
     if not argv or argv[0] in ("-h", "--help"):
         print(
             "usage: cepam-gym [--version] {run,bench,dataset,train,eval,demo,validate,calibrate,identify,"
@@ -236,7 +113,7 @@ def _dispatch(argv: list[str]) -> int:
             "  dataset   record a Minari offline-RL dataset of a controller on a suite ([offline] extra)\n"
             "  train     train an agent from a YAML config (--config quick, or a file)\n"
             "  eval      score a trained agent beside the baseline (--run DIR)\n"
-            "  run       the main job on the default config\n"
+            "  run       the main job on its default config (declared by the training package)\n"
             "  demo      plant step response plot\n"
             "  validate  the paper's reported numbers beside the model's\n"
             "  calibrate fit unknown plant parameters to measured data (docs/calibration.md)\n"
@@ -256,7 +133,7 @@ def _dispatch(argv: list[str]) -> int:
 
         module, _, func = lazy[cmd].partition(":")
         return getattr(importlib.import_module(module), func or "main")(rest) or 0
-    if cmd in plugins:
+    if cmd in PLUGIN_COMMANDS:
         try:
             command = _plugin_command(cmd)
         except ImportError as e:

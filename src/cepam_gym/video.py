@@ -22,6 +22,7 @@ import numpy as np
 
 from .control import controller_names, make_controller
 from .errors import InputError
+from .versions import RECOMMENDED_ID
 
 JOINT_ID = "cepam_gym/CEPAMJoint-v0"
 
@@ -210,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--run", default=None, help="a trained agent's run directory (same as --controller DIR)")
     ap.add_argument(
-        "--env-id", default=None, help="default: a run's own env id (--run DIR), else cepam_gym/CEPAM-v0"
+        "--env-id", default=None, help=f"default: a run's own env id (--run DIR), else {RECOMMENDED_ID}"
     )
     ap.add_argument(
         "--out", default=None, help="FILE.mp4 or FILE.gif (default runs/video/<id>_<controller>.mp4)"
@@ -227,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.seconds > 0 or not args.fps > 0:
         ap.error("--seconds and --fps must be > 0")
     if args.env_id is None:
-        args.env_id = _run_env_id(Path(controller)) or "cepam_gym/CEPAM-v0"
+        args.env_id = _run_env_id(Path(controller)) or RECOMMENDED_ID
     if args.out is None:
         stem = args.env_id.split("/")[-1] + "_" + Path(controller).name
         out = Path("runs/video") / f"{stem}.mp4"

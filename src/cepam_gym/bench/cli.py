@@ -8,6 +8,7 @@ import re
 import sys
 from pathlib import Path
 
+from .. import versions
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
 from .metrics import normalized_score
@@ -53,16 +54,19 @@ def missing_ends(rows: list[dict]) -> list[tuple[str, str]]:
 
 
 def expand_version(name: str) -> list[str]:
-    """A version ``vN`` as the suites of its ids (names ending in ``-vN``), so one command
-    re-measures exactly one version's references after its plant changes; any other name as is."""
+    """A version ``vN`` as the suites of its ids (the version table, :mod:`cepam_gym.versions`), so
+    one command re-measures exactly one version's references after its plant changes; any other
+    name as is."""
     if re.fullmatch(r"v\d+", name):
-        return [s for s in SUITES if s.endswith(f"-{name}")] or [name]
+        n = int(name[1:])
+        return [s for s, suite in SUITES.items() if versions.get(suite.env_id).version == n] or [name]
     return [name]
 
 
 def _oracle_drives(suite: str) -> bool:
-    """Whether the oracle drives the suite's env (every batched env; not the MuJoCo joint)."""
-    return "CEPAMJoint-v0" not in SUITES[suite].env_id
+    """Whether the oracle drives the suite's env (the version table names its setting: every
+    batched env; not the MuJoCo joint)."""
+    return versions.get(SUITES[suite].env_id).oracle is not None
 
 
 def _run_into(rows: list, traces: dict, controller: str, suite: str, episodes: int | None) -> None:
@@ -77,6 +81,88 @@ def _run_into(rows: list, traces: dict, controller: str, suite: str, episodes: i
     traces[(suite, controller)] = tr
 
 
+def check_agents_fit(controllers: list[str], suites: list[str]) -> None:
+    """Build every trained agent on a one-env copy of each suite's env before any suite runs: an
+    agent that does not fit a suite (its observation shape, its action mode) is refused in one line
+    naming the suite, the env's observation shape and why, and the suites the agent fits."""
+    import warnings
+
+    import gymnasium as gym
+
+    from ..control import make_controller
+    from ..errors import InputError
+
+    agents = [c for c in controllers if c not in controller_names()]
+    misfits, fits = [], {c: [] for c in agents}
+    for s in suites if agents else ():
+        suite = SUITES[s]
+        venv = gym.make_vec(suite.env_id, num_envs=1, **suite.env_kwargs)
+        try:
+            for c in agents:
+                try:
+                    with warnings.catch_warnings():  # the loader's notes come once, in the run
+                        warnings.simplefilter("ignore")
+                        make_controller(c, venv)
+                except InputError as e:
+                    shape = venv.single_observation_space.shape
+                    misfits.append(f"{c} does not fit suite {s} ({suite.env_id}, observations {shape}): {e}")
+                else:
+                    fits[c].append(s)
+        finally:
+            venv.close()
+    if misfits:
+        more = f" (and {len(misfits) - 1} more suite/agent pairs)" if len(misfits) > 1 else ""
+        hint = "; ".join(
+            f"{c} fits {' '.join('--suite ' + s for s in ok) or 'none of them'}" for c, ok in fits.items()
+        )
+        raise InputError(f"{misfits[0]}{more}; {hint}")
+
+
+def _write(out: Path, rows: list[dict]) -> None:
+    """The table and every metric so far, rewritten as each suite finishes."""
+    from . import report
+
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "table.txt").write_text(report.table(rows) + "\n")
+    (out / "results.json").write_text(json.dumps(rows, indent=2))
+
+
+def _run_suites(args, controllers: list[str], suites: list[str], rows: list, traces: dict) -> None:
+    """Run the suites one after the other; each suite's results are kept as it finishes (written
+    to ``--out-dir``, or printed with ``--json`` if a later suite fails). A failing suite is named:
+    in one line for a user error, as a note on the traceback of anything else."""
+    from ..errors import InputError
+
+    out = Path(args.out_dir)
+    for s in suites:
+        try:
+            for c in controllers:
+                _run_into(rows, traces, c, s, args.episodes)
+        except Exception as e:
+            finished = [r for r in rows if r["suite"] != s]
+            add_normalized(finished)
+            if args.json:
+                for metrics in finished:
+                    print(json.dumps(metrics), flush=True)
+                kept = "printed above"
+            else:
+                _write(out, finished)
+                kept = f"in {out}/results.json"
+            done = sorted({r["suite"] for r in finished})
+            where = (
+                f"the finished suites' results ({', '.join(done)}) are {kept}"
+                if done
+                else "no suite finished"
+            )
+            if isinstance(e, InputError):
+                raise InputError(f"suite {s} failed: {e}; {where}") from e
+            e.add_note(f"cepam-gym bench: suite {s} failed; {where}")
+            raise
+        if not args.json:
+            add_normalized(rows)
+            _write(out, rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="cepam-gym bench", description=__doc__)
     ap.add_argument(
@@ -89,11 +175,16 @@ def main(argv: list[str] | None = None) -> int:
         "--suite",
         action="append",
         default=None,
-        help=f"one of {list(SUITES)}, 'all', or a version such as 'v2' (its suites: *-v2) (repeatable; "
+        help=f"one of {list(SUITES)}, 'all', or a version such as 'v2' (the suites of its ids) (repeatable; "
         "default all)",
     )
     ap.add_argument(
         "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
+    )
+    ap.add_argument(
+        "--env-id",
+        help="the env id the agents were trained on (e.g. for a bare SB3 model .zip): the suites "
+        "default to that id's suites",
     )
     ap.add_argument("--json", action="store_true", help="print one JSON object per suite and controller")
     ap.add_argument("--out-dir", default="runs/bench", help="where the table and plots go (without --json)")
@@ -112,6 +203,11 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     controllers = args.controller or ["baseline"]
     suites = args.suite or ["all"]
+    if args.env_id is not None and not args.suite:
+        suites = [s for s in SUITES if SUITES[s].env_id == args.env_id]
+        if not suites:
+            ids = sorted({v.env_id for v in SUITES.values()})
+            ap.error(f"--env-id {args.env_id}: no suite runs it; suites run {ids}")
     if "all" in suites:  # every suite whose extra is installed (the joint suite needs mujoco)
         suites = [s for s in SUITES if available(s)]
     suites = list(dict.fromkeys(n for s in suites for n in expand_version(s)))
@@ -140,11 +236,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     for c in controllers:
         check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
+    check_agents_fit(controllers, suites)
 
     rows, traces = [], {}
-    for s in suites:
-        for c in controllers:
-            _run_into(rows, traces, c, s, args.episodes)
+    _run_suites(args, controllers, suites, rows, traces)
     # a normalized score needs both ends measured on these episodes: run the missing ones, or say so
     missing = missing_ends(rows)
     for s in dict.fromkeys(s for s, _ in missing):
@@ -168,11 +263,8 @@ def main(argv: list[str] | None = None) -> int:
     from . import report
 
     out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    text = report.table(rows)
-    print(text)
-    (out / "table.txt").write_text(text + "\n")
-    (out / "results.json").write_text(json.dumps(rows, indent=2))
+    _write(out, rows)
+    print(report.table(rows))
     for (s, c), tr in traces.items():
         name = f"traces_{s}_{Path(c).name}.png"
         report.plot_traces(tr, f"{c} on {s} (episode 0)", out / name, spec=SUITES[s].traces)

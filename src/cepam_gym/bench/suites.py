@@ -6,6 +6,7 @@ import copy
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ..errors import InputError
 from .metrics import JOINT, JOINT_V1, RIG, RIG_V1, TraceSpec
 
 # Plausible spread of a hand-made CE-PAM and its rig around the nominal (default, calibrated)
@@ -235,6 +236,33 @@ _SUITES_V2 = tuple(
     )
 )
 SUITES: dict[str, Suite] = {s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2)}
+
+
+def headline_suites(env_id: str) -> list[str]:
+    """The headline suites of a registered id (the version table's, :mod:`cepam_gym.versions`):
+    what an agent trained on it is scored on by default. ``ValueError`` for an id that is not
+    cepam_gym's or that no suite measures."""
+    from .. import versions
+
+    row = versions.get(env_id)
+    if not row.suites:
+        with_suites = [
+            k for k, v in versions.VERSIONS.items() if v.suites and v.observation == row.observation
+        ]
+        raise InputError(
+            f"{env_id} has no benchmark suite (its observation is its own); name suites yourself, or "
+            f"train on an id that has them: {with_suites}"
+        )
+    return list(row.suites)
+
+
+def version_suites(env_id: str) -> list[str]:
+    """Every suite an agent trained on ``env_id`` can be scored on: those of the ids of its version
+    and mechanism with the same observation (:func:`cepam_gym.versions.same_observation`)."""
+    from .. import versions
+
+    ids = set(versions.same_observation(env_id))
+    return [name for name, s in SUITES.items() if s.env_id in ids]
 
 
 def trace_spec_for(env_id: str) -> TraceSpec:

@@ -5,8 +5,11 @@ The combined score of a suite (lower is better, :func:`cepam_gym.bench.metrics.s
 + FAILURE_WEIGHT * failure rate``, the stiffness term only where the task tracks stiffness, the
 RMSEs over the steps :func:`tracking_mask` keeps (alive, and, on the v1 suites, not within the
 settling allowance after a jump of the target). The planner of the model-based controllers
-(:mod:`cepam_gym.control.planner`) minimises the squared form of the same trade on the same steps,
-from this module, so the two cannot drift apart.
+(:mod:`cepam_gym.control.planner`) minimises the squared form of the same trade on the same steps
+(:func:`step_error_sq`, called by the compiled rollouts), from this module, so the two cannot drift
+apart. The trade itself (the errors that score 1, the failure weight) and the info keys each trace
+column reads are each task's contract (:mod:`cepam_gym.tasks.contract`), which also states how the
+env's reward relates to it.
 
 This module sits in ``control`` (below ``bench`` in the import layers) because both use it;
 :mod:`cepam_gym.bench.metrics` re-exports its names.
@@ -19,22 +22,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-STIFFNESS_NORM = 0.2  # a relative stiffness error of 20 % scores 1 ...
-FAILURE_WEIGHT = 2.0  # ... and a failed (burst) episode scores 2
+from .._jit import jit_inline
+from ..tasks.contract import JOINT as _JOINT
+from ..tasks.contract import RIG as _RIG
+
+STIFFNESS_NORM = _RIG.trade.stiffness_norm  # a relative stiffness error of 20 % scores 1 ...
+FAILURE_WEIGHT = _RIG.trade.failure_weight  # ... and a failed (burst) episode scores 2
+assert (_JOINT.trade.stiffness_norm, _JOINT.trade.failure_weight) == (STIFFNESS_NORM, FAILURE_WEIGHT)
 LENGTH_BAND = 1e-3  # m: "settled" means within 1 mm ...
 STIFFNESS_BAND = 0.05  # ... and within 5 % of the stiffness target
 MIN_STEP = 2e-3  # m: overshoot is measured on target changes of at least 2 mm
-
-_TRACE_COLUMNS = (
-    "length",
-    "target_length",
-    "stiffness",
-    "target_stiffness",
-    "pressure_c",
-    "pressure_e",
-    "load_mass",
-    "air_used",
-)
 
 
 @dataclass(frozen=True)
@@ -45,13 +42,13 @@ class TraceSpec:
     ``length`` column to ``unit``, and the metric is named ``f"{quantity}_rmse_{unit}"``;
     ``band`` and ``min_step`` are SI; ``score_norm`` (in ``unit``) is the error that scores 1."""
 
-    quantity: str = "length"
-    unit: str = "mm"
-    scale: float = 1000.0
+    quantity: str = _RIG.position
+    unit: str = _RIG.trade.unit
+    scale: float = _RIG.trade.scale
     band: float = LENGTH_BAND
     min_step: float = MIN_STEP
-    score_norm: float = 5.0
-    info_keys: dict[str, str] = field(default_factory=lambda: {k: k for k in _TRACE_COLUMNS})
+    score_norm: float = _RIG.trade.score_norm
+    info_keys: dict[str, str] = field(default_factory=lambda: dict(_RIG.score_keys))
     # plots: (label, unit, scale from SI) of the tracked quantity, the stiffness and the load
     plot_quantity: tuple[str, str, float] = ("length", "cm", 100.0)
     plot_stiffness: tuple[str, str, float] = ("stiffness", "N/m", 1.0)
@@ -75,22 +72,13 @@ RIG = TraceSpec()
 # the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
 RIG_V1 = TraceSpec(allowance_s=0.5)
 JOINT = TraceSpec(
-    quantity="angle",
-    unit="deg",
-    scale=180.0 / np.pi,
+    quantity=_JOINT.position,
+    unit=_JOINT.trade.unit,
+    scale=_JOINT.trade.scale,
     band=np.deg2rad(2.0),
     min_step=np.deg2rad(5.0),
-    score_norm=10.0,
-    info_keys={
-        "length": "angle",
-        "target_length": "target_angle",
-        "stiffness": "joint_stiffness",
-        "target_stiffness": "target_stiffness",
-        "pressure_c": "pressure_c",
-        "pressure_e": "pressure_e",
-        "load_mass": "external_torque",
-        "air_used": "air_used",
-    },
+    score_norm=_JOINT.trade.score_norm,
+    info_keys=dict(_JOINT.score_keys),
     plot_quantity=("angle", "deg", 180.0 / np.pi),
     plot_stiffness=("joint stiffness", "N m/rad", 1.0),
     plot_load=("external torque", "mN m", 1000.0),
@@ -99,14 +87,32 @@ JOINT = TraceSpec(
 JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
 
 
+def version_of_core(core):
+    """The row of the version table (:mod:`cepam_gym.versions`) whose env ``core`` (a
+    ``CEPAMBatch``) runs, read from the task and plant it was built with (a plant given as the
+    parameters of a preset counts as that preset); None for a task or plant of one's own."""
+    from .. import versions
+    from ..plant.params import PlantParams, preset
+
+    args = getattr(core, "_init_args", {})
+    plant = args.get("plant")
+    if isinstance(plant, PlantParams):
+        plant = next((name for name in versions.PLANT_PRESETS.values() if preset(name) == plant), plant)
+    return versions.of_kwargs(args.get("task"), plant)
+
+
 def spec_of_core(core) -> TraceSpec:
-    """How the benchmark scores the envs of ``core`` (a ``CEPAMBatch``): the joint's spec on a
-    hinge, the rig's otherwise; with the v1 settling allowance where the env announces its
-    reference (``preview_steps > 0``: every v1 id), as the suites of :mod:`cepam_gym.bench.suites`."""
+    """How the benchmark scores the envs of ``core`` (a ``CEPAMBatch``), as the suites of
+    :mod:`cepam_gym.bench.suites` do: the joint's spec on a hinge, the rig's otherwise; with the
+    settling allowance on the planned-reference tasks (task version 1 in the version table,
+    :mod:`cepam_gym.versions`: every v1 and v2 id). A task of one's own (a Task object) is scored
+    on every step, as the v0 tasks."""
     from .. import plant as pl
+    from .. import versions
 
     joint = getattr(core, "mech", pl.RIG) == pl.HINGE
-    if getattr(core, "preview_steps", 0) > 0:
+    task = getattr(core, "_init_args", {}).get("task")
+    if (versions.task_version(task) or 0) >= 1:
         return JOINT_V1 if joint else RIG_V1
     return JOINT if joint else RIG
 
@@ -118,6 +124,20 @@ def combined_score(position_rmse_si, stiffness_rmse_rel, failure_rate, spec: Tra
     if stiffness_rmse_rel is not None:
         score = score + np.asarray(stiffness_rmse_rel) / STIFFNESS_NORM
     return float(score) if np.ndim(score) == 0 else score
+
+
+@jit_inline
+def step_error_sq(x, x_target, K, K_target, w, track_stiffness, position_norm, stiffness_norm):
+    """The squared form of the score's error at one step, weighted ``w`` (0 on the steps the score
+    leaves out): ``w ((x - x*) / x_norm)^2 + w ((K - K*) / (stiffness_norm K*))^2``, the stiffness
+    part only where the task tracks stiffness. What the planners' rollouts
+    (:func:`cepam_gym.control.rollout.rollout_cost`) accumulate."""
+    e = (x - x_target) / position_norm
+    c = w * e * e
+    if track_stiffness:
+        ek = (K - K_target) / (stiffness_norm * K_target)
+        c += w * ek * ek
+    return c
 
 
 def jumps(target_l: np.ndarray, target_k: np.ndarray, track_stiffness: bool, spec: TraceSpec) -> np.ndarray:

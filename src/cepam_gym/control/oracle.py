@@ -28,7 +28,7 @@ from .. import plant as pl
 from ..physics import layout as ix
 from ..tasks import kernel as tk
 from .baseline import UnsupportedEnvError, find_core
-from .objective import scored_steps, spec_of_core
+from .objective import scored_steps, spec_of_core, version_of_core
 from .planner import CEMConfig, planner_for
 
 # 0.1 s of look-ahead refined over 20 iterations: at a fixed cost, a short horizon searched well
@@ -51,7 +51,7 @@ JOINT_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10, itera
 
 # the v0 suites score every step, the transients after unannounced jumps included: looking 0.2 s
 # ahead lets the oracle start before a jump (nominal, 4 episodes: 0.660 against 0.748 at 0.1 s and
-# 0.667 for the CEM oracle before issue 22)
+# 0.667 for a cross-entropy oracle without iCEM's refinements)
 V0_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10)
 # plant v2 (the v2 rig ids): 0.1 s was not enough on one randomized-v2 episode of four (0.11
 # against 0.0075 at 0.2 s; more iterations at 0.1 s did not help), 0.16 s is the shortest tried
@@ -60,24 +60,27 @@ V0_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=10)
 V2_ORACLE_CONFIG = dataclasses.replace(ORACLE_CONFIG, horizon_steps=8, iterations=40)
 
 
-def _plant_v2(core) -> bool:
-    """Whether the env's nominal plant has plant v2's terms (contact-area friction, the slack
-    contractor's seal): the v2 ids' preset balloon_v2, or a user's plant built like it."""
-    nominal = getattr(core, "nominal", None)
-    return nominal is not None and (
-        nominal.friction_law == "contact_area" or nominal.collapse_seal_diameter > 0.0
-    )
+# the shipped settings by the name the version table gives each id (cepam_gym.versions: its
+# ``oracle`` column)
+ORACLE_CONFIGS: dict[str, CEMConfig] = {
+    "v0": V0_ORACLE_CONFIG,
+    "v1": ORACLE_CONFIG,
+    "v2": V2_ORACLE_CONFIG,
+    "joint": JOINT_ORACLE_CONFIG,
+}
 
 
 def oracle_config(core) -> CEMConfig:
-    """The shipped search settings for the envs of ``core``: the hinge's, the rig's on a suite
-    with a settling allowance (v1; on plant v2 its own), or the rig's where every step is scored
-    (v0)."""
+    """The shipped search settings for the envs of ``core``: those the version table names for
+    the id it runs (:mod:`cepam_gym.versions`). With a task or plant of one's own: the hinge's on
+    a hinge, else the rig's for how the task is scored (every step: v0's; with a settling
+    allowance: v1's); ``config=`` chooses others."""
+    row = version_of_core(core)
+    if row is not None and row.oracle is not None:
+        return ORACLE_CONFIGS[row.oracle]
     if core.mech == pl.HINGE:
         return JOINT_ORACLE_CONFIG
-    if spec_of_core(core).allowance_s <= 0:
-        return V0_ORACLE_CONFIG
-    return V2_ORACLE_CONFIG if _plant_v2(core) else ORACLE_CONFIG
+    return V0_ORACLE_CONFIG if spec_of_core(core).allowance_s <= 0 else ORACLE_CONFIG
 
 
 class OracleController:

@@ -20,13 +20,12 @@ Three kinds of names:
 from __future__ import annotations
 
 import importlib
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
+from .. import versions
 from ..errors import InputError
-from ..registration import JOINT_ENV_IDS, MUJOCO_ENV_IDS
 
 AGENT_LOADERS_GROUP = "cepam_gym.controllers"
 DEFAULT_AGENT_LOADER = "agent"
@@ -53,9 +52,13 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}
-# the joint env's classes, as Gymnasium entry points: one list of where they live
-_JOINT_ENV_CLASSES = tuple(MUJOCO_ENV_IDS.values()) + tuple(
-    entry for single, vector, _kwargs in JOINT_ENV_IDS.values() for entry in (single, vector)
+# the joint env's classes, as the version table's entry points of the hinge ids ("module:Class")
+_JOINT_ENV_CLASSES = frozenset(
+    entry
+    for row in versions.VERSIONS.values()
+    if row.mechanism == "hinge"
+    for entry in (row.entry_point, row.vector_entry_point)
+    if entry is not None
 )
 
 
@@ -113,15 +116,13 @@ def load_factory(target: str | Callable[..., Any]) -> Callable[..., Any]:
 
 def is_joint_env(env) -> bool:
     """Whether ``env`` (single, wrapped, Gymnasium vector or SB3 vector) runs the joint (v0 in
-    MuJoCo or v1 on the batched kernel).
-    Never imports MuJoCo: a joint env exists only once its module has been imported."""
-    classes = []
-    for target in _JOINT_ENV_CLASSES:
-        module, _, attr = target.partition(":")
-        mod = sys.modules.get(module)
-        if mod is not None and hasattr(mod, attr):
-            classes.append(getattr(mod, attr))
-    return bool(classes) and any(isinstance(layer, tuple(classes)) for layer in _layers(env))
+    MuJoCo or v1/v2 on the batched kernel): one of its layers is an instance of a class the
+    version table names as a hinge id's entry point (a subclass counts). Imports nothing."""
+    return any(
+        f"{cls.__module__}:{cls.__qualname__}" in _JOINT_ENV_CLASSES
+        for layer in _layers(env)
+        for cls in type(layer).__mro__
+    )
 
 
 def _layers(env, depth: int = 16):

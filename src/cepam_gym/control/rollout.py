@@ -18,6 +18,7 @@ from numba import njit, prange
 
 from .. import plant as pl
 from ..plant.actions import plant_inputs
+from .objective import step_error_sq
 
 # parallel over blocks of plants (the envs' kernels do the same; NUMBA_NUM_THREADS caps it)
 _pjit = njit(cache=True, error_model="numpy", parallel=True)
@@ -71,12 +72,16 @@ def rollout_cost(
                 pl.advance_block(x, inputs, p, 0, n, mode, dt, n_sub, x, aux, W)
             for i in range(n):
                 r = lo + i
-                w = weight[r, t]
-                e = (x[i, pl.S_L] - target_l[r, t]) / length_norm
-                c = w * e * e
-                if track_stiffness:
-                    ek = (aux[i, pl.A_STIFF] - target_k[r, t]) / (stiffness_norm * target_k[r, t])
-                    c += w * ek * ek
+                c = step_error_sq(
+                    x[i, pl.S_L],
+                    target_l[r, t],
+                    aux[i, pl.A_STIFF],
+                    target_k[r, t],
+                    weight[r, t],
+                    track_stiffness,
+                    length_norm,
+                    stiffness_norm,
+                )
                 a0, a1 = actions[r, t, 0], actions[r, t, 1]
                 c += burst_cost * aux[i, pl.A_BURST] + effort_weight * (a0 * a0 + a1 * a1)
                 cost[r] += c

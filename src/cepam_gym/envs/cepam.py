@@ -48,7 +48,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         **kwargs: Any,
     ):
         EzPickle.__init__(self, task=task, render_mode=render_mode, renderer=renderer, **kwargs)
-        check_kwargs(kwargs, ENV_KWARGS)
+        check_kwargs(kwargs, ENV_KWARGS, type(self).__name__)
         self.core = CEPAMBatch(1, task=self.default_task if task is None else task, **kwargs)
         self.renderer = check_renderer(self.core, renderer)
         if self.renderer == "mujoco":

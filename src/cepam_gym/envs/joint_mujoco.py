@@ -12,6 +12,7 @@ termination, action mapping and observation machinery as the rig envs. Frames:
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping
 from dataclasses import astuple
@@ -23,13 +24,14 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
 from .. import plant as pl
-from ..errors import InputError
+from ..errors import InputError, UnexpectedKwargError
 from ..mujoco._mj import require_mujoco
 from ..mujoco.joint_sim import JointSimulator
 from ..mujoco.joint_view import JointView
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode, valve_commands
 from ..tasks import kernel as tk
+from ..tasks.contract import JOINT
 from ..tasks.joint import (
     JointGeometry,
     JointRewardWeights,
@@ -39,7 +41,7 @@ from ..tasks.joint import (
     joint_schedules,
 )
 from ..tasks.randomization import MAX_REDRAWS, sample_params
-from ..tasks.spec import TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
+from ..tasks.spec import TERMINATION_NAMES, TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
 from .checks import (
     as_actions,
     check_randomize,
@@ -49,106 +51,16 @@ from .checks import (
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 
-REWARD_TERMS = ("angle", "stiffness", "effort", "air", "burst")  # tasks.kernel.reward_terms, in order
-_TERM_KEYS = tuple(f"reward_{t}" for t in REWARD_TERMS)
+REWARD_TERMS = JOINT.reward_terms  # tasks.kernel.reward_terms, in order
+_TERM_KEYS = JOINT.term_keys
 
 
 _DOC = """
 
-    ## Description
-
-    A 1-DOF hinge, the elbow (or wrist) of a small wearable or rehabilitation device, simulated in
-    MuJoCo and driven by one CE-PAM through a rack and pinion of radius ``r`` (2.5 cm): the muscle
-    length is ``L = L_max - r theta``, so the muscle's 15-19.5 cm span is a 0-1.8 rad flexion range.
-    The forearm (0.15 kg, centre of mass 7 cm from the axis) hangs under gravity and an external
-    extension torque changes over the episode (steps, ramps, sines, random). Task: hold a target
-    joint angle AND a target joint stiffness ``K_joint = K r^2`` (the muscle's stiffness at
-    constant pressures through the pinion), both changing every 2-4 s. Same plant, same action
-    modes and the same reward structure as ``cepam_gym/CEPAM-v0``; the plant's valves and air run in
-    :mod:`cepam_gym.plant`, the hinge in MuJoCo, coupled every 0.5 ms sub-step
-    (docs/mujoco.md explains the mechanism and the coupling). Needs ``pip install 'cepam-gym[mujoco]'``.
-
-    ## Action space
-
-    ``Box(-1, 1, (2,), float32)``: one command per chamber ``[CPAM, annulus]``. Out-of-range values
-    are clipped; NaN, inf or a wrong shape raise ``ValueError``.
-
-    | action_mode | meaning of a command |
-    |---|---|
-    | ``"valve"`` (default) | proportional valve spool set-point: -1 exhaust, 0 closed, +1 supply |
-    | ``"pwm"`` | duty of two on/off solenoid valves (sign: supply or exhaust) |
-    | ``"pressure"`` | gauge pressure set-point, -1 -> 0 kPa, +1 -> min(supply, burst), internal regulator |
-
-    ## Observation space
-
-    ``Box(-10, 10, (9,), float32)``: what a device measures, scaled to about unit range; the
-    columns are named in ``env.obs_layout`` (:func:`~cepam_gym.tasks.joint.joint_layout`,
-    ``obs_layout.decode(obs)`` gives them in SI units).
-
-    | # | observation | scaling |
-    |---|---|---|
-    | 0 | joint angle theta | (theta - theta_max/2) / (theta_max/2), theta_max = 1.8 rad |
-    | 1 | angular velocity | / 5 rad/s |
-    | 2 | Pc (gauge) | / supply |
-    | 3 | Pe (gauge) | / supply |
-    | 4 | supply pressure (gauge) | / nominal supply |
-    | 5 | target angle | as 0 |
-    | 6 | target joint stiffness | / 1 N m/rad |
-    | 7-8 | previous action | as is |
-
-    ``info`` (SI): ``angle``, ``angular_velocity``, ``muscle_length``, ``muscle_force`` (push
-    positive), ``muscle_torque`` (flexion positive), ``stiffness`` (muscle, N/m),
-    ``joint_stiffness`` (``K r^2``), ``joint_stiffness_total`` (+ gravity ``m g l_c cos theta``),
-    ``pressure_c``, ``pressure_e``, ``air_used``, ``external_torque``, ``target_angle``,
-    ``target_stiffness``, ``redraws`` (randomized plants rejected at this episode's reset), after a
-    step the reward terms and ``termination_reason``.
-
-    ## Rewards
-
-    ``reward = sum of terms``, each reported signed in ``info["reward_<term>"]``; the rig envs'
-    terms (:func:`cepam_gym.tasks.kernel.reward_terms`) with angle for length:
-
-    | term | value | weight kwarg (default) |
-    |---|---|---|
-    | angle | ``-w |theta - theta*| / 10 deg`` (clipped at 5) | ``angle`` (1.0) |
-    | stiffness | ``-w |K_joint - K*| / K*`` (clipped at 2) | ``stiffness`` (5.0: 20 % weighs like 10 deg, as in the benchmark score) |
-    | effort | ``-w mean(a^2)`` | ``effort`` (0.05) |
-    | air | ``-w (supply air this step) / 10 mg`` | ``air`` (0.05) |
-    | burst | ``-w`` once when a chamber exceeds the burst pressure | ``burst`` (100) |
-
-    ## Starting state
-
-    At rest at a reachable (angle, stiffness) drawn like the targets, with the chamber pressures
-    of the inverse static model for the first external torque.
-
-    ## Episode end
-
-    Truncated after ``max_episode_steps`` (500 = 10 s at 50 Hz). Terminated only on physical
-    failure: ``info["termination_reason"]`` is an integer code (0 while running) named by
-    ``metadata["termination_reasons"]``: 1 ``"burst"``, 2 ``"non_finite_state"``.
-
-    ## Arguments
-
-    | kwarg | default | meaning |
-    |---|---|---|
-    | ``plant`` | ``None`` (balloon preset) | PlantParams, preset name, YAML path, or dict of unit-named keys |
-    | ``action_mode`` | ``"valve"`` | see above |
-    | ``control_dt``, ``sub_dt`` | 0.02, 5e-4 | seconds; ``sub_dt`` is also MuJoCo's time step |
-    | ``episode_seconds`` | 10.0 | length of the target and torque schedule |
-    | ``joint`` | ``{}`` | override :class:`JointGeometry`: ``lever_arm``, ``link_length``, ``link_mass``, ``link_com`` [m, kg], ``joint_damping`` [N m s/rad] |
-    | ``task_options`` | ``{}`` | override :class:`JointTask`: ``angle_range`` [rad], ``stiffness_range`` [N m/rad], ``torque_range`` [N m], ``load_kinds``, ``segment_duration`` [s], ``pressure_margin`` |
-    | ``reward_weights`` | ``{}`` | override any weight above |
-    | ``randomize`` | ``None`` | ``{plant key: [low, high]}`` in the key's units, sampled per episode |
-    | ``render_mode`` | ``None`` | ``"rgb_array"`` or ``"human"`` (MuJoCo, headless with ``MUJOCO_GL=egl``) |
-    | ``width``, ``height`` | 480, 480 | frame size |
-
-    ``reset(options=...)``: ``target_angle`` [rad], ``target_stiffness`` [N m/rad] and
-    ``external_torque`` [N m] pin the value for the whole episode; ``initial_angle`` [rad] and
-    ``initial_stiffness`` [N m/rad] choose the starting point (no reachability check).
-
-    ## Version history
-
-    * v0: initial release.
+    The spec sheet of each joint id (action and observation tables with units, reward terms,
+    starting state, episode end, arguments, version history) is generated from the code into the
+    documentation: ``docs/envs/<id>.md`` on the site (``make docs``); the mechanism and the
+    coupling: docs/mujoco.md.
 """
 
 
@@ -157,8 +69,9 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     metadata = {
         "render_modes": ["rgb_array", "human"],
         "render_fps": 50,
-        "termination_reasons": ("none", "burst", "non_finite_state"),
+        "termination_reasons": TERMINATION_NAMES,
     }
+    contract = JOINT  # names of its reward terms, info keys, reset options; what the score reads
 
     def __init__(
         self,
@@ -174,7 +87,11 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
+        **unknown: Any,
     ):
+        if unknown:  # Python's TypeError wording, and the valid names, in one line
+            valid = sorted(inspect.signature(CEPAMJointEnv.__init__).parameters.keys() - {"self", "unknown"})
+            raise UnexpectedKwargError.naming(type(self).__name__, sorted(unknown), valid)
         EzPickle.__init__(
             self,
             plant=plant,

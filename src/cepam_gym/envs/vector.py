@@ -116,7 +116,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self.autoreset_mode = _autoreset_mode(autoreset_mode)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self._mujoco = None
-        check_kwargs(kwargs, ENV_KWARGS + VECTOR_KWARGS)
+        check_kwargs(kwargs, ENV_KWARGS + VECTOR_KWARGS, type(self).__name__)
         self.core = CEPAMBatch(num_envs, task=self.default_task if task is None else task, **kwargs)
         self.renderer = check_renderer(self.core, renderer)
         if self.renderer == "mujoco":
@@ -124,7 +124,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
 
             require_mujoco()
         expose(self, self.core)
-        self._term_keys = tuple(f"reward_{t}" for t in self.core.task.reward_terms)
+        self._term_keys = self.core.task.contract.term_keys
         self.num_envs = self.core.num_envs
         if max_episode_steps is not None and (
             int(max_episode_steps) != max_episode_steps or max_episode_steps < 1

@@ -17,6 +17,7 @@ except ImportError as e:  # pragma: no cover - exercised only without the extra
 
 from ..envs.cepam import CEPAMVectorEnv
 from ..errors import InputError
+from ..versions import RECOMMENDED_ID
 
 
 class SB3VecEnv(VecEnv):
@@ -101,7 +102,7 @@ class SB3VecEnv(VecEnv):
 
 
 def make_sb3_vec_env(
-    env_id: str = "cepam_gym/CEPAM-v0",
+    env_id: str = RECOMMENDED_ID,
     num_envs: int = 8,
     seed: int | None = None,
     monitor: bool = True,

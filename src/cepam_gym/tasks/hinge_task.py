@@ -14,9 +14,8 @@ import numpy as np
 from .. import plant as pl
 from ..physics import layout as ix
 from . import kernel as tk
+from .contract import JOINT
 from .joint import (
-    INIT_KEYS,
-    PIN_KEYS,
     JointGeometry,
     JointRewardWeights,
     JointTask,
@@ -33,25 +32,9 @@ from .task import Task
 # v1: planned references (smooth moves, the paper's two profiles), as the rig's v1 tasks
 V1_REFERENCES = ("min_jerk", "sine", "chirp", "stiffness_ramp")
 JOINT_TASKS = {"joint": JointTask(), "joint_v1": JointTask(references=V1_REFERENCES)}
-REWARD_TERMS = ("angle", "stiffness", "effort", "air", "burst")  # tasks.kernel.reward_terms, in order
-TERM_KEYS = tuple(f"reward_{t}" for t in REWARD_TERMS)
-INFO_KEYS = (
-    "angle",
-    "angular_velocity",
-    "muscle_length",
-    "muscle_force",
-    "muscle_torque",
-    "stiffness",
-    "joint_stiffness",
-    "joint_stiffness_total",
-    "pressure_c",
-    "pressure_e",
-    "air_used",
-    "external_torque",
-    "target_angle",
-    "target_stiffness",
-    "redraws",
-)
+REWARD_TERMS = JOINT.reward_terms  # tasks.kernel.reward_terms, in order
+TERM_KEYS = JOINT.term_keys
+INFO_KEYS = JOINT.info_keys
 
 
 class HingeTask(Task):
@@ -59,8 +42,9 @@ class HingeTask(Task):
     ``weights`` (reward weights), the preview count."""
 
     mech = pl.HINGE
+    contract = JOINT
     reward_terms = REWARD_TERMS
-    pin_keys = PIN_KEYS + INIT_KEYS
+    pin_keys = JOINT.pin_keys
     renderers = ("mujoco",)
     track_stiffness = True
 

@@ -11,6 +11,7 @@ import numpy as np
 from .. import plant as pl
 from ..errors import InputError
 from . import kernel as tk
+from .contract import RIG
 from .layout import rig_layout
 from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
@@ -31,14 +32,15 @@ _AUX_NAMES = (
     "air_used",
 )
 INFO_KEYS = ("length", "velocity", *_AUX_NAMES, "load_mass", "target_length", "target_stiffness")
+assert (*INFO_KEYS, "redraws") == RIG.info_keys  # the contract's, read off these columns
 _AUX_INFO = dict(zip(_AUX_NAMES, AUX_INFO))
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _AUX_COLS = np.array(list(_AUX_INFO.values()))
 _STATE_COLS = np.array([pl.S_L, pl.S_V])
-TERM_KEYS = tuple(f"reward_{name}" for name in tk.REWARD_TERMS)
+TERM_KEYS = RIG.term_keys
 # keys of a step's info in the order of the single env's info row (tasks.single.SingleExtras)
-_STEP_KEYS = ("length", "velocity", *_AUX_INFO, "load_mass", "target_length", "target_stiffness", *TERM_KEYS)
-assert len(_STEP_KEYS) == N_INFO and set(INFO_KEYS) <= set(_STEP_KEYS)
+_STEP_KEYS = (*INFO_KEYS, *TERM_KEYS)
+assert len(_STEP_KEYS) == N_INFO
 
 
 class RigTask(Task):
@@ -46,8 +48,9 @@ class RigTask(Task):
     and scales) with its preview count."""
 
     mech = pl.RIG
-    reward_terms = tk.REWARD_TERMS
-    pin_keys = ("target_length", "target_stiffness", "load_mass")
+    contract = RIG
+    reward_terms = RIG.reward_terms
+    pin_keys = RIG.pin_keys
     renderers = ("numpy", "mujoco")
     step_keys = _STEP_KEYS
 

@@ -12,9 +12,11 @@ from ..errors import InputError
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
 REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # tasks.references
 
-# termination reasons: integer codes (what the step kernels return) and their names (info)
+# termination reasons: integer codes (what the step kernels return) and their names, index = code
+# (every env's ``metadata["termination_reasons"]``; tasks.contract hands them to each task)
 TERMINATION_NONE, TERMINATION_BURST, TERMINATION_NONFINITE = 0, 1, 2
-TERMINATION_REASONS = ("", "burst", "non_finite_state")
+TERMINATION_NAMES = ("none", "burst", "non_finite_state")
+TERMINATION_REASONS = TERMINATION_NAMES
 
 
 def check_kwargs(cls, given, what: str, noun: str = "keys", exclude=()) -> dict:
@@ -53,11 +55,13 @@ class TaskScales:
 
 @dataclass(frozen=True)
 class RewardWeights:
-    """Weights of the reward terms (each term is reported, signed, in ``info``)."""
+    """Weights of the rig's reward terms: the fields are the terms, in the kernel's slot order
+    (:data:`cepam_gym.tasks.contract.RIG`), each reported signed as ``info["reward_<term>"]``."""
 
     length: float = 1.0  # per cm of |L - L*|
     # per unit relative stiffness error |K - K*| / K*: 2.5 makes 20 % cost what 5 mm costs, the
-    # trade of the benchmark score (cepam_gym.bench.metrics), so the reward ranks as the score does
+    # trade of the benchmark score (tasks.contract.RIG.trade; TaskContract.score_factor states the
+    # relation and tests/test_contract.py holds it)
     stiffness: float = 2.5
     effort: float = 0.05  # per unit mean squared action
     air: float = 0.05  # per 10 mg of air drawn from the supply in one control step

@@ -13,11 +13,11 @@ from __future__ import annotations
 from .. import plant as pl
 from ..physics import layout as ix
 from ..physics.hinge import N_HINGE
+from .contract import RIG
 from .records import Field, record
 
-# the reward terms, in the order of the ``terms`` columns; the first tracks the mechanism's
-# position (the joint env names it "angle")
-REWARD_TERMS = ("length", "stiffness", "effort", "air", "burst")
+# the names of the ``terms`` columns, the rig's (tasks.contract; the joint names the first "angle")
+REWARD_TERMS = RIG.reward_terms
 N_TERMS = len(REWARD_TERMS)
 # noise columns: length [m], velocity [m/s], pressure_c, pressure_e, supply [Pa]
 N_NOISE = 5

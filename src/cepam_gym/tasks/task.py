@@ -9,7 +9,9 @@ A :class:`Task` owns the rest:
   step reads them (:class:`~cepam_gym.tasks.task_params.TaskParams`);
 * its plant checks (which randomized plants can run it) and its reference planning;
 * where an episode starts, what ``reset(options=...)`` pins, and the ``info`` it reports;
-* its reward-term names (the kernel computes the terms, :mod:`cepam_gym.tasks.kernel`).
+* its contract (:mod:`cepam_gym.tasks.contract`): reward-term names and weights, info keys,
+  termination names, reset options, what the score reads (the kernel computes the terms,
+  :mod:`cepam_gym.tasks.kernel`).
 
 Two tasks exist: :class:`~cepam_gym.tasks.rig_task.RigTask` (the paper's vertical rig) and
 :class:`~cepam_gym.tasks.hinge_task.HingeTask` (a joint driven through a rack and pinion).
@@ -54,8 +56,9 @@ class Task:
     name: str
     preview_steps: int
     track_stiffness: bool
-    reward_terms: tuple[str, ...]  # in tasks.kernel order
-    pin_keys: tuple[str, ...]  # reset(options=...) keys
+    contract: Any  # its tasks.contract.TaskContract: names of terms, info, options, what the score reads
+    reward_terms: tuple[str, ...]  # in tasks.kernel order (the contract's)
+    pin_keys: tuple[str, ...]  # reset(options=...) keys (the contract's)
     renderers: tuple[str, ...]  # the first is the default
     spec: Any  # the task's frozen parameters (a TaskSpec or a JointTask)
 

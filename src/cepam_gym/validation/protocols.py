@@ -50,7 +50,7 @@ class Protocol:
 
     ramp_s: float = 1.0  # each regulator ramps to its set-point over this time
     settle_s: float = 3.0  # then holds it this long before the next action
-    hang_s: float = 3.0  # each weight hangs this long before its length is read (the 3 s)
+    hang_s: float = 3.0  # each weight hangs this long before its length is read (the paper's protocol: 3 s)
     dt: float = 5e-4  # plant sub-step [s]
     chunk_s: float = 0.02  # set-points are updated at this period (50 Hz)
     # the paper does not say whether each weight hung alone or on top of the previous ones: False

@@ -1,11 +1,11 @@
-"""``runs/main/summary.md``: what ``cepam-gym run`` ran, with which versions, where every output
-is, and the scores, written at the end of the job (also when a step failed: what exists)."""
+"""``runs/main/summary.md`` of the main job (:mod:`.main_job`): what ``cepam-gym run`` ran, with
+which versions, where every output is, how its agent's training ended and the scores, written at
+the end of the job (also when a step failed: what exists)."""
 
 from __future__ import annotations
 
 import json
 import platform
-import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -125,7 +125,3 @@ def _training_lines(run_dir: Path, out: Path) -> list[str]:
             f"shorter run; {more}."
         )
     return lines
-
-
-if __name__ == "__main__":  # pragma: no cover
-    print(versions(), file=sys.stderr)

@@ -1,4 +1,5 @@
-"""``cepam-gym run`` writes ``summary.md``: what ran, versions, where every output is, the scores."""
+"""The main job (``cepam-gym run``, declared by the training package): its default config, its run
+directories and ``summary.md`` (what ran, versions, where every output is, the scores)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,41 @@ from datetime import UTC, datetime
 import pytest
 
 from cepam_gym.cli import main
-from cepam_gym.run_summary import write_summary
+from cepam_gym_agents import main_job
+from cepam_gym_agents.config import load_config
+from cepam_gym_agents.main_job import fresh_dir
+from cepam_gym_agents.main_summary import write_summary
+
+
+def test_main_job_never_reuses_a_run_directory(tmp_path):
+    first = fresh_dir(tmp_path / "agent")
+    assert first == tmp_path / "agent"
+    first.mkdir()
+    second = fresh_dir(tmp_path / "agent")
+    assert second == tmp_path / "agent-2"
+    second.mkdir()
+    assert fresh_dir(tmp_path / "agent") == tmp_path / "agent-3"
+
+
+def test_the_main_jobs_default_config_is_a_shipped_student(capsys):
+    cfg = load_config(main_job.MAIN_CONFIG)
+    assert cfg.student is not None
+    with pytest.raises(SystemExit) as done:  # argparse's --help, through the command line's hook
+        main(["run", "--help"])
+    assert done.value.code == 0
+    assert f"the shipped ``{main_job.MAIN_CONFIG}`` config" in " ".join(capsys.readouterr().out.split())
+
+
+def test_main_job_without_the_train_extra_fails_in_one_line_before_any_step(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(main_job, "TRAINING_MODULES", ("stable_baselines3", "no_such_module_of_the_extra"))
+    out = tmp_path / "main"
+    assert main(["run", "--out-dir", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no_such_module_of_the_extra not installed" in err and "pip install 'cepam-gym[train]'" in err
+    assert "stable_baselines3" not in err  # installed: only the missing module is named
+    assert err.strip().count("\n") == 0
+    assert not (out / "step_response.png").exists()  # nothing ran
+    assert "| plant step response" not in (out / "summary.md").read_text()
 
 
 @pytest.mark.slow

@@ -1,0 +1,147 @@
+"""``cepam-gym run``: the main job, declared by the training package (the entry point ``run`` of
+the group ``cepam_gym.commands``); ``cepam_gym``'s command line only dispatches to it.
+
+The job and its default config (:data:`MAIN_CONFIG`) live here, its ``summary.md`` in
+:mod:`.main_summary`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+from .evaluate import main as evaluate_main
+from .main_summary import write_summary
+from .train import main as train_main
+
+# the main job's agent: the shipped config ``configs/student.yaml``
+MAIN_CONFIG = "student"
+
+# scored beside the trained agent by the main job: the ends of the normalized score (zero, oracle)
+# and the two model-based controllers an agent must beat
+REFERENCE_CONTROLLERS = ("zero", "baseline", "mpc", "oracle")
+
+# what training imports (the [train] extra); the rest of the job runs without it (--no-train)
+TRAINING_MODULES = ("stable_baselines3", "torch")
+
+
+def fresh_dir(path) -> Path:
+    """``path`` if it does not exist yet, else ``path-2``, ``path-3``...: the main job never
+    overwrites (or refuses to run over) an earlier run."""
+    path = Path(path)
+    candidate, k = path, 2
+    while candidate.exists():
+        candidate = path.with_name(f"{path.name}-{k}")
+        k += 1
+    return candidate
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The main job on the default config: the plant's step response, the paper reproduction
+    table, then train an agent on the shipped ``student`` config (the student of a privileged
+    teacher: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config quick``:
+    PPO, about 3.5 minutes of training) and score it beside the zero controller, the
+    inverse-model baseline, the MPC and the oracle on the ``nominal-v1`` and ``randomized-v1``
+    suites, with the normalized score. Everything lands in ``--out-dir`` (default
+    ``runs/main``): ``step_response.png``, ``validate/``, ``agent/`` (model, logs, config;
+    ``agent-2/`` ... on later runs), ``agent/eval/`` (table.txt, results.json, plots) and
+    ``summary.md`` (what ran, versions, where everything is, the scores)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ap = argparse.ArgumentParser(prog="cepam-gym run", description=main.__doc__)
+    ap.add_argument("--out-dir", default="runs/main")
+    ap.add_argument(
+        "--config",
+        default=MAIN_CONFIG,
+        help="training config: a shipped one by name (student, quick, cepam_ppo, ...) or a YAML file",
+    )
+    ap.add_argument("--episodes", type=int, default=20, help="benchmark episodes per suite")
+    ap.add_argument(
+        "--no-train",
+        action="store_true",
+        help="skip training: plant, reproduction, and the model-based controllers on the v1 suites",
+    )
+    args = ap.parse_args(argv)
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    started, steps = datetime.now(UTC), []
+    where = {"run_dir": None, "table": None}
+    try:
+        return _run_steps(args, out, steps, where)
+    finally:
+        path = write_summary(out, argv, started, steps, where["run_dir"], where["table"])
+        print(f"summary: {path}", flush=True)
+
+
+def missing_training_modules() -> list[str]:
+    return [m for m in TRAINING_MODULES if importlib.util.find_spec(m) is None]
+
+
+def _run_steps(args, out: Path, steps: list, where: dict) -> int:
+    """The steps of :func:`main`, each recorded in ``steps`` for the summary."""
+    from cepam_gym import demo
+    from cepam_gym.validation.cli import validate_main
+
+    if not args.no_train:  # a missing extra or a bad --config fails now, not after the steps before training
+        missing = missing_training_modules()
+        if missing:
+            print(
+                f"cepam-gym run: training needs the [train] extra ({', '.join(missing)} not installed): "
+                "pip install 'cepam-gym[train]' (`make run` installs it), or pass --no-train",
+                file=sys.stderr,
+            )
+            return 2
+        code = train_main(["--config", args.config, "--check"])
+        if code:
+            return code
+    steps.append(["plant step response", "failed", None])
+    steps[-1][1:] = ["done", demo.step_response(out_dir=out)]
+    print(f"[1/3] plant step response: {steps[-1][2]}", flush=True)
+    print("[2/3] the paper's reported numbers beside the model's", flush=True)
+    steps.append(["the paper's numbers beside the model's", "failed", out / "validate"])
+    validate_main(["--out-dir", str(out / "validate")])
+    steps[-1][1] = "done"
+    if args.no_train:
+        from cepam_gym.bench import cli as bench_cli
+
+        steps.append(
+            [
+                "zero, baseline, mpc and oracle on the nominal-v1 and randomized-v1 suites",
+                "failed",
+                out / "bench",
+            ]
+        )
+        against = [a for c in REFERENCE_CONTROLLERS for a in ("--controller", c)]
+        suites = ["--suite", "nominal-v1", "--suite", "randomized-v1"]
+        code = bench_cli.main(
+            [*against, *suites, "--episodes", str(args.episodes), "--out-dir", str(out / "bench")]
+        )
+        steps[-1][1] = "done" if not code else f"exit code {code}"
+        where["table"] = out / "bench" / "table.txt"
+        return code
+    print(f"[3/3] train {args.config}, then score it beside {', '.join(REFERENCE_CONTROLLERS)}", flush=True)
+    run_dir = fresh_dir(out / "agent")
+    where["run_dir"] = run_dir
+    steps.append([f"train an agent ({args.config})", "failed", run_dir])
+    code = train_main(["--config", args.config, "--out", str(run_dir)])
+    steps[-1][1] = "done" if not code else f"exit code {code}"
+    if code:
+        return code
+    steps.append(
+        [
+            "score the agent beside zero, baseline, mpc and oracle (its version's suites)",
+            "failed",
+            run_dir / "eval",
+        ]
+    )
+    against = [a for c in REFERENCE_CONTROLLERS for a in ("--against", c)]
+    code = evaluate_main(["--run", str(run_dir), *against, "--episodes", str(args.episodes)])
+    steps[-1][1] = "done" if not code else f"exit code {code}"
+    where["table"] = run_dir / "eval" / "table.txt"
+    return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

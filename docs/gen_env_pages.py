@@ -1,0 +1,341 @@
+"""MkDocs hook (mkdocs.yml ``hooks:``): the pages generated from the code at build time.
+
+* ``envs/<name>.md``, one spec sheet per registered id in the sections of Gymnasium's v5 env pages
+  (description, action space, observation space, rewards, starting state, episode end, arguments,
+  version history), and ``envs/index.md``, the id table;
+* the reference tables of ``suites.md`` (the ``<!-- reference-scores -->`` marker) from
+  ``src/cepam_gym/data/reference_scores.json``;
+* ``configs.md`` (the training configs, ``configs/README.md``) and ``changelog.md``.
+
+Everything the spec sheets say about an id comes from :func:`env_facts`, the one function that
+reads the code: it builds the env and reads a few named attributes (the registration spec, the
+spaces, the observation layout, the task's reward weights, scales, reset options and termination
+names). Pointing the pages at another source (a task contract, a version table) means rewriting that
+function only; the rest formats the facts it returns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import json
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# prose per task family (the id's name without its version); the numbers come from env_facts
+DESCRIPTIONS = {
+    "CEPAM": "A compound extensor pneumatic artificial muscle (CE-PAM: a contractor McKibben muscle "
+    "inside an extensor one; [the model](../model.md)) hangs vertically from a mounting plate with a "
+    "load on its free end. Two valves feed the two chambers: the contractor (CPAM, pressure `Pc`) and "
+    "the annulus between the extensor's bladder and the CPAM (pressure `Pe`). Because length and "
+    "stiffness depend on both pressures differently, both can be set independently (paper section "
+    "XII). Task: track a target length AND a target stiffness while the hanging load changes.",
+    "CEPAMLength": "The CE-PAM rig of `CEPAM` (a muscle hanging with a load on its free end, two "
+    "chambers, two valves). Task: track a target length while the hanging load changes; the "
+    "stiffness is free.",
+    "CEPAMStiffness": "The CE-PAM rig of `CEPAM`. Task: hold a fixed length (17.5 cm) and track a "
+    "target stiffness: the paper's section XII experiment, stiffness changed at a fixed length.",
+    "CEPAMJoint": "A 1-DOF hinge, the elbow or wrist of a small wearable or rehabilitation device, "
+    "driven by one CE-PAM through a rack and pinion (`L = L_max - r theta`), so the muscle's 15-19.5 cm "
+    "span is the joint's flexion range ([MuJoCo and the joint](../mujoco.md)). The forearm hangs under "
+    "gravity and an external torque changes over the episode. Task: track a target joint angle AND a "
+    "target joint stiffness `K r^2`.",
+}
+VERSIONS = {
+    "v0": "targets that step every 2-4 s without notice under changing loads, no preview; plant v0 "
+    "(preset `balloon_v0`). Legacy: kept so every v0 figure reproduces.",
+    "v1": "planned references (minimum-jerk moves, length sines and chirps, stiffness ramps) announced "
+    "0.2 s ahead in the observation (`preview_steps=10`), every target reachable at its load; plant v1 "
+    "(preset `balloon`: tension-only braids, neo-Hookean walls, braid-bladder friction). Supported.",
+    "v2": "the v1 task on plant v2 (preset `balloon_v2`: a slack contractor pulls through its seal, "
+    "contact-area friction, extensible braid threads; calibrated through the paper's protocols). "
+    "Recommended.",
+}
+JOINT_V0 = "The hinge is simulated in MuJoCo (needs the `[mujoco]` extra). "
+ACTION_MODES = {
+    "valve": "proportional valve spool set-point: -1 exhaust, 0 closed, +1 supply (default)",
+    "pwm": "duty of two on/off solenoid valves (sign: supply or exhaust)",
+    "pressure": "gauge pressure set-point, -1 -> 0 kPa, +1 -> min(supply, burst), held by a regulator",
+}
+ARGUMENTS = {
+    "plant": "`PlantParams`, a preset name, a YAML path or a dict of unit-named keys",
+    "action_mode": "`valve`, `pwm` or `pressure` (Action space)",
+    "control_dt": "control period [s]",
+    "sub_dt": "plant sub-step [s]; must divide `control_dt`",
+    "episode_seconds": "length of the target and load schedule [s]; the episode itself is truncated "
+    "at `max_episode_steps`",
+    "reward_weights": "override any weight of the Rewards table",
+    "randomize": "`{plant key: [low, high]}` in the key's units, drawn per episode (checked when the "
+    "env is built; a draw that fails is redrawn, counted in `info['redraws']`)",
+    "sensor_noise": '`{"length_mm", "velocity_mm_s", "pressure_kpa"}` standard deviations',
+    "action_latency_steps": "actions reach the valves this many control steps late",
+    "supply_drift_kpa": "random-walk intensity of the supply pressure [kPa/sqrt(s)], clipped to +-20 %",
+    "task_options": "override the task's fields (Starting state)",
+    "stream": "index of the env's random stream: `reset(seed=s)` draws from "
+    "`SeedSequence(s, spawn_key=(stream,))`, as element `stream` of a vector env seeded `s`",
+    "num_threads": "threads of the batched kernel (`None`: the count that steps fastest now)",
+    "preview_steps": "control steps of future targets appended to the observation",
+    "joint": "the hinge's geometry (pinion radius, link), `{name: value}`",
+    "render_mode": '`"rgb_array"` or `"human"`',
+    "renderer": "the task's renderers (the first is the default)",
+    "width": "frame width [px]",
+    "height": "frame height [px]",
+}
+TERM_FORMULAS = {
+    "track": "-w min(|x - x*| / {unit}, {clip})",
+    "stiffness": "-w min(|K - K*| / K*, {kclip}), K the stiffness at constant pressures; counted when the "
+    "task tracks stiffness",
+    "effort": "-w mean(a^2)",
+    "air": "-w (air drawn from the supply this step) / {air}",
+    "burst": "-w, once, when a chamber exceeds the burst pressure",
+}
+
+
+def env_facts(env_id: str) -> dict:
+    """What the spec page of ``env_id`` says, read from the code: the registration, the spaces,
+    the observation layout, the task (reward weights, scales, ranges, reset options) and the
+    termination names. The one place the docs read the environments."""
+    import gymnasium as gym
+
+    import cepam_gym  # noqa: F401  (registers the ids)
+
+    spec = gym.spec(env_id)
+    env = gym.make(env_id)
+    u = env.unwrapped
+    core = getattr(u, "core", None)
+    task = core.task.spec if core is not None else u.task  # TaskSpec (rig) or JointTask (hinge)
+    weights = getattr(task, "weights", None) or getattr(getattr(core, "task", None), "weights", None)
+    weights = weights if weights is not None else u.weights
+    if core is not None:
+        init = inspect.signature(type(core).__init__).parameters
+        kwargs = {k: p.default for k, p in init.items() if k not in ("self", "num_envs", "task")}
+        kwargs.update(render_mode=None, renderer=core.task.renderers[0])
+        renderers = core.task.renderers
+    else:
+        init = inspect.signature(type(u).__init__).parameters
+        kwargs = {k: p.default for k, p in init.items() if k != "self" and p.kind is p.POSITIONAL_OR_KEYWORD}
+        renderers = ("mujoco",)
+    kwargs.update({k: v for k, v in spec.kwargs.items() if k != "task"})
+    facts = {
+        "id": env_id,
+        "entry_point": spec.entry_point,
+        "vector": spec.vector_entry_point is not None,
+        "max_episode_steps": spec.max_episode_steps,
+        "registered_kwargs": dict(spec.kwargs),
+        "kwargs": kwargs,
+        "action_space": u.action_space,
+        "observation_space": u.observation_space,
+        "columns": [(c.name, c.unit, c.offset, c.scale) for c in u.obs_layout.columns],
+        "preview_steps": u.obs_layout.preview_steps,
+        "weights": dataclasses.asdict(weights),
+        "scales": task.scales,
+        "task": task,
+        "control_dt": u.control_dt,
+        "plant": spec.kwargs.get("plant", "balloon"),
+        "termination": u.contract.termination_names,  # the task's contract (cepam_gym.tasks.contract)
+        "pin_keys": u.contract.pin_keys,
+        "renderers": renderers,
+    }
+    env.close()
+    return facts
+
+
+def _num(x) -> str:
+    return f"{x:.6g}"
+
+
+def _obs_rows(columns, preview_steps: int) -> list[str]:
+    """One row per column, the preview columns of one quantity folded into one row."""
+    rows, i = [], 0
+    while i < len(columns):
+        name, unit, offset, scale = columns[i]
+        m = re.fullmatch(r"(.+)_\+1", name)
+        if m and preview_steps > 1:
+            last = i + preview_steps - 1
+            rows.append(
+                f"| {i}-{last} | `{m.group(1)}_+k`, k = 1..{preview_steps}: the target k control steps ahead "
+                f"| {unit or '-'} | {_num(offset)} | {_num(scale)} |"
+            )
+            i = last + 1
+            continue
+        rows.append(f"| {i} | `{name}` | {unit or '-'} | {_num(offset)} | {_num(scale)} |")
+        i += 1
+    return rows
+
+
+def spec_page(f: dict) -> str:
+    """The Gymnasium-style spec page of one id, from :func:`env_facts`."""
+    name, version = f["id"].split("/")[-1].rsplit("-", 1)
+    sc, task = f["scales"], f["task"]
+    joint = name == "CEPAMJoint"
+    unit = (
+        f"{sc.tracking_unit * 180 / 3.141592653589793:.3g} deg"
+        if joint
+        else f"{sc.tracking_unit * 100:.3g} cm"
+    )
+    track = "angle" if joint else "length"
+    lines = [
+        f"# {f['id']}",
+        "",
+        f"| | |\n|---|---|\n| status | {VERSIONS[version].rsplit('. ', 1)[-1].rstrip('.')} |",
+        f"| action space | `{f['action_space']}` |",
+        f"| observation space | `{f['observation_space']}` |",
+        f"| plant preset | `{f['plant']}` |",
+        f"| entry point | `{f['entry_point']}`{' (native vector env)' if f['vector'] else ''} |",
+        f'| make | `gym.make("{f["id"]}")` |',
+        "",
+        "## Description",
+        "",
+        (JOINT_V0 if joint and version == "v0" else "") + DESCRIPTIONS[name],
+        "",
+        "## Action space",
+        "",
+        f"`{f['action_space']}`: one command per chamber `[CPAM, annulus]`. Out-of-range values are "
+        "clipped; NaN, inf or a wrong shape raise `ValueError`. The kwarg `action_mode` sets what a "
+        "command means:",
+        "",
+        "| action_mode | meaning of a command |",
+        "|---|---|",
+        *(f"| `{k}` | {v} |" for k, v in ACTION_MODES.items()),
+        "",
+        "## Observation space",
+        "",
+        f"`{f['observation_space']}`: what a rig measures, the targets and the previous action, "
+        "scaled: `obs = (value - offset) / scale`, value in SI units, clipped to the box. The columns "
+        "are named in `env.unwrapped.obs_layout` (`column(name)`, `decode(obs)` gives SI values).",
+        "",
+        "| # | observation | unit | offset | scale |",
+        "|---|---|---|---|---|",
+        *_obs_rows(f["columns"], f["preview_steps"]),
+        "",
+        "The true stiffness, load and every plant quantity are in `info`, in SI units.",
+        "",
+        "## Rewards",
+        "",
+        '`reward` is the sum of the terms below, each reported signed in `info["reward_<term>"]`.',
+        "",
+        "| term | value | weight `w` (kwarg `reward_weights`) |",
+        "|---|---|---|",
+    ]
+    fmt = {
+        "unit": unit,
+        "clip": _num(sc.tracking_clip),
+        "kclip": _num(sc.stiffness_clip),
+        "air": f"{sc.air_unit * 1e6:.3g} mg",
+    }
+    for term, w in f["weights"].items():
+        formula = TERM_FORMULAS["track" if term == track else term].format(**fmt)
+        lines.append(f"| {term} | `{formula}` | {_num(w)} |")
+    ranges = {
+        k: v
+        for k, v in dataclasses.asdict(task).items()
+        if k.endswith("_range")
+        or k in ("fixed_length", "load_kinds", "segment_duration", "references", "pressure_margin")
+    }
+    lines += [
+        "",
+        "## Starting state",
+        "",
+        "Each episode starts at rest at a reachable operating point different from the first target. "
+        "Targets change every `segment_duration` seconds and are drawn where the inverse static model "
+        "finds pressures within the task's `pressure_margin` for every load of the segment: every "
+        "episode is solvable. The task's fields (kwarg `task_options` overrides them, in SI units):",
+        "",
+        "| field | value |",
+        "|---|---|",
+        *(f"| `{k}` | `{v}` |" for k, v in ranges.items()),
+        "",
+        f"`reset(options={{...}})` pins any of {', '.join(f'`{k}`' for k in f['pin_keys'])} for the episode.",
+        "",
+        "## Episode end",
+        "",
+        f"**Truncation**: after `max_episode_steps` = {f['max_episode_steps']} control steps "
+        f"({f['max_episode_steps'] * f['control_dt']:.3g} s at {1 / f['control_dt']:.3g} Hz).",
+        "",
+        '**Termination**: only on physical failure. `info["termination_reason"]` is an integer code '
+        '(0 while running), named by `env.metadata["termination_reasons"]`: '
+        + ", ".join(f"{i} `{n}`" for i, n in enumerate(f["termination"]) if i)
+        + ".",
+        "",
+        "## Arguments",
+        "",
+        "`gym.make(id, **kwargs)`; the id registers "
+        + (", ".join(f"`{k}={v!r}`" for k, v in f["registered_kwargs"].items()) or "no kwargs")
+        + ". Unknown kwargs are refused by name.",
+        "",
+        "| kwarg | default | meaning |",
+        "|---|---|---|",
+    ]
+    for k, default in f["kwargs"].items():
+        lines.append(f"| `{k}` | `{default!r}` | {ARGUMENTS.get(k, '')} |")
+    lines += ["", "## Version history", ""]
+    for v in sorted(VERSIONS, reverse=True):
+        ids = f"`cepam_gym/{name}-{v}`"
+        if name == "CEPAMJoint" and v == "v0":
+            lines.append(f"* {ids}: the hinge simulated in MuJoCo (the `[mujoco]` extra); {VERSIONS[v]}")
+        else:
+            lines.append(f"* {ids}: {VERSIONS[v]}")
+    lines += ["", "What changed in each release: [the changelog](../changelog.md).", ""]
+    return "\n".join(lines)
+
+
+def registered_ids() -> list[str]:
+    from cepam_gym.registration import ENV_IDS, JOINT_ENV_IDS, MUJOCO_ENV_IDS
+
+    ids = [*ENV_IDS, *JOINT_ENV_IDS, *MUJOCO_ENV_IDS]
+    return sorted(ids, key=lambda i: (-int(i[-1]), i))  # newest version first
+
+
+def index_page(ids: list[str]) -> str:
+    rows = []
+    for env_id in ids:
+        name, version = env_id.split("/")[-1].rsplit("-", 1)
+        status = VERSIONS[version].rsplit(". ", 1)[-1].rstrip(".")
+        rows.append(
+            f"| [`{env_id}`]({name}-{version}.md) | {status} | {DESCRIPTIONS[name].split('Task: ')[-1]} |"
+        )
+    return "\n".join(
+        [
+            "# Environments",
+            "",
+            "Every registered id, newest version first; each page is generated from the code when the "
+            "site is built. `import cepam_gym` registers them all (`gym.make` and `gym.make_vec`).",
+            "",
+            "| id | status | task |",
+            "|---|---|---|",
+            *rows,
+            "",
+        ]
+    )
+
+
+def reference_tables() -> str:
+    """The stored references of every suite: the zero controller's and the oracle's scores."""
+    refs = json.loads((ROOT / "src/cepam_gym/data/reference_scores.json").read_text())
+    rows = [
+        f"| `{suite}` | {r['seed']} | {r['episodes']} | {r['zero']:.4f} | {r['oracle']:.4f} |"
+        for suite, r in sorted(refs.items(), key=lambda kv: (kv[0].rsplit("-", 1)[-1], kv[0]))
+    ]
+    return "\n".join(
+        ["| suite | seed | episodes | zero (0) | oracle (100) |", "|---|---|---|---|---|", *rows]
+    )
+
+
+def on_files(files, config):
+    from mkdocs.structure.files import File
+
+    ids = registered_ids()
+    pages = {f"envs/{i.split('/')[-1]}.md": spec_page(env_facts(i)) for i in ids}
+    pages["envs/index.md"] = index_page(ids)
+    configs = (ROOT / "configs/README.md").read_text()
+    pages["configs.md"] = configs.replace("# Training configs", "# Training configs (`configs/`)", 1)
+    pages["changelog.md"] = (ROOT / "CHANGELOG.md").read_text()
+    for uri, text in pages.items():
+        files.append(File.generated(config, uri, content=text))
+    return files
+
+
+def on_page_markdown(markdown, page, config, files):
+    return markdown.replace("<!-- reference-scores -->", reference_tables())
