@@ -53,14 +53,11 @@ jit_inline = njit(cache=True, error_model="numpy", forceinline=True)
 
 
 def bound(dispatcher, args):
-    """The compiled entry point of ``dispatcher`` for the types of ``args``: called with arguments
-    of exactly those types, it skips numba's type dispatch, which takes microseconds for a named
-    tuple of arrays (the env state) where it takes well under one for plain arrays. Falls back to
-    the dispatcher where numba offers no entry point."""
-    sig = tuple(typeof(a) for a in args)
-    dispatcher.compile(sig)
-    cres = dispatcher.overloads.get(sig)
-    return getattr(cres, "entry_point", None) or dispatcher
+    """The compiled entry point of ``dispatcher`` for the types of ``args`` (compiled or loaded from
+    the cache now): called with arguments of exactly those types, it skips numba's type dispatch,
+    which takes microseconds for a named tuple of arrays (the env state) where it takes well under
+    one for plain arrays."""
+    return dispatcher.compile(tuple(typeof(a) for a in args))
 
 
 @intrinsic
