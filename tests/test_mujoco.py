@@ -313,7 +313,7 @@ def test_joint_reward_terms_are_the_rig_terms_over_the_mechanism_map(mujoco):
             a[1],
             info["air_used"],
             False,
-            env.task_vec,
+            env.task_params,
             terms,
         )
         assert terms.tolist() == got and total == r

@@ -129,7 +129,7 @@ def test_rig_reward_terms_are_the_shared_function():
         a[1],
         info["air_used"],
         False,
-        core.task_vec,
+        core.task_params,
         terms,
     )
     assert terms.tolist() == [info[f"reward_{t}"] for t in tk.REWARD_TERMS]

@@ -9,11 +9,14 @@ import hashlib
 from pathlib import Path
 
 from llvmlite import ir
-from numba import njit, types
+from numba import njit, typeof, types
 from numba.extending import intrinsic
 from numba.np.arrayobj import make_array, populate_array
 
 _PKG = Path(__file__).parent
+
+
+_RECORD_FILES = ("records.py", "state.py", "task_params.py")
 
 
 def _drop_stale_caches() -> None:
@@ -21,13 +24,14 @@ def _drop_stale_caches() -> None:
     from other files. The kernels inline the column layouts and the physics (``physics/*.py``,
     ``plant/*.py``: constants and ``forceinline`` functions) into kernels of other files
     (``plant/kernel.py``, ``tasks/kernel.py``...): after an edit there, those would load machine
-    code built from the old text. So the text of those two folders is stamped, and every cached
+    code built from the old text. The same holds of the declared records (``tasks/records.py``,
+    ``tasks/state.py``, ``tasks/task_params.py``: their fields' places are compiled into the single
+    env's step). So the text of those two folders and those files is stamped, and every cached
     kernel of the package is dropped when it changes (best effort: a read-only install keeps its
     caches, which were built with its own sources)."""
     try:
-        text = "".join(
-            p.read_text() for folder in ("physics", "plant") for p in sorted((_PKG / folder).glob("*.py"))
-        )
+        files = [p for folder in ("physics", "plant") for p in sorted((_PKG / folder).glob("*.py"))]
+        text = "".join(p.read_text() for p in files + [_PKG / "tasks" / f for f in _RECORD_FILES])
         stamp = hashlib.sha1(text.encode()).hexdigest()
         path = _PKG / "__pycache__" / "numba_layout.stamp"
         if path.exists() and path.read_text() == stamp:
@@ -46,6 +50,14 @@ jit = njit(cache=True, error_model="numpy")
 # that keeps its values in registers and that LLVM can vectorise across plants. (Numba's own
 # ``inline="always"``, which copies numba IR, does the same but multiplies compile times.)
 jit_inline = njit(cache=True, error_model="numpy", forceinline=True)
+
+
+def bound(dispatcher, args):
+    """The compiled entry point of ``dispatcher`` for the types of ``args`` (compiled or loaded from
+    the cache now): called with arguments of exactly those types, it skips numba's type dispatch,
+    which takes microseconds for a named tuple of arrays (the env state) where it takes well under
+    one for plain arrays."""
+    return dispatcher.compile(tuple(typeof(a) for a in args))
 
 
 @intrinsic

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import plant as pl
-from ..plant.actions import valve_commands
+from ..plant.actions import plant_inputs
 from .objective import step_error_sq
 
 # parallel over blocks of plants (the envs' kernels do the same; NUMBA_NUM_THREADS caps it)
@@ -65,13 +65,7 @@ def rollout_cost(
         for t in range(h):
             for i in range(n):
                 a0, a1 = actions[lo + i, t, 0], actions[lo + i, t, 1]
-                inputs[i, pl.I_CMD_C], inputs[i, pl.I_CMD_E] = valve_commands(mode, a0, a1, setpoint_max)
-                if mech == pl.HINGE:
-                    inputs[i, pl.I_LOAD] = 0.0
-                    inputs[i, pl.I_FEXT] = load[lo + i, t]
-                else:
-                    inputs[i, pl.I_LOAD] = load[lo + i, t]
-                    inputs[i, pl.I_FEXT] = 0.0
+                plant_inputs(inputs[i], mode, mech, a0, a1, setpoint_max, load[lo + i, t])
             if mech == pl.HINGE:
                 pl.advance_block_hinge(x, inputs, p, hg, 0, n, mode, dt, n_sub, x, aux, W)
             else:

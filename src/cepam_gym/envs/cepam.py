@@ -11,7 +11,7 @@ from gymnasium.error import ResetNeeded
 from gymnasium.utils import EzPickle
 
 from ..errors import InputError
-from ..tasks import kernel as tk
+from ..tasks.single import NONFINITE_ACTION, env_step_single
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 from .shared import (
@@ -27,7 +27,7 @@ from .shared import (
     seed_core,
 )
 
-_STEP_SINGLE, _REFUSED = tk.env_step_single, tk.NONFINITE_ACTION  # bound once: the hot path's
+_STEP_SINGLE, _REFUSED = env_step_single, NONFINITE_ACTION  # bound once: the hot path's
 
 
 class CEPAMEnv(gym.Env, EzPickle):
@@ -60,7 +60,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         # its info itself), the episode's redraws as a Python int
         self._obs_row, self._info_row = self.core.obs[0], self.core.info_row
         self._one_call = self.core.fast_single
-        self._slabs = (self.core._F, self.core._I, self.core.obs) if self._one_call else None
+        self._slabs = self.core.slabs if self._one_call else None
         self._step_keys = self.core.task.step_keys if self.core.fast_single else None
         self._redraws = 0
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
@@ -76,7 +76,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._mujoco = None
 
     def _info(self, scored: bool) -> dict[str, Any]:
-        return self.core.task.info_single(self.core, scored)
+        return self.core.task.info_single(self.core.s, scored)
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickles and deep copies carry the episode: the constructor's arguments (EzPickle), then

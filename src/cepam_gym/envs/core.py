@@ -15,14 +15,18 @@ from typing import Any
 import numpy as np
 
 from .. import plant as pl
+from .._jit import bound
 from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
 from ..tasks import kernel as tk
 from ..tasks.planner import PARALLEL_MIN_ENVS
 from ..tasks.randomization import MAX_REDRAWS
+from ..tasks.records import allocate, build
 from ..tasks.registry import make_task
 from ..tasks.rng import Streams
+from ..tasks.single import single_slabs
+from ..tasks.state import EnvState, StepSettings, dims
 from ..tasks.task import Task
 from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
 from .threads import KernelThreads, numba_threads
@@ -95,106 +99,42 @@ class CEPAMBatch:
             raise InputError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
         self.obs_layout = self.task.layout
-        self.task_vec = self.task.task_vector.copy()
+        self.task_params = self.task.params
         self.obs_dim = self.obs_layout.size
+        self.settings = build(StepSettings, mech=self.mech, mode=self.mode, dt=self.sub_dt, n_sub=self.n_sub)
         # --- arrays
         self._nominal_row = nominal_row = self.nominal.to_array()
-        self.redraws = np.zeros(n, dtype=np.int64)  # draws rejected at the current episode's reset
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call
-        # (tasks.kernel.env_step_single) on two slabs its arrays are views of
+        # (tasks.single.env_step_single) on slabs its state's arrays are views of
         self.fast_single = n == 1 and not self.latency and not self.supply_drift
         if n == 1:
-            self._F, self._I, v = tk.single_slabs(self.n_steps, self.mode, self.n_sub, self.sub_dt, self.mech)
-            self.state, self.aux, self.inputs, self.params = v["state"], v["aux"], v["inputs"], v["params"]
-            self.hinge = v["hinge"]
-            self.hinge[:] = self.task.hinge_row()
-            self.target_l, self.target_k, self.load = v["target_l"], v["target_k"], v["load"]
-            self.t_idx, self.prev_action, self.rewards = v["t_idx"], v["actions"], v["rewards"]
-            self.terms, self.reasons, self.noise, self.info_row = (
-                v["terms"],
-                v["reasons"],
-                v["noise"],
-                v["info"],
+            self.slabs, self.s, extras = single_slabs(
+                self.n_steps, self.obs_dim, self.settings, self.task_params
             )
-            self.params[:] = nominal_row
-            v["task"][:] = self.task_vec
-            self.task_vec = v["task"]
+            self.info_row = extras.info
         else:
-            self.params = np.repeat(nominal_row[None], n, axis=0)
-            self.hinge = self.task.hinge_row()[None].copy()  # one mechanism shared by the batch
-            self.state = np.zeros((n, pl.N_STATE))
-            self.aux = np.zeros((n, pl.N_AUX))
-            self.inputs = np.zeros((n, pl.N_INPUT))
-            self.target_l = np.zeros((n, self.n_steps))
-            self.target_k = np.zeros((n, self.n_steps))
-            self.load = np.zeros((n, self.n_steps))
-            self.t_idx = np.zeros(n, dtype=np.int64)
-            self.prev_action = np.zeros((n, 2))
-            self.rewards = np.zeros(n)
-            self.terms = np.zeros((n, tk.N_TERMS))
-            self.reasons = np.zeros(n, dtype=np.int64)
-            self.noise = np.zeros((self.num_envs if self.has_noise else 1, tk.N_NOISE))
-        self.initial = np.zeros((n, 2))  # the (position, stiffness) each episode starts at
+            self.s = allocate(EnvState, dims(n, self.n_steps, self.obs_dim, self.has_noise))
+        self.s.params[:] = nominal_row
+        self.s.hinge[:] = self.task.hinge_row()
         self.needs_reset = True  # no episode yet: the envs refuse to step (Gymnasium's ResetNeeded)
         self.queue = np.zeros((self.latency + 1, n, 2))
-        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         self.seed(None)
         # prev_action doubles as the buffer of the action being applied (clipped in place by the
-        # kernel), so after a step it holds a_{t-1}; the kernel's arguments are bound once
-        self._single_action = self.prev_action
-        self._kernel_args = (
-            self.state,
-            self.prev_action,
-            self.params,
-            self.hinge,
-            self.mech,
-            self.mode,
-            self.sub_dt,
-            self.n_sub,
-            self.target_l,
-            self.target_k,
-            self.load,
-            self.t_idx,
-            self.task_vec,
-            self.noise,
-            self.inputs,
-            self.obs,
-            self.rewards,
-            self.terms,
-            self.aux,
-            self.reasons,
-        )
+        # kernel), so after a step it holds a_{t-1}
+        self._single_action = self.s.prev_action
+        self._step_args = (self.s, self.settings, self.task_params)
+        self._kernels = None  # the step's compiled entry points, bound at the first step
+        self._observe_kernel = bound(tk.observe, (self.s, self.mech, self.task_params))
 
     # -------------------------------------------------- copies, pickles
-    # the arrays an episode lives in (views of the single env's slabs included: restored in place)
-    _EPISODE_ARRAYS = (
-        "state",
-        "aux",
-        "inputs",
-        "params",
-        "hinge",
-        "target_l",
-        "target_k",
-        "load",
-        "t_idx",
-        "prev_action",
-        "rewards",
-        "terms",
-        "reasons",
-        "noise",
-        "obs",
-        "queue",
-        "redraws",
-        "initial",
-        "task_vec",
-        "_normals",
-        "_normal_pos",
-    )
+    # besides the env state, what a running episode is: the latency queue and the noise buffers
+    _CORE_ARRAYS = ("queue", "_normals", "_normal_pos")
 
     def episode_state(self) -> dict[str, Any]:
         """Everything a running episode is (arrays, random streams), as copies."""
-        out = {k: getattr(self, k).copy() for k in self._EPISODE_ARRAYS}
+        out = {k: v.copy() for k, v in self.s._asdict().items()}
+        out.update((k, getattr(self, k).copy()) for k in self._CORE_ARRAYS)
         out["rngs"] = [r.bit_generator.state for r in self.streams.generators()]
         out["noise_rngs"] = [r.bit_generator.state for r in self.noise_rngs]
         out["needs_reset"] = self.needs_reset
@@ -202,7 +142,9 @@ class CEPAMBatch:
 
     def restore(self, episode: dict[str, Any]) -> None:
         """Continue the episode of :meth:`episode_state` (on a core built with the same args)."""
-        for k in self._EPISODE_ARRAYS:
+        for k, v in self.s._asdict().items():
+            v[...] = episode[k]
+        for k in self._CORE_ARRAYS:
             getattr(self, k)[...] = episode[k]
         for r, st in zip(self.streams.generators(), episode["rngs"]):
             r.bit_generator.state = st
@@ -212,7 +154,7 @@ class CEPAMBatch:
 
     def __getstate__(self) -> dict[str, Any]:
         # rebuilt from the constructor's arguments, then the episode restored in place: the
-        # single env's arrays are views of two slabs and the kernel's argument tuple holds them,
+        # single env's arrays are views of its slabs and the bound kernels hold the records,
         # which a plain copy of __dict__ would tear apart
         return {"init": self._init_args, "episode": self.episode_state()}
 
@@ -274,7 +216,7 @@ class CEPAMBatch:
         bad = set(options) - set(self.task.pin_keys)
         if bad:
             raise InputError(f"reset options: unknown keys {sorted(bad)}; valid: {list(self.task.pin_keys)}")
-        self.task.apply_options(self, dict(options))
+        self.task.apply_options(self.s, dict(options))
         self._observe()
 
     def pin_targets(self, target_length=None, target_stiffness=None, load_mass=None, indices=None) -> None:
@@ -287,37 +229,24 @@ class CEPAMBatch:
             "target_stiffness": target_stiffness,
             "load_mass": load_mass,
         }
-        self.task.pin(self, values, idx)
+        self.task.pin(self.s, values, idx)
         self._observe()
 
     def _observe(self) -> None:
         """The observations of every env from its current state (after a reset or a pin)."""
-        tk.observe(
-            self.state,
-            self.aux,
-            self.params,
-            self.hinge,
-            self.mech,
-            self.target_l,
-            self.target_k,
-            self.t_idx,
-            self.prev_action,
-            self.task_vec,
-            self.noise,
-            self.obs,
-        )
+        self._observe_kernel(self.s, self.mech, self.task_params)
 
     def reset(self, indices=None) -> None:
         """Start new episodes for ``indices`` (all envs if None): parameters, schedules, state."""
         idx = np.arange(self.num_envs) if indices is None else np.asarray(indices, dtype=np.int64)
         if self.randomizer.ranges:
-            self.params[idx], self.redraws[idx] = self.randomizer.draw(self.streams.generators(idx))
+            self.s.params[idx], self.s.redraws[idx] = self.randomizer.draw(self.streams.generators(idx))
         else:
-            self.params[idx], self.redraws[idx] = self._nominal_row, 0
+            self.s.params[idx], self.s.redraws[idx] = self._nominal_row, 0
         tl, tkk, load, initial = self._schedules(idx)
-        self.target_l[idx], self.target_k[idx], self.load[idx] = tl, tkk, load
-        self.task.start(self, idx, initial)
-        self.prev_action[idx] = 0.0
+        self.s.target_l[idx], self.s.target_k[idx], self.s.load[idx] = tl, tkk, load
+        self.task.start(self.s, idx, initial)
+        self.s.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
         self._draw_noise(idx)
         self._observe()
@@ -336,9 +265,9 @@ class CEPAMBatch:
         saved = view.pack()
         try:
             if len(idx) < PARALLEL_MIN_ENVS:  # planned serially
-                return self._plan(view, self.params[idx])
+                return self._plan(view, self.s.params[idx])
             with numba_threads(self.threads.now()):  # the planner runs env by env on these
-                return self._plan(view, self.params[idx])
+                return self._plan(view, self.s.params[idx])
         except RuntimeError:
             pass
         view.unpack(saved)
@@ -346,17 +275,17 @@ class CEPAMBatch:
         for j, (i, rng) in enumerate(zip(idx, self.streams.generators(idx))):
             for attempt in range(MAX_REDRAWS + 2):
                 try:
-                    one = self._plan([rng], self.params[i : i + 1])
+                    one = self._plan([rng], self.s.params[i : i + 1])
                     break
                 except RuntimeError:
                     if attempt == MAX_REDRAWS + 1:
                         raise
-                    self.redraws[i] += 1
+                    self.s.redraws[i] += 1
                     if attempt >= MAX_REDRAWS:  # the nominal plant (checked at build), a new schedule
-                        self.params[i] = self.randomizer.fallback()
+                        self.s.params[i] = self.randomizer.fallback()
                     else:
                         rows, extra = self.randomizer.draw([rng])
-                        self.params[i], self.redraws[i] = rows[0], self.redraws[i] + extra[0]
+                        self.s.params[i], self.s.redraws[i] = rows[0], self.s.redraws[i] + extra[0]
             for a, b in zip(out, one):
                 a[j] = b[0]
         return tuple(out)
@@ -371,9 +300,9 @@ class CEPAMBatch:
             z = self._next_normals(idx)
             if self.has_noise:
                 if idx is None:
-                    self.noise[:] = z[:, : tk.N_NOISE] * self.noise_sd
+                    self.s.noise[:] = z[:, : tk.N_NOISE] * self.noise_sd
                 else:
-                    self.noise[idx] = z[:, : tk.N_NOISE] * self.noise_sd
+                    self.s.noise[idx] = z[:, : tk.N_NOISE] * self.noise_sd
             return z[:, tk.N_NOISE]
         return None
 
@@ -391,8 +320,8 @@ class CEPAMBatch:
             a[0, 0] = x0
             a[0, 1] = x1
             return a
-        self.prev_action[:] = as_actions(actions, self.num_envs)
-        return self.prev_action
+        self.s.prev_action[:] = as_actions(actions, self.num_envs)
+        return self.s.prev_action
 
     def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> None:
         """Advance all envs one control period; results in ``obs``, ``rewards``, ``terms``,
@@ -403,19 +332,35 @@ class CEPAMBatch:
         if self.latency:
             self.queue[:-1] = self.queue[1:]
             self.queue[-1] = actions
-            self.prev_action[:] = self.queue[0]  # what reaches the valves now
+            self.s.prev_action[:] = self.queue[0]  # what reaches the valves now
         z = self._draw_noise(active)
         if self.supply_drift:
             nominal = self.nominal.atmospheric_pressure + self.nominal.supply_pressure
             rows = slice(None) if active is None else active
             walk = z * self.supply_drift * np.sqrt(self.control_dt)
-            self.params[rows, ix.P_SUP] = np.clip(
-                self.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal
+            self.s.params[rows, ix.P_SUP] = np.clip(
+                self.s.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal
             )
-        self.threads.run(tk._env_step_serial, tk._env_step_parallel, self._kernel_args)
+        if self._kernels is None:
+            parallel = self.num_envs >= pl.PARALLEL_MIN_BATCH  # else never called
+            self._kernels = (
+                bound(tk._env_step_serial, self._step_args),
+                bound(tk._env_step_parallel, self._step_args) if parallel else tk._env_step_parallel,
+            )
+        self.threads.run(*self._kernels, self._step_args)
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""
-        k = np.minimum(self.t_idx, self.n_steps - 1)
+        k = np.minimum(self.s.t_idx, self.n_steps - 1)
         r = np.arange(self.num_envs)
-        return self.target_l[r, k], self.target_k[r, k], self.load[r, k]
+        return self.s.target_l[r, k], self.s.target_k[r, k], self.s.load[r, k]
+
+
+def _state_field(name: str) -> property:
+    return property(lambda self: getattr(self.s, name), doc=f"``s.{name}`` (:class:`EnvState`)")
+
+
+# the env state's fields read as the core's attributes (core.state, core.params, ...), read-only:
+# the arrays are written in place, never replaced
+for _name in EnvState._fields:
+    setattr(CEPAMBatch, _name, _state_field(_name))

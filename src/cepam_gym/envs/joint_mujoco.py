@@ -129,7 +129,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.angle_max = self.geometry.max_angle(self.nominal_row)
         self.setpoint_max = self.nominal.pressure_cap
         self.obs_layout = joint_layout(self.task, self.angle_max, self.nominal.supply_pressure)
-        self.task_vec = tk.task_vector(
+        self.task_params = tk.task_params(
             astuple(self.weights), self.task.scales, self.obs_layout, self.setpoint_max
         )
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
@@ -232,7 +232,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
             a[1],
             self.aux[pl.A_AIR],
             burst,
-            self.task_vec,
+            self.task_params,
             self.terms,
         )
         self.t_idx += 1

@@ -36,7 +36,6 @@ import numpy as np
 
 from .. import versions
 from ..plant.params import PlantParams, preset
-from ..tasks import kernel as tk
 
 if TYPE_CHECKING:  # types only: this module imports no env class
     from ..tasks.contract import TaskContract
@@ -117,7 +116,7 @@ class EnvModel:
             n_sub=core.n_sub,
             n_steps=core.n_steps,
             nominal=core.nominal,
-            setpoint_max=float(core.task_vec[tk.T_SETPOINT_MAX]),
+            setpoint_max=float(core.task_params.setpoint_max),
             track_stiffness=bool(core.task.track_stiffness),
             task_spec=core.task.spec,
             obs_layout=core.obs_layout,

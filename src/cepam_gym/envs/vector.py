@@ -147,7 +147,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
     default_task = "cepam"
 
     def _infos(self, scored: bool) -> dict[str, np.ndarray]:
-        return self.core.task.info_arrays(self.core, scored)
+        return self.core.task.info_arrays(self.core.s, scored)
 
     def __getstate__(self) -> dict[str, Any]:
         """As the single env's: the episode (and the autoreset bookkeeping) travels along."""

@@ -79,7 +79,7 @@ class HingeTask(Task):
         self.spec.check_range(self.geometry, nominal_row)
         self.angle_max = self.geometry.max_angle(nominal_row)
         self.layout = joint_layout(self.spec, self.angle_max, nominal.supply_pressure, self.preview_steps)
-        self.task_vector = tk.task_vector(
+        self.params = tk.task_params(
             dataclasses.astuple(self.weights),
             self.spec.scales,
             self.layout,
@@ -117,35 +117,35 @@ class HingeTask(Task):
             rngs, self.spec, self.geometry, rows, self.nominal_row, n_steps, control_dt
         )
 
-    def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
+    def start(self, s, idx: np.ndarray, initial: np.ndarray) -> None:
         """At rest at the (angle, joint stiffness) rows with the chamber pressures of the inverse
         static model under the first external torque, clipped to ``[0, min(supply, burst)]`` (as
         :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`;
         :func:`~cepam_gym.tasks.planner.start_at_rest`)."""
-        core.initial[idx] = initial
-        start_at_rest(core, idx, core.initial[idx], self.mechanism)
+        s.initial[idx] = initial
+        start_at_rest(s, idx, s.initial[idx], self.mechanism)
 
-    def apply_options(self, core, options: dict) -> None:
+    def apply_options(self, s, options: dict) -> None:
         """``target_angle`` [rad], ``target_stiffness`` [N m/rad], ``external_torque`` [N m] pinned
         for the episode; ``initial_angle`` [rad], ``initial_stiffness`` [N m/rad] the starting
         point (scalars, every env; :func:`~cepam_gym.tasks.joint.apply_reset_options`)."""
-        for i in range(core.num_envs):
-            sched = (core.target_l[i], core.target_k[i], core.load[i])
-            core.initial[i] = apply_reset_options(
-                options, sched, tuple(core.initial[i]), self.geometry, core.params[i]
-            )
-        self.start(core, np.arange(core.num_envs), core.initial.copy())
+        n = s.state.shape[0]
+        for i in range(n):
+            sched = (s.target_l[i], s.target_k[i], s.load[i])
+            start = tuple(s.initial[i])
+            s.initial[i] = apply_reset_options(options, sched, start, self.geometry, s.params[i])
+        self.start(s, np.arange(n), s.initial.copy())
 
-    def pin(self, core, values: dict, idx: np.ndarray) -> None:
+    def pin(self, s, values: dict, idx: np.ndarray) -> None:
         raise NotImplementedError("the joint env pins targets through reset(options=...)")
 
     # ------------------------------------------------------------------ info
-    def info_single(self, core, scored: bool) -> dict[str, Any]:
+    def info_single(self, s, scored: bool) -> dict[str, Any]:
         """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays."""
         g, r = self.geometry, self.geometry.lever_arm
-        x, a = core.state[0].tolist(), core.aux[0].tolist()
-        p = core.params[0]
-        k = min(max(int(core.t_idx[0]) - (1 if scored else 0), 0), core.n_steps - 1)
+        x, a = s.state[0].tolist(), s.aux[0].tolist()
+        p = s.params[0]
+        k = min(max(int(s.t_idx[0]) - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
         theta = float(g.angle(x[pl.S_L], p))
         ks = a[pl.A_STIFF] * r**2
         info = {
@@ -160,43 +160,43 @@ class HingeTask(Task):
             "pressure_c": a[pl.A_PC],
             "pressure_e": a[pl.A_PE],
             "air_used": a[pl.A_AIR] if scored else 0.0,
-            "external_torque": float(core.load[0, k]),
-            "target_angle": float(core.target_l[0, k]),
-            "target_stiffness": float(core.target_k[0, k]),
+            "external_torque": float(s.load[0, k]),
+            "target_angle": float(s.target_l[0, k]),
+            "target_stiffness": float(s.target_k[0, k]),
         }
         if scored:
-            info.update(zip(TERM_KEYS, core.terms[0].tolist()))
-        info["redraws"] = int(core.redraws[0])
+            info.update(zip(TERM_KEYS, s.terms[0].tolist()))
+        info["redraws"] = int(s.redraws[0])
         return info
 
-    def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
+    def info_arrays(self, s, scored: bool) -> dict[str, np.ndarray]:
         """Per-env info arrays (SI): the joint's quantities (as
         :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.measure`), loads, targets, reward terms."""
         g = self.geometry
-        n = core.num_envs
-        k = np.minimum(np.maximum(core.t_idx - (1 if scored else 0), 0), core.n_steps - 1)
+        n = s.state.shape[0]
+        k = np.minimum(np.maximum(s.t_idx - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
         rows = np.arange(n)
-        q = np.broadcast_to(core.params, (n, ix.N_PARAMS)).T
-        L, v = core.state[:, pl.S_L].copy(), core.state[:, pl.S_V]
+        q = np.broadcast_to(s.params, (n, ix.N_PARAMS)).T
+        L, v = s.state[:, pl.S_L].copy(), s.state[:, pl.S_V]
         theta = g.angle(L, q)
-        ks = core.aux[:, pl.A_STIFF] * g.lever_arm**2
+        ks = s.aux[:, pl.A_STIFF] * g.lever_arm**2
         out = {
             "angle": theta,
             "angular_velocity": -v / g.lever_arm,
             "muscle_length": L,
-            "muscle_force": core.aux[:, pl.A_FORCE].copy(),
-            "muscle_torque": -g.lever_arm * core.aux[:, pl.A_FORCE],
-            "stiffness": core.aux[:, pl.A_STIFF].copy(),
+            "muscle_force": s.aux[:, pl.A_FORCE].copy(),
+            "muscle_torque": -g.lever_arm * s.aux[:, pl.A_FORCE],
+            "stiffness": s.aux[:, pl.A_STIFF].copy(),
             "joint_stiffness": ks,
             "joint_stiffness_total": ks + g.link_mass * q[ix.GRAV] * g.link_com * np.cos(theta),
-            "pressure_c": core.aux[:, pl.A_PC].copy(),
-            "pressure_e": core.aux[:, pl.A_PE].copy(),
-            "air_used": core.aux[:, pl.A_AIR].copy() if scored else np.zeros(n),
-            "external_torque": core.load[rows, k],
-            "target_angle": core.target_l[rows, k],
-            "target_stiffness": core.target_k[rows, k],
+            "pressure_c": s.aux[:, pl.A_PC].copy(),
+            "pressure_e": s.aux[:, pl.A_PE].copy(),
+            "air_used": s.aux[:, pl.A_AIR].copy() if scored else np.zeros(n),
+            "external_torque": s.load[rows, k],
+            "target_angle": s.target_l[rows, k],
+            "target_stiffness": s.target_k[rows, k],
         }
         if scored:
-            out.update(zip(TERM_KEYS, np.ascontiguousarray(core.terms.T)))
-        out["redraws"] = core.redraws.copy()
+            out.update(zip(TERM_KEYS, np.ascontiguousarray(s.terms.T)))
+        out["redraws"] = s.redraws.copy()
         return out

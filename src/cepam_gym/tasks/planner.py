@@ -201,15 +201,16 @@ def _start_pressures(idx, initial, load0, params, mv, L, pc, pe):
             pc[j], pe[j], _ = static_pressures(L[j], initial[j, 1], w, p)
 
 
-def start_at_rest(core, idx, initial, mechanism=None) -> None:
-    """Envs ``idx`` of ``core`` at rest at their ``initial`` (position, stiffness) rows under
-    their first load, step 0 (one compiled call for the pressures, one for the plants)."""
+def start_at_rest(s, idx, initial, mechanism=None) -> None:
+    """Envs ``idx`` of env state ``s`` (:class:`~cepam_gym.tasks.state.EnvState`) at rest at their
+    ``initial`` (position, stiffness) rows under their first load, step 0 (one compiled call for
+    the pressures, one for the plants)."""
     idx = np.ascontiguousarray(idx, dtype=np.int64)
     mv = pv.rig_mechanism() if mechanism is None else mechanism
     m = idx.shape[0]
     L, pc, pe = np.empty(m), np.empty(m), np.empty(m)
-    load0 = np.ascontiguousarray(core.load[idx, 0])
-    _start_pressures(idx, np.ascontiguousarray(initial, dtype=float), load0, core.params, mv, L, pc, pe)
-    if rest_rows(idx, L, pc, pe, core.params, core.state, core.aux) >= 0:
-        initial_state(core.params[idx], L, pc, pe)  # raises, naming what is wrong
-    core.t_idx[idx] = 0
+    load0 = np.ascontiguousarray(s.load[idx, 0])
+    _start_pressures(idx, np.ascontiguousarray(initial, dtype=float), load0, s.params, mv, L, pc, pe)
+    if rest_rows(idx, L, pc, pe, s.params, s.state, s.aux) >= 0:
+        initial_state(s.params[idx], L, pc, pe)  # raises, naming what is wrong
+    s.t_idx[idx] = 0

@@ -15,11 +15,12 @@ from .contract import RIG
 from .layout import rig_layout
 from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
+from .single import AUX_INFO, N_INFO
 from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
 from .task import Task
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
-# info keys read from aux, in the order tasks.kernel.env_step_single writes them
+# info keys read from aux, in the order tasks.single.env_step_single writes them
 _AUX_NAMES = (
     "stiffness",
     "stiffness_closed",
@@ -32,14 +33,14 @@ _AUX_NAMES = (
 )
 INFO_KEYS = ("length", "velocity", *_AUX_NAMES, "load_mass", "target_length", "target_stiffness")
 assert (*INFO_KEYS, "redraws") == RIG.info_keys  # the contract's, read off these columns
-_AUX_INFO = dict(zip(_AUX_NAMES, tk.AUX_INFO))
+_AUX_INFO = dict(zip(_AUX_NAMES, AUX_INFO))
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _AUX_COLS = np.array(list(_AUX_INFO.values()))
 _STATE_COLS = np.array([pl.S_L, pl.S_V])
 TERM_KEYS = RIG.term_keys
-# keys of a step's info in the order of the core's info_row (single env)
+# keys of a step's info in the order of the single env's info row (tasks.single.SingleExtras)
 _STEP_KEYS = (*INFO_KEYS, *TERM_KEYS)
-assert len(_STEP_KEYS) == tk.N_INFO
+assert len(_STEP_KEYS) == N_INFO
 
 
 class RigTask(Task):
@@ -79,7 +80,7 @@ class RigTask(Task):
     # ------------------------------------------------------------------ build
     def bind(self, nominal, sub_dt: float) -> None:
         """Task ranges in SI against the plant (lengths [m] within the end stops), then the
-        observation layout and the task vector."""
+        observation layout and the task's parameters."""
         lo, hi = nominal.min_length, nominal.max_length
         t = self.spec
         for name, vals in (
@@ -93,7 +94,7 @@ class RigTask(Task):
                 )
         self.nominal, self.sub_dt = nominal, sub_dt
         self.layout = rig_layout(t, nominal, self.preview_steps)
-        self.task_vector = tk.task_vector(
+        self.params = tk.task_params(
             dataclasses.astuple(t.weights), t.scales, self.layout, nominal.pressure_cap, t.track_stiffness
         )
 
@@ -108,22 +109,23 @@ class RigTask(Task):
         """:func:`~cepam_gym.tasks.planner.planned_schedules`."""
         return planned_schedules(rngs, self.spec, rows, n_steps, control_dt)
 
-    def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
+    def start(self, s, idx: np.ndarray, initial: np.ndarray) -> None:
         """At rest at the (length, stiffness) rows under the first load: chamber pressures of the
         inverse static model, step 0 (:func:`~cepam_gym.tasks.planner.start_at_rest`)."""
-        start_at_rest(core, idx, initial)
+        s.initial[idx] = initial
+        start_at_rest(s, idx, initial)
 
-    def apply_options(self, core, options: dict) -> None:
+    def apply_options(self, s, options: dict) -> None:
         """Pin any of target_length [m], target_stiffness [N/m], load_mass [kg] for the episode
-        (the core observes once afterwards)."""
-        self.pin(core, options, np.arange(core.num_envs))
+        (the env observes once afterwards)."""
+        self.pin(s, options, np.arange(s.state.shape[0]))
 
-    def pin(self, core, values: dict, idx: np.ndarray) -> None:
+    def pin(self, s, values: dict, idx: np.ndarray) -> None:
         """Hold ``values`` (pin key -> scalars or per-env arrays) for the episode of ``idx``."""
         for name, arr in (
-            ("target_length", core.target_l),
-            ("target_stiffness", core.target_k),
-            ("load_mass", core.load),
+            ("target_length", s.target_l),
+            ("target_stiffness", s.target_k),
+            ("load_mass", s.load),
         ):
             val = values.get(name)
             if val is None:
@@ -160,34 +162,34 @@ class RigTask(Task):
                 )
 
     # ------------------------------------------------------------------ info
-    def info_single(self, core, scored: bool) -> dict[str, Any]:
+    def info_single(self, s, scored: bool) -> dict[str, Any]:
         """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays (the
         single env's step is dominated by Python overhead, so this path is kept lean)."""
-        aux = core.aux[0].tolist()
-        k = min(max(int(core.t_idx[0]) - (1 if scored else 0), 0), core.n_steps - 1)
-        state = core.state[0].tolist()
+        aux = s.aux[0].tolist()
+        k = min(max(int(s.t_idx[0]) - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
+        state = s.state[0].tolist()
         info = {"length": state[pl.S_L], "velocity": state[pl.S_V]}
         for name, col in _AUX_ITEMS:
             info[name] = aux[col]
-        info["load_mass"] = float(core.load[0, k])
-        info["target_length"] = float(core.target_l[0, k])
-        info["target_stiffness"] = float(core.target_k[0, k])
+        info["load_mass"] = float(s.load[0, k])
+        info["target_length"] = float(s.target_l[0, k])
+        info["target_stiffness"] = float(s.target_k[0, k])
         if scored:
-            info.update(zip(TERM_KEYS, core.terms[0].tolist()))
-        info["redraws"] = int(core.redraws[0])
+            info.update(zip(TERM_KEYS, s.terms[0].tolist()))
+        info["redraws"] = int(s.redraws[0])
         return info
 
-    def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
+    def info_arrays(self, s, scored: bool) -> dict[str, np.ndarray]:
         """Per-env info arrays: true plant quantities (SI), the targets scored, reward terms. Each
         group is gathered in one copy and handed out as its rows (fresh arrays every step)."""
-        k = np.minimum(np.maximum(core.t_idx - (1 if scored else 0), 0), core.n_steps - 1)
-        r = np.arange(core.num_envs)
-        out = dict(zip(("length", "velocity"), np.ascontiguousarray(core.state[:, _STATE_COLS].T)))
-        out.update(zip(_AUX_INFO, np.ascontiguousarray(core.aux[:, _AUX_COLS].T)))
-        out["load_mass"] = core.load[r, k]
-        out["target_length"] = core.target_l[r, k]
-        out["target_stiffness"] = core.target_k[r, k]
+        k = np.minimum(np.maximum(s.t_idx - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
+        r = np.arange(s.state.shape[0])
+        out = dict(zip(("length", "velocity"), np.ascontiguousarray(s.state[:, _STATE_COLS].T)))
+        out.update(zip(_AUX_INFO, np.ascontiguousarray(s.aux[:, _AUX_COLS].T)))
+        out["load_mass"] = s.load[r, k]
+        out["target_length"] = s.target_l[r, k]
+        out["target_stiffness"] = s.target_k[r, k]
         if scored:
-            out.update(zip(TERM_KEYS, np.ascontiguousarray(core.terms.T)))
-        out["redraws"] = core.redraws.copy()
+            out.update(zip(TERM_KEYS, np.ascontiguousarray(s.terms.T)))
+        out["redraws"] = s.redraws.copy()
         return out

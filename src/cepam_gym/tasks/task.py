@@ -5,7 +5,8 @@ the arrays of N envs and the Gymnasium API; it knows nothing of lengths, angles,
 A :class:`Task` owns the rest:
 
 * the mechanism the muscle drives (``mech``: the rig's free end or a hinge) and its constants;
-* its observation layout (named columns, preview count included) and compiled task vector;
+* its observation layout (named columns, preview count included) and its settings as the compiled
+  step reads them (:class:`~cepam_gym.tasks.task_params.TaskParams`);
 * its plant checks (which randomized plants can run it) and its reference planning;
 * where an episode starts, what ``reset(options=...)`` pins, and the ``info`` it reports;
 * its contract (:mod:`cepam_gym.tasks.contract`): reward-term names and weights, info keys,
@@ -46,9 +47,10 @@ def check_preview_steps(preview_steps) -> int:
 
 class Task:
     """What an env is asked to do. Subclasses fill the attributes and implement the methods; the
-    env core calls them and holds the per-env arrays they read and write (``core.target_l``,
-    ``core.target_k``, ``core.load``: the task's position target, stiffness target and load of
-    every control step, in the task's SI units)."""
+    env core calls them with its env state ``s`` (:class:`~cepam_gym.tasks.state.EnvState`, as
+    dm_control's Task is handed ``physics``), the only thing they read and write of the env
+    (``s.target_l``, ``s.target_k``, ``s.load``: the task's position target, stiffness target and
+    load of every control step, in the task's SI units; ``s.state``, ``s.aux``... for the info)."""
 
     mech: int  # cepam_gym.plant.RIG or HINGE: the mechanics the plant kernel integrates
     name: str
@@ -62,11 +64,11 @@ class Task:
 
     def bind(self, nominal, sub_dt: float) -> None:
         """Check the task against the env's nominal plant and sub-step (``ValueError`` naming
-        what does not fit) and compute what depends on them (layout, task vector)."""
+        what does not fit) and compute what depends on them (layout, task parameters)."""
         raise NotImplementedError
 
     layout: ObsLayout
-    task_vector: np.ndarray
+    params: Any  # its TaskParams (tasks.task_params)
 
     def hinge_row(self) -> np.ndarray:
         """The mechanism's constants (:mod:`cepam_gym.physics.hinge`; zeros for the rig)."""
@@ -81,27 +83,28 @@ class Task:
         ``rows``; ``RuntimeError`` when no reachable target exists for some row."""
         raise NotImplementedError
 
-    def start(self, core, idx: np.ndarray, initial: np.ndarray) -> None:
-        """Envs ``idx`` of ``core`` at rest at their ``initial`` (position, stiffness) rows."""
+    def start(self, s, idx: np.ndarray, initial: np.ndarray) -> None:
+        """Envs ``idx`` of state ``s`` at rest at their ``initial`` (position, stiffness) rows."""
         raise NotImplementedError
 
-    def apply_options(self, core, options: dict) -> None:
-        """``reset(options=...)`` on every env of ``core`` (keys :attr:`pin_keys`)."""
+    def apply_options(self, s, options: dict) -> None:
+        """``reset(options=...)`` on every env of state ``s`` (keys :attr:`pin_keys`)."""
         raise NotImplementedError
 
-    def info_single(self, core, scored: bool) -> dict[str, Any]:
+    def info_single(self, s, scored: bool) -> dict[str, Any]:
         """The info of env 0 as Python floats (the single env's hot path)."""
         raise NotImplementedError
 
     # the info keys of a step taken by the single env's one-call step, in the order of the values
-    # it writes to ``core.info_row`` (``redraws`` and ``termination_reason`` follow); None: the
-    # single env builds the info with :meth:`info_single`
+    # it writes to its info row (tasks.single; ``redraws`` and ``termination_reason`` follow);
+    # None: the single env builds the info with :meth:`info_single`
     step_keys: tuple[str, ...] | None = None
 
-    def info_arrays(self, core, scored: bool) -> dict[str, np.ndarray]:
+    def info_arrays(self, s, scored: bool) -> dict[str, np.ndarray]:
         """Per-env info arrays (SI)."""
         raise NotImplementedError
 
-    def pin(self, core, values: dict, idx: np.ndarray) -> None:
-        """Hold pinned targets for the episode of envs ``idx`` (``core.pin_targets``)."""
+    def pin(self, s, values: dict, idx: np.ndarray) -> None:
+        """Hold pinned targets for the episode of envs ``idx`` of state ``s`` (the env's
+        ``pin_targets``)."""
         raise NotImplementedError(f"the {self.name} task pins targets through reset(options=...)")

@@ -1,0 +1,94 @@
+"""The task's settings as the compiled step reads them: one record (:class:`TaskParams`), built by
+each task from its spec, scales and observation layout (:func:`task_params`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .layout import OBS_FIELDS, ObsLayout
+from .records import Field, build, record
+
+MAX_OBS = len(OBS_FIELDS)  # measured columns of a layout (one per measured quantity at most)
+
+TaskParams = record(
+    "TaskParams",
+    (
+        Field("w_track", "f8", (), "weight of the position term"),
+        Field("w_stiff", "f8", (), "weight of the stiffness term"),
+        Field("w_effort", "f8", (), "weight of the effort term"),
+        Field("w_air", "f8", (), "weight of the air term"),
+        Field("w_burst", "f8", (), "weight of the burst term"),
+        Field("track_k", "i8", (), "1 if the task sets a stiffness target"),
+        Field("track_unit", "f8", (), "the position error that scores 1 [m or rad]"),
+        Field("track_clip", "f8", (), "largest position term (in units)"),
+        Field("stiff_clip", "f8", (), "largest relative stiffness error"),
+        Field("air_unit", "f8", (), "the supply air that scores 1 [kg]"),
+        Field("setpoint_max", "f8", (), "gauge set-point of the action +1 in pressure mode [Pa]"),
+        Field("obs_clip", "f8", (), "every observation column is clipped to +- this"),
+        Field("obs_n", "i8", (), "measured columns"),
+        Field("obs_src", "i8", (MAX_OBS,), "each measured column's source (OBS_FIELDS index)"),
+        Field("obs_off", "f8", (MAX_OBS,), "each measured column's offset"),
+        Field("obs_scale", "f8", (MAX_OBS,), "each measured column's scale"),
+        Field("preview", "i8", (), "control steps of targets announced (preview columns)"),
+        Field("prev_off", "f8", (), "offset of the position preview columns"),
+        Field("prev_scale", "f8", (), "scale of the position preview columns"),
+        Field("prev_k_scale", "f8", (), "scale of the stiffness preview columns"),
+    ),
+    "The task's settings of the compiled step: reward weights (in REWARD_TERMS order), units and "
+    "clips of the terms, the pressure set-point range, the observation layout.",
+    __name__,
+)
+
+
+def task_params(
+    weights,
+    scales,
+    layout: ObsLayout,
+    setpoint_max: float,
+    track_stiffness: bool = True,
+    position: str = "length",
+) -> TaskParams:
+    """The :class:`TaskParams` of a task: ``weights`` the five reward weights in REWARD_TERMS
+    order, ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout
+    (at most :data:`MAX_OBS` measured columns), ``setpoint_max`` [Pa] the gauge pressure of the
+    action +1 in pressure mode, ``position`` the name of the tracked position in the preview
+    columns (``"length"`` on the rig, ``"angle"`` on the joint)."""
+    n = layout.n_measured
+    if n > MAX_OBS:
+        raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns; got {layout.names}")
+    src, off, scale = np.zeros(MAX_OBS), np.zeros(MAX_OBS), np.zeros(MAX_OBS)
+    src[:n], off[:n], scale[:n] = layout.sources()[:n], layout.offsets()[:n], layout.scales()[:n]
+    steps = layout.preview_steps
+    prev = (0.0, 0.0, 0.0)
+    if steps:
+        if layout.preview_of != position or layout.has("target_stiffness") != bool(track_stiffness):
+            raise ValueError(
+                f"the layout previews {layout.preview_of} (stiffness: {layout.has('target_stiffness')}), "
+                f"the task tracks {position} (stiffness: {bool(track_stiffness)})"
+            )
+        col = layout.columns[n]
+        prev = (col.offset, col.scale, layout.columns[n + steps].scale if track_stiffness else 1.0)
+    w = [float(x) for x in weights]
+    return build(
+        TaskParams,
+        w_track=w[0],
+        w_stiff=w[1],
+        w_effort=w[2],
+        w_air=w[3],
+        w_burst=w[4],
+        track_k=int(bool(track_stiffness)),
+        track_unit=scales.tracking_unit,
+        track_clip=scales.tracking_clip,
+        stiff_clip=scales.stiffness_clip,
+        air_unit=scales.air_unit,
+        setpoint_max=setpoint_max,
+        obs_clip=layout.clip,
+        obs_n=n,
+        obs_src=src,
+        obs_off=off,
+        obs_scale=scale,
+        preview=steps,
+        prev_off=prev[0],
+        prev_scale=prev[1],
+        prev_k_scale=prev[2],
+    )
