@@ -46,7 +46,7 @@ run: install  ## the main job on the default config
 
 test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray; the docs
 	$(PY) -m pytest -q
-	$(RAY_PY) -m pytest -q tests/test_rllib.py
+	$(RAY_PY) -m pytest -q tests/integrations/test_rllib.py
 	$(MAKE) docs
 
 # the inner loop: everything but the tests marked slow (training, wheel builds, videos, golden
@@ -54,7 +54,7 @@ test: install install-distributed  ## every test; the RLlib ones (skipped in .ve
 test-fast: install
 	$(PY) -m pytest -q -m "not slow" $$($(PY) -c "import xdist" 2>/dev/null && echo "-n auto")
 
-lint: install  ## ruff lint and format check (configured in pyproject.toml; tests/test_lint.py runs both)
+lint: install  ## ruff lint and format check (configured in pyproject.toml; tests/project/test_lint.py runs both)
 	$(PY) -m ruff check .
 	$(PY) -m ruff format --check .
 

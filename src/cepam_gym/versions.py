@@ -23,7 +23,7 @@ suffix, a preview count or a plant's friction law: the registration (:mod:`cepam
 the benchmark's scoring (:func:`cepam_gym.control.objective.spec_of_core`), the oracle's settings
 (:func:`cepam_gym.control.oracle.oracle_config`), the controller registry's joint variants, the
 default suites of ``cepam-gym eval`` and the defaults of the command line. docs/versions.md prints
-the table; ``tests/test_versions.py`` checks it against the registry, the suites and the docs.
+the table; ``tests/project/test_versions.py`` checks it against the registry, the suites and the docs.
 This module imports nothing heavy (it is read on ``import cepam_gym``).
 """
 

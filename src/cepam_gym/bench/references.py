@@ -11,7 +11,7 @@ suite, 5.6 on joint-v1, 18 for all). ``--suite v2`` names exactly the v2 suites 
 change of plant v2 re-measures its references and no others. A normalized score uses them only
 for a run on the same episodes (:func:`stored_ends`); any other run uses the ends it measured
 itself, measures them on request (``--measure-references``) or says it cannot normalize
-(:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry (``tests/test_scores.py``).
+(:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry (``tests/bench/test_scores.py``).
 """
 
 from __future__ import annotations

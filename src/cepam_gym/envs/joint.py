@@ -7,7 +7,7 @@ the task kernel (:func:`cepam_gym.tasks.kernel.env_step`) scores it through the 
 (angle ``(L_max - L) / r``, joint stiffness ``K r^2``). The env is the rig's
 (:mod:`cepam_gym.envs.cepam`) given the joint's Task object
 (:class:`~cepam_gym.tasks.hinge_task.HingeTask`); the classes here only name that default task and
-carry the spec sheet. MuJoCo stays the reference (``tests/test_joint_v1.py`` checks the two agree)
+carry the spec sheet. MuJoCo stays the reference (``tests/envs/test_joint_v1.py`` checks the two agree)
 and draws the frames (:class:`~cepam_gym.mujoco.joint_view.BatchJointFrames`).
 """
 

@@ -16,12 +16,12 @@ a hinge in :class:`~cepam_gym.envs.joint_mujoco.CEPAMJointEnv`), every plant sub
 
 The plant's work ratio ``V_old / V_new`` is ``V_old * (1 / V_new)`` (it keeps ``1 / V_new`` for the
 next sub-step's pressures); here it is a division. The two agree to round-off, and each is kept as
-recorded (``tests/test_golden_v0.py``).
+recorded (``tests/golden/test_golden_v0.py``).
 
 These are the pieces of the plant's own sub-step, in its order (pressures at ``L`` -> spool ->
 flows -> force at ``L`` -> mechanics -> air), so with the same semi-implicit Euler scheme (MuJoCo's
 ``Euler`` integrator, implicit in joint damping, is the plant's load step) a MuJoCo slider
-reproduces the plant's trajectories to round-off (``tests/test_mujoco.py``). The force equations
+reproduces the plant's trajectories to round-off (``tests/envs/test_mujoco.py``). The force equations
 exist only in :mod:`cepam_gym.physics.muscle`; nothing here recomputes them.
 """
 

@@ -5,7 +5,7 @@ A reset used to shape each env's reference in Python (about 1 ms per env: a 1024
 as long resetting as stepping through its episode). Here the generators' states are copied into
 compiled code (:mod:`cepam_gym.tasks.rng`), every draw and every check runs there in the order the
 NumPy code ran them, and the states are copied back: the episodes are the former ones bit for bit
-(``tests/test_reset_kernels.py`` compares them with the former code, kept in the tests, on many
+(``tests/tasks/test_reset_kernels.py`` compares them with the former code, kept in the tests, on many
 seeds and tasks; the golden tests compare whole trajectories). Env i draws only from ``rngs[i]``,
 so a batch equals single envs.
 

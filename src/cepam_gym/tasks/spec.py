@@ -61,7 +61,7 @@ class RewardWeights:
     length: float = 1.0  # per cm of |L - L*|
     # per unit relative stiffness error |K - K*| / K*: 2.5 makes 20 % cost what 5 mm costs, the
     # trade of the benchmark score (tasks.contract.RIG.trade; TaskContract.score_factor states the
-    # relation and tests/test_contract.py holds it)
+    # relation and tests/tasks/test_contract.py holds it)
     stiffness: float = 2.5
     effort: float = 0.05  # per unit mean squared action
     air: float = 0.05  # per 10 mg of air drawn from the supply in one control step

@@ -17,7 +17,7 @@ import pytest
 import cepam_gym
 from cepam_gym.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _generator():

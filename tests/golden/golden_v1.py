@@ -1,6 +1,6 @@
 """Reference trajectories of plant v1 and the v1 env ids, recorded once and compared bit for bit by
-``tests/test_golden_v1.py``: a restructuring (or a speed-up) must leave them as they are.
-``python tests/golden_v1.py`` re-records, only when a change of v1 behaviour is intended and named
+``tests/golden/test_golden_v1.py``: a restructuring (or a speed-up) must leave them as they are.
+``python tests/golden/golden_v1.py`` re-records, only when a change of v1 behaviour is intended and named
 in the commit (a behaviour change belongs in a new version: v2 ids and presets).
 
 What is covered: the plant kernel (both v1 presets, every valve mode, friction on; the hinge

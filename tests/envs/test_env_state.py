@@ -18,7 +18,7 @@ from cepam_gym.tasks.records import allocate
 from cepam_gym.tasks.single import SLABS, env_step_single
 from cepam_gym.tasks.state import EnvState, dims
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "cepam_gym"
+SRC = Path(__file__).resolve().parents[2] / "src" / "cepam_gym"
 
 
 def test_single_slab_views_are_the_declared_record():

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
 PKG = "cepam_gym"
 AGENTS = "cepam_gym_agents"  # the training package: the folder agents/, installed under this name
@@ -274,7 +274,7 @@ def _folder_layer(name: str) -> str:
         top = parts[1]
         assert top in ROOT_FOUNDATION | ROOT_TOP | set(FOLDER_LAYERS), (
             f"{name}: a module at the package root must be named in ROOT_FOUNDATION or ROOT_TOP "
-            "of tests/test_architecture.py, or live in one of the layer folders"
+            "of tests/project/test_architecture.py, or live in one of the layer folders"
         )
         return "foundation" if top in ROOT_FOUNDATION else "top" if top in ROOT_TOP else top
     return parts[1]

@@ -20,7 +20,7 @@ from cepam_gym.envs import EnvModel, NoModelError, model_of
 from cepam_gym.plant.params import PlantParams
 from cepam_gym.tasks import kernel as tk
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "cepam_gym"
+SRC = Path(__file__).resolve().parents[2] / "src" / "cepam_gym"
 
 
 def test_fixed_facts_follow_the_env_kwargs():

@@ -23,7 +23,7 @@ from cepam_gym.control.registry import is_joint_env
 from cepam_gym.envs.joint import CEPAMJointV1Env
 from cepam_gym.plant.params import PlantParams, preset
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 IDS = list(versions.VERSIONS)
 
 

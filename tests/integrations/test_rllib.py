@@ -17,7 +17,7 @@ import pytest
 from cepam_gym import rllib
 from cepam_gym.bench.suites import RANDOMIZE
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 class Ctx(dict):

@@ -1,5 +1,5 @@
 """Plant v1 and the v1 env ids reproduce their recorded trajectories bit for bit
-(``tests/golden_v1.py`` recorded them; a change of v1 behaviour must be intended and named)."""
+(``tests/golden/golden_v1.py`` recorded them; a change of v1 behaviour must be intended and named)."""
 
 import numpy as np
 import pytest

@@ -287,7 +287,7 @@ def test_the_gap_closed_against_the_goal_of_issue_26():
 @pytest.mark.slow  # trains
 def test_an_agent_trains_on_the_batched_joint_and_drives_it_through_the_registry(tmp_path):
     """CEPAMJoint-v1 runs on the batched kernel: agents train on it and the bench loads them
-    (the MuJoCo joint, v0, still refuses agents: tests/test_controllers.py)."""
+    (the MuJoCo joint, v0, still refuses agents: tests/control/test_controllers.py)."""
     from cepam_gym.bench.harness import run_suite
     from cepam_gym_agents.train import train
 

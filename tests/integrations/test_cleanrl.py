@@ -14,7 +14,7 @@ import pytest
 
 import cepam_gym  # noqa: F401  (registers the ids)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "examples" / "cleanrl_ppo.py"
 
 

@@ -1,6 +1,6 @@
 """Reference trajectories of the v0 plant and the v0 env ids, recorded once and compared bit for
-bit by ``tests/test_golden_v0.py``: a restructuring or a new plant version must leave them as they
-are. ``python tests/golden_v0.py`` re-records (only when a change of v0 behaviour is intended and
+bit by ``tests/golden/test_golden_v0.py``: a restructuring or a new plant version must leave them as they
+are. ``python tests/golden/golden_v0.py`` re-records (only when a change of v0 behaviour is intended and
 named in the commit)."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The compiled reset against NumPy's generator draw for draw, and against the per-env NumPy
-planning of ``tests/legacy_planner.py`` episode for episode, bit for bit, on many
+planning of ``tests/tasks/legacy_planner.py`` episode for episode, bit for bit, on many
 seeds, tasks, plants and the fallback paths; the generators end in the same state."""
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.train
 
 from cepam_gym_agents.config import ALGORITHMS, ConfigError, TrainConfig, load_config  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 TINY = {
     "algorithm": "SAC",

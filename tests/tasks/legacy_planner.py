@@ -1,5 +1,5 @@
 """The reset's planning in Python: per-env NumPy code, kept verbatim as the judge of the compiled
-planner (``tests/test_reset_kernels.py``). Not used by the library. Its physics goes through
+planner (``tests/tasks/test_reset_kernels.py``). Not used by the library. Its physics goes through
 :mod:`cepam_gym.physics.api` (NumPy arrays over the scalar kernels)."""
 
 from __future__ import annotations

@@ -176,7 +176,7 @@ def test_eval_of_a_run_without_a_model_is_one_line_without_the_usage(tmp_path):
     pytest.importorskip("stable_baselines3")
     from pathlib import Path
 
-    shipped = Path(__file__).resolve().parents[1] / "configs" / "quick.yaml"
+    shipped = Path(__file__).resolve().parents[2] / "configs" / "quick.yaml"
     (tmp_path / "config.yaml").write_text(shipped.read_text())
     r = _cli("eval", "--run", str(tmp_path))
     assert r.returncode == 2 and "no model in run directory" in r.stderr

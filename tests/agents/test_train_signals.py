@@ -19,7 +19,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.slow
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture()

@@ -155,7 +155,7 @@ def test_pressure_mode_maps_actions_to_the_pressure_cap():
 def test_array_wrappers_are_used_module_qualified():
     """physics.api reuses the kernels' names (its documented convention): nobody imports them
     unqualified, so ``chamber_volumes`` never means two things in one module."""
-    src = Path(__file__).resolve().parents[1] / "src" / "cepam_gym"
+    src = Path(__file__).resolve().parents[2] / "src" / "cepam_gym"
     offenders = [
         str(f.relative_to(src))
         for f in src.rglob("*.py")

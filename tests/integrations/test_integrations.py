@@ -14,7 +14,7 @@ import pytest
 import cepam_gym  # noqa: F401  (registers the ids)
 from cepam_gym.registration import ENV_IDS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("env_id", sorted(ENV_IDS))

@@ -1,5 +1,5 @@
 """The v0 plant and the v0 env ids reproduce their recorded trajectories bit for bit
-(``tests/golden_v0.py`` recorded them; a change of v0 behaviour must be intended and named)."""
+(``tests/golden/golden_v0.py`` recorded them; a change of v0 behaviour must be intended and named)."""
 
 import numpy as np
 import pytest
