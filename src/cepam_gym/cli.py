@@ -26,7 +26,7 @@ def _run(argv: list[str]) -> int:
     teacher, distilled by DAgger: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config
     quick``: PPO, about 3.5 minutes of training) and score it
     beside the zero controller, the inverse-model baseline, the MPC and the oracle on the
-    ``nominal-v1`` and ``randomized-v1`` suites, with the normalized score. Everything
+    ``nominal-v1`` and ``randomized-v1`` suites, with the headline score. Everything
     lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``, ``validate/``,
     ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs), ``agent/eval/``
     (table.txt, results.json, plots) and ``summary.md`` (what ran, versions, where everything is,
@@ -129,8 +129,8 @@ def _run_steps(args, out, steps: list, where: dict) -> int:
     return code
 
 
-# scored beside the trained agent by the main job: the ends of the normalized score (zero, oracle)
-# and the two model-based controllers an agent must beat
+# scored beside the trained agent by the main job: the ends of the headline (baseline, oracle) and
+# of the normalized score (zero, oracle), and the two model-based controllers an agent must beat
 REFERENCE_CONTROLLERS = ("zero", "baseline", "mpc", "oracle")
 
 PLUGIN_GROUP = "cepam_gym.commands"  # commands of other packages: the training package's train, eval
