@@ -10,10 +10,10 @@ on the joint suites), 100 the privileged oracle (:mod:`cepam_gym.control.oracle`
 headline is worse than the baseline (the zero controller reads about -1000 on ``nominal-v2``),
 above 100 better than the oracle. ``cepam-gym bench`` and ``cepam-gym eval`` print it per row,
 beside the D4RL-style normalized score (:func:`cepam_gym.bench.metrics.normalized_score`, zero
-controller 0, oracle 100), which Minari's convention and comparisons across suites keep.
+controller 0, oracle 100), the one with a low end common to every suite.
 
 Why this scale (docs/benchmark.md, "The headline score"): on the normalized score every practical
-controller sits between 69 and 98, because the zero controller's error is 10-200 times theirs; on
+controller sits between 69 and 98, because the zero controller's error is 3-60 times theirs; on
 this one the baseline, the MPC and the oracle are 20 points or more apart on the recommended
 suites, and the comparison with the baseline, the reference the project is built to beat, is the
 number itself.
