@@ -168,6 +168,27 @@ def test_minaris_normalized_score_puts_a_baseline_episode_between_the_zero_contr
     assert meta["cepam_normalized"] == pytest.approx(base["normalized"], rel=1e-12)
 
 
+def test_without_stored_reference_returns_the_dataset_has_no_minari_ends_and_says_how_to_get_them(
+    minari_home, capsys, monkeypatch
+):
+    import minari
+
+    table = references.load()
+    entry = {k: v for k, v in table[NOMINAL].items() if not k.endswith("_return")}
+    monkeypatch.setattr(references, "load", lambda: {**table, NOMINAL: entry})
+    assert (
+        cli_main(
+            ["dataset", "--suite", NOMINAL, "--controller", "zero", "--episodes", "1", "--max-steps", "3"]
+        )
+        == 0
+    )
+    out, err = capsys.readouterr()
+    assert f"no reference returns stored for {NOMINAL}" in err
+    assert f"cepam-gym bench --update-references --suite {NOMINAL}" in err
+    ds = minari.load_dataset(out.strip().splitlines()[-1])
+    assert ds.storage.metadata.get("ref_min_score") is None
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

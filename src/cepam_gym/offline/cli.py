@@ -48,9 +48,16 @@ def main(argv: list[str] | None = None) -> int:
         overwrite=args.overwrite,
     )
     if not store.reference_scores(SUITES[out["suite"]]):
+        from ..bench.cli import _oracle_drives
+
+        how = (
+            f"cepam-gym bench --update-references --suite {out['suite']} measures them"
+            if _oracle_drives(out["suite"])
+            else "the oracle does not drive this suite"
+        )
         print(
             f"cepam-gym dataset: no reference returns stored for {out['suite']}: the dataset has no "
-            "ref_min_score / ref_max_score (minari.get_normalized_score refuses it)",
+            f"ref_min_score / ref_max_score (minari.get_normalized_score refuses it; {how})",
             file=sys.stderr,
             flush=True,
         )
