@@ -107,7 +107,8 @@ def test_stored_references_are_current(name):
     if everything or not name.endswith("-v2") or name in V2_ORACLE_CHECKED:
         now = measure_references(name)
         assert now["oracle"] == pytest.approx(stored["oracle"], rel=0.02), name
-        assert now["oracle_return"] == pytest.approx(stored["oracle_return"], rel=0.02), name
+        if "oracle_return" in stored:  # the datasets' Minari end (cepam_gym.offline.store)
+            assert now["oracle_return"] == pytest.approx(stored["oracle_return"], rel=0.02), name
     else:  # the zero controller's and the baseline's ends (seconds); the oracle's: CEPAM_ALL_REFERENCES=1
         zero, _ = run_suite("zero", name)
         baseline, _ = run_suite("baseline", name)
