@@ -8,8 +8,8 @@ split into training and validation episodes (whole episodes, so the validation l
 on episodes the network has not seen), and the epoch of the lowest validation loss is kept. The
 run directory loads as a controller (``cepam-gym bench --controller runs/bc-oracle``, through
 :func:`cepam_gym_agents.policy.load_policy`); unless ``--no-score``, the policy is scored on the
-dataset's suite (the benchmark's 20 episodes) and the score, with its normalized score from the
-dataset's references (``minari.get_normalized_score(dataset, -score)``), lands in ``bc.json``.
+dataset's suite (the benchmark's 20 episodes) and the score, with its headline and normalized
+scores from the suite's stored references (as ``cepam-gym bench`` gives them), lands in ``bc.json``.
 """
 
 from __future__ import annotations
@@ -181,13 +181,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     if not args.no_score and info["suite"]:
         metrics = score_on_suite(BCPolicy(net, mean, std), info["suite"])
-        info["score"] = metrics["score"]
-        info["failure_rate"] = metrics["failure_rate"]
-        if meta.get("ref_min_score") is not None:
-            info["normalized"] = float(100 * minari.get_normalized_score(dataset, -metrics["score"]))
+        from cepam_gym.bench.cli import add_scores
+
+        row = {"suite": info["suite"], "controller": str(out), **metrics}
+        add_scores([row])
+        info.update({k: row[k] for k in ("score", "failure_rate", "headline", "normalized") if k in row})
         save(out, net, mean, std, args.hidden, info)
-        norm = f", normalized {info['normalized']:.1f}" if "normalized" in info else ""
-        print(f"benchmark score on {info['suite']}: {metrics['score']:.4g}{norm}", flush=True)
+        rel = "".join(f", {k} {info[k]:.1f}" for k in ("headline", "normalized") if k in info)
+        print(f"benchmark score on {info['suite']}: {metrics['score']:.4g}{rel}", flush=True)
     print(
         f"wrote {out}: score it with cepam-gym bench --controller {out} --suite {info['suite']}", flush=True
     )

@@ -9,9 +9,9 @@ numba thread; ``--jobs 2`` runs two at a time) into ``--out/<config>-s<seed>``, 
 is scored on each suite's own 20 episodes and on 20 episodes of an unseen seed (``--unseen-seed``),
 beside the baseline and the oracle on the same episodes (and the MPCs on the suites' episodes).
 Per config and suite: the interquartile mean over seeds with a 95 % stratified-bootstrap interval
-(Agarwal et al. 2021, :mod:`cepam_gym.bench.stats`), and the share of the baseline-to-oracle gap it
-closes, ``(baseline - score) / (baseline - oracle)``. Written to ``--out/compare.json`` and
-``compare.md``.
+(Agarwal et al. 2021, :mod:`cepam_gym.bench.stats`), and its headline score, the share of the
+baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score`). Written to
+``--out/compare.json`` and ``compare.md``.
 """
 
 from __future__ import annotations
@@ -86,12 +86,11 @@ def measure(configs, seeds, out: Path, unseen: int, cache: dict) -> dict:
 def table(configs, seeds, cache: dict) -> str:
     import numpy as np
 
+    from cepam_gym.bench.headline import headline_score
     from cepam_gym.bench.stats import MIN_SEEDS, iqm_interval
 
-    from .evaluate import gap_closed
-
     lines = [
-        "| suite | episodes | controller | score (IQM over seeds, 95 % CI) | gap closed |",
+        "| suite | episodes | controller | score (IQM over seeds, 95 % CI) | headline (gap closed) |",
         "|---|---|---|---|---|",
     ]
     for suite in SUITES:
@@ -99,7 +98,7 @@ def table(configs, seeds, cache: dict) -> str:
             base, orc = cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"]
 
             def gap(v, base=base, orc=orc):
-                return f"{100 * gap_closed(v, base, orc):.0f} %"
+                return f"{headline_score(v, base, orc):.0f}"
 
             names = CONTROLLERS if where == "suite" else UNSEEN_CONTROLLERS
             for name in names:

@@ -8,9 +8,10 @@ The suites default to the headline suites of the id the agent was trained on (th
 table, :mod:`cepam_gym.versions`: ``CEPAM-v2``: ``nominal-v2``, ``randomized-v2``;
 ``CEPAMJoint-v2``: ``joint-v2``); ``--suite all`` scores every suite of its version whose env
 observes what it does. Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
-(benchmark table with the normalized score), ``results.json`` (every metric), ``comparison.md``
-(agent / reference ratios, the goals of :data:`GOALS`, and the share of the baseline-to-oracle gap
-the agent closes against :data:`GAP_GOALS`), ``scores.png`` and ``traces_<suite>_<controller>.png``.
+(benchmark table with the headline and the normalized score), ``results.json`` (every metric),
+``comparison.md`` (agent / reference ratios, the goals of :data:`GOALS`, and the agent's headline
+score, the share of the baseline-to-oracle gap it closes, against :data:`GAP_GOALS`),
+``scores.png`` and ``traces_<suite>_<controller>.png``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import json
 import sys
 from pathlib import Path
 
+from cepam_gym.bench.headline import LEGEND, headline_score
 from cepam_gym.errors import InputError
 
 # goals per suite: (reference controller, largest agent / reference score ratio)
@@ -30,30 +32,26 @@ GOALS = {
     "randomized-v1": [("baseline", 0.70), ("mpc", 1.00)],  # v1: 30 % below the baseline, <= MPC
 }
 
-# the share of the baseline-to-oracle gap an agent must close, (baseline - agent) / (baseline -
-# oracle), per suite (80 % on both v1 suites)
-GAP_GOALS = {"nominal-v1": 0.80, "randomized-v1": 0.80}
-
-
-def gap_closed(score: float, baseline: float, oracle: float) -> float:
-    """``(baseline - score) / (baseline - oracle)``: 0 at the baseline, 1 at the oracle."""
-    return (baseline - score) / (baseline - oracle)
+# the headline score an agent must reach per suite (cepam_gym.bench.headline: the share of the
+# baseline-to-oracle gap closed, in points): 80 on both v1 suites
+GAP_GOALS = {"nominal-v1": 80.0, "randomized-v1": 80.0}
 
 
 def gaps_closed(rows: list[dict], agent: str = "agent") -> list[dict]:
-    """Per suite where the agent, the baseline and the oracle all ran: the share of the gap from
-    the baseline to the oracle the agent closes, and whether it meets :data:`GAP_GOALS`."""
+    """Per suite where the agent, the baseline and the oracle all ran: the agent's headline score
+    (the share of the gap from the baseline to the oracle it closes, in points; computed from this
+    run's three scores) and whether it meets :data:`GAP_GOALS`."""
     out = []
     for s in dict.fromkeys(r["suite"] for r in rows):
         score = {r["controller"]: r["score"] for r in rows if r["suite"] == s}
         if not {agent, "baseline", "oracle"} <= score.keys() or score["baseline"] <= score["oracle"]:
             continue
-        closed = gap_closed(score[agent], score["baseline"], score["oracle"])
+        closed = headline_score(score[agent], score["baseline"], score["oracle"])
         goal = GAP_GOALS.get(s)
         out.append(
             {
                 "suite": s,
-                "gap_closed": closed,
+                "headline": closed,
                 "goal": goal,
                 "goal_met": None if goal is None else bool(closed >= goal),
             }
@@ -80,6 +78,8 @@ def compare(rows: list[dict], agent: str = "agent") -> list[dict]:
                     "agent_score": a["score"],
                     "reference_score": b["score"],
                     "ratio": ratio,
+                    "agent_headline": a.get("headline"),
+                    "reference_headline": b.get("headline"),
                     "agent_normalized": a.get("normalized"),
                     "reference_normalized": b.get("normalized"),
                     "goal_ratio": goal,
@@ -95,33 +95,36 @@ def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict]
     lines = [
         f"# {run.name}: agent ({which} model) vs the model-based controllers",
         "",
-        "| suite | reference | agent score | reference score | agent / reference | normalized "
-        "(agent, reference) | goal | met |",
-        "|---|---|---|---|---|---|---|---|",
+        "| suite | reference | agent score | reference score | agent / reference | headline "
+        "(agent, reference) | normalized (agent, reference) | goal | met |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for c in cmp:
         goal = "-" if c["goal_ratio"] is None else f"<= {c['goal_ratio']:.2f}"
         met = "-" if c["goal_met"] is None else ("yes" if c["goal_met"] else "no")
-        norm = (
-            "-"
-            if c["agent_normalized"] is None
-            else f"{c['agent_normalized']:.1f}, {c['reference_normalized']:.1f}"
-        )
+        pair = {
+            k: "-" if c[f"agent_{k}"] is None else f"{c[f'agent_{k}']:.1f}, {c[f'reference_{k}']:.1f}"
+            for k in ("headline", "normalized")
+        }
         lines.append(
             f"| {c['suite']} | {c['reference']} | {c['agent_score']:.3f} | "
-            f"{c['reference_score']:.3f} | {c['ratio']:.3f} | {norm} | {goal} | {met} |"
+            f"{c['reference_score']:.3f} | {c['ratio']:.3f} | {pair['headline']} | {pair['normalized']} | "
+            f"{goal} | {met} |"
         )
     if gaps:
-        lines += ["", "| suite | gap closed (baseline 0 %, oracle 100 %) | goal | met |", "|---|---|---|---|"]
+        lines += [
+            "",
+            "| suite | agent's headline (baseline 0, oracle 100) | goal | met |",
+            "|---|---|---|---|",
+        ]
         for g in gaps:
-            goal = "-" if g["goal"] is None else f">= {100 * g['goal']:.0f} %"
+            goal = "-" if g["goal"] is None else f">= {g['goal']:.0f}"
             met = "-" if g["goal_met"] is None else ("yes" if g["goal_met"] else "no")
-            lines.append(f"| {g['suite']} | {100 * g['gap_closed']:.0f} % | {goal} | {met} |")
+            lines.append(f"| {g['suite']} | {g['headline']:.0f} | {goal} | {met} |")
     lines += [
         "",
         "Combined score (lower is better): length RMSE / 5 mm + stiffness RMSE / 20 % "
-        "+ 2 x failure rate (cepam_gym.bench.metrics); normalized: 0 = zero controller, "
-        "100 = oracle (D4RL-style).",
+        f"+ 2 x failure rate (cepam_gym.bench.metrics); {LEGEND}.",
     ]
     return "\n".join(lines) + "\n"
 
@@ -154,7 +157,7 @@ def default_suites(env_id: str, asked: list[str] | None = None) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
-    from cepam_gym.bench.cli import add_normalized
+    from cepam_gym.bench.cli import add_scores
     from cepam_gym.bench.harness import run_suite
     from cepam_gym.bench.suites import SUITES
     from cepam_gym.control.baseline import UnsupportedEnvError
@@ -191,7 +194,8 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         default=None,
         help="a controller to score beside the agent (repeatable; default baseline; e.g. zero, "
-        "baseline, mpc, oracle: with zero and oracle the normalized score is of this run)",
+        "baseline, mpc, oracle: with baseline and oracle the headline is of this run, with zero and "
+        "oracle the normalized score)",
     )
     ap.add_argument("--no-baseline", action="store_true", help="score the agent only")
     ap.add_argument("--out-dir", help="where the table and plots go (default <run>/eval)")
@@ -228,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
             metrics["controller"] = name
             rows.append(metrics)
             traces[(s, name)] = tr
-    add_normalized(rows)
+    add_scores(rows)
     text = report.table(rows)
     cmp, gaps = compare(rows), gaps_closed(rows)
     md = comparison_markdown(cmp, run, f"{args.model}: {model_path.name}", gaps)

@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     teacher: about 5 minutes of training on 2 cores, 7.5 for the whole job; ``--config quick``:
     PPO, about 3.5 minutes of training) and score it beside the zero controller, the
     inverse-model baseline, the MPC and the oracle on the ``nominal-v1`` and ``randomized-v1``
-    suites, with the normalized score. Everything lands in ``--out-dir`` (default
+    suites, with the headline score. Everything lands in ``--out-dir`` (default
     ``runs/main``): ``step_response.png``, ``validate/``, ``agent/`` (model, logs, config;
     ``agent-2/`` ... on later runs), ``agent/eval/`` (table.txt, results.json, plots) and
     ``summary.md`` (what ran, versions, where everything is, the scores)."""

@@ -22,7 +22,8 @@ all on the same seeded episodes of a suite:
 * ``oracle``.
 
 Per row: the score, its 95 % interval and the share of the baseline-to-oracle gap it closes
-(``(baseline - score) / (baseline - oracle)``, the yardstick of the agents' goal).
+(the headline score, :func:`cepam_gym.bench.headline.headline_score`, the yardstick of the agents'
+goal).
 
 Run: ``NUMBA_NUM_THREADS=1 python benchmarks/oracle_privileges.py [--suite nominal-v1] [--episodes 20]``
 (about 12 minutes for both default suites on one core of a busy 2-core machine).
@@ -38,6 +39,7 @@ import numpy as np
 import cepam_gym  # noqa: F401  (registers the ids)
 from cepam_gym import plant as pl
 from cepam_gym.bench.harness import record
+from cepam_gym.bench.headline import headline_score
 from cepam_gym.bench.metrics import score_traces
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.control import make_controller
@@ -106,10 +108,10 @@ def main(argv=None) -> None:
         base = rows["baseline"][0]["score"] if "baseline" in rows else None
         top = rows["oracle"][0]["score"] if "oracle" in rows else None
         print(f"\n{name} ({args.episodes or s.episodes} episodes, seed {s.seed})")
-        print("| row | length RMSE mm | stiffness RMSE % | score | 95 % CI | gap closed | s |")
+        print("| row | length RMSE mm | stiffness RMSE % | score | 95 % CI | headline (gap closed) | s |")
         print("|---|---|---|---|---|---|---|")
         for row, (m, sec) in rows.items():
-            gap = "" if base is None or top is None else f"{100 * (base - m['score']) / (base - top):.0f} %"
+            gap = "" if base is None or top is None else f"{headline_score(m['score'], base, top):.0f}"
             lo, hi = m["score_ci95"]
             print(
                 f"| {row} | {m['length_rmse_mm']:.3f} | {m['stiffness_rmse_pct']:.2f} | {m['score']:.4f} "

@@ -4,7 +4,8 @@
   (description, action space, observation space, rewards, starting state, episode end, arguments,
   version history), and ``envs/index.md``, the id table;
 * the reference tables of ``suites.md`` (the ``<!-- reference-scores -->`` marker) from
-  ``src/cepam_gym/data/reference_scores.json``;
+  ``src/cepam_gym/data/reference_scores.json``: the ends of the headline and of the normalized
+  score, and of the datasets' Minari normalization;
 * ``configs.md`` (the training configs, ``configs/README.md``) and ``changelog.md``.
 
 Everything the spec sheets say about an id comes from :func:`env_facts`, the one function that
@@ -312,15 +313,28 @@ def index_page(ids: list[str]) -> str:
 
 
 def reference_tables() -> str:
-    """The stored references of every suite: the zero controller's and the oracle's scores."""
+    """The stored references of every suite: the zero controller's, the baseline's and the oracle's
+    scores, the zero controller's headline (``cepam_gym.bench.headline``), and the mean episode
+    returns that are a Minari dataset's ``ref_min_score`` / ``ref_max_score``."""
+    from cepam_gym.bench.headline import headline_score
+
     refs = json.loads((ROOT / "src/cepam_gym/data/reference_scores.json").read_text())
+
+    def cell(r, key, fmt):
+        return format(r[key], fmt) if key in r else "-"
+
     rows = [
-        f"| `{suite}` | {r['seed']} | {r['episodes']} | {r['zero']:.4f} | {r['oracle']:.4f} |"
+        f"| `{suite}` | {r['seed']} | {r['episodes']} | {r['zero']:.4f} | {cell(r, 'baseline', '.4f')} "
+        f"| {r['oracle']:.4f} | "
+        + (f"{headline_score(r['zero'], r['baseline'], r['oracle']):.0f}" if "baseline" in r else "-")
+        + f" | {cell(r, 'zero_return', '.1f')} | {cell(r, 'oracle_return', '.1f')} |"
         for suite, r in sorted(refs.items(), key=lambda kv: (kv[0].rsplit("-", 1)[-1], kv[0]))
     ]
-    return "\n".join(
-        ["| suite | seed | episodes | zero (0) | oracle (100) |", "|---|---|---|---|---|", *rows]
+    head = (
+        "| suite | seed | episodes | zero | baseline (headline 0) | oracle (headline 100, normalized 100) "
+        "| headline of zero | zero's mean return (Minari min) | oracle's mean return (Minari max) |"
     )
+    return "\n".join([head, "|---|---|---|---|---|---|---|---|---|", *rows])
 
 
 def on_files(files, config):

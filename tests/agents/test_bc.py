@@ -13,7 +13,9 @@ pytest.importorskip("torch")
 pytest.importorskip("minari", reason="the [offline] extra (minari) is not installed")
 pytestmark = pytest.mark.train
 
+from cepam_gym.bench import references  # noqa: E402
 from cepam_gym.bench.harness import run_suite  # noqa: E402
+from cepam_gym.bench.headline import headline_score  # noqa: E402
 from cepam_gym.bench.metrics import normalized_score  # noqa: E402
 from cepam_gym.bench.suites import SUITES  # noqa: E402
 from cepam_gym.control import make_controller  # noqa: E402
@@ -44,9 +46,11 @@ def test_bc_trains_scores_and_loads_as_a_controller(baseline_dataset, tmp_path, 
     assert (info["train_episodes"], info["val_episodes"], info["train_samples"]) == (3, 1, 180)
     assert info["train_loss"][-1] < 0.5 * info["train_loss"][0]
     assert 1 <= info["best_epoch"] <= 15 and info["val_loss"][info["best_epoch"] - 1] == min(info["val_loss"])
-    # scored on the suite's 20 episodes, normalized as the benchmark normalizes
+    # scored on the suite's 20 episodes, its headline and normalized scores as the benchmark's
     zero, oracle = SUITES[NOMINAL].reference
     assert info["normalized"] == pytest.approx(normalized_score(info["score"], zero, oracle), rel=1e-12)
+    baseline = references.load()[NOMINAL]["baseline"]
+    assert info["headline"] == pytest.approx(headline_score(info["score"], baseline, oracle), rel=1e-12)
     # the run directory is a controller: the bench (entry-point loader) scores it the same
     venv = gym.make_vec(SUITES[NOMINAL].env_id, num_envs=3, **SUITES[NOMINAL].env_kwargs)
     policy = make_controller(str(out), venv)

@@ -148,9 +148,9 @@ def test_comparison_table_gives_iqm_and_the_gap_closed():
                 cache[f"{suite}|{where}|student-s{s}"] = v
     md = table(["student"], range(5), cache)
     rows = [r for r in md.splitlines() if "student" in r]
-    assert len(rows) == 4 and all("**0.2" in r and "| 80 % |" in r for r in rows), rows
+    assert len(rows) == 4 and all("**0.2" in r and "| 80 |" in r for r in rows), rows
     one = table(["student"], [4], cache)
-    assert "no IQM under 5 seeds" in one and "| 10 % |" in one
+    assert "no IQM under 5 seeds" in one and "| 10 |" in one
 
 
 def test_base_controller_config_is_checked():

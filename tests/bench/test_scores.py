@@ -32,9 +32,13 @@ def test_a_short_run_is_not_normalized_against_20_episode_references(capsys):
     assert main(["--controller", "zero", "--suite", "length-v1", "--episodes", "2", "--json"]) == 0
     out, err = capsys.readouterr()
     row = json.loads(out.splitlines()[0])
-    assert "normalized" not in row and "no normalized score on length-v1" in err
+    assert "normalized" not in row and "headline" not in row
+    assert (
+        "no headline or normalized score on length-v1" in err
+        and "--controller baseline --controller oracle" in err
+    )
     rows = [{"suite": "length-v1", "controller": "zero", "score": 2.0, "episodes": 2}]
-    assert missing_ends(rows) == [("length-v1", "oracle")]
+    assert missing_ends(rows) == [("length-v1", "baseline"), ("length-v1", "oracle")]
     rows.append({"suite": "length-v1", "controller": "oracle", "score": 0.1, "episodes": 2})
     add_normalized(rows)
     assert [r["normalized"] for r in rows] == [0.0, 100.0] and rows[0]["normalized_from"] == "this run"
@@ -103,8 +107,18 @@ def test_stored_references_are_current(name):
     if everything or not name.endswith("-v2") or name in V2_ORACLE_CHECKED:
         now = measure_references(name)
         assert now["oracle"] == pytest.approx(stored["oracle"], rel=0.02), name
-    else:  # the zero controller's end only (seconds); the oracle's: CEPAM_ALL_REFERENCES=1
+        if "oracle_return" in stored:  # the datasets' Minari end (cepam_gym.offline.store)
+            assert now["oracle_return"] == pytest.approx(stored["oracle_return"], rel=0.02), name
+    else:  # the zero controller's and the baseline's ends (seconds); the oracle's: CEPAM_ALL_REFERENCES=1
         zero, _ = run_suite("zero", name)
-        now = {"seed": SUITES[name].seed, "episodes": zero["episodes"], "zero": zero["score"]}
+        baseline, _ = run_suite("baseline", name)
+        now = {
+            "seed": SUITES[name].seed,
+            "episodes": zero["episodes"],
+            "zero": zero["score"],
+            "baseline": baseline["score"],
+            "zero_return": zero["mean_return"],
+        }
     assert now["episodes"] == stored["episodes"] and now["seed"] == stored["seed"]
-    assert now["zero"] == pytest.approx(stored["zero"], rel=0.02), name
+    for end in ("zero", "baseline", "zero_return"):
+        assert now[end] == pytest.approx(stored[end], rel=0.02), (name, end)

@@ -1,5 +1,6 @@
 """Offline-RL datasets (``cepam-gym dataset``, :mod:`cepam_gym.offline`): the episodes recorded are
-the benchmark's, Minari's normalized score is the benchmark's, bad input is one line."""
+the benchmark's, Minari's normalized score reads episode returns between the zero controller's and
+the oracle's, bad input is one line."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from cepam_gym.bench import cli as bench_cli
+from cepam_gym.bench import references
 from cepam_gym.bench.harness import run_suite
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.cli import main as cli_main
@@ -138,31 +140,57 @@ def test_a_dataset_holds_the_episodes_the_benchmark_scores(minari_home, capsys):
     assert ds.spec.env_spec.max_episode_steps == 40
 
 
-def test_minaris_normalized_score_is_the_benchmarks(minari_home, capsys):
-    """The suite's own episodes (its seed, 20 episodes, full length): get_normalized_score(ds,
-    -score) is the normalized score of ``cepam-gym bench`` / 100, for the recorded controller and
-    for any other score on the suite."""
+def test_minaris_normalized_score_puts_a_baseline_episode_between_the_zero_controller_and_the_oracle(
+    minari_home, capsys
+):
+    """ref_min_score / ref_max_score are the mean episode returns of the zero controller and of the
+    oracle on the suite's episodes (the stored references), as Minari expects: the zero
+    controller's mean return reads 0, the oracle's 1, the baseline's in between; the benchmark's
+    own scores of the recorded episodes are the dataset's cepam_* metadata."""
     import minari
 
-    out, ds = _dataset(["--suite", NOMINAL, "--controller", "baseline"], capsys)
+    _, ds = _dataset(["--suite", NOMINAL, "--controller", "baseline"], capsys)
+    entry = references.load()[NOMINAL]
+    meta = ds.storage.metadata
+    assert (meta["ref_min_score"], meta["ref_max_score"]) == (entry["zero_return"], entry["oracle_return"])
+    returns = np.array([ep.rewards.sum() for ep in ds.iterate_episodes()])
+    assert returns.shape == (SUITES[NOMINAL].episodes,)
+    # the baseline's mean episode return, on the scale its ends are (means over the same episodes)
+    mean = float(minari.get_normalized_score(ds, returns.mean()))
+    assert 0 < mean < 1, mean
+    assert meta["cepam_mean_return"] == pytest.approx(returns.mean(), rel=1e-12)
+    # single episodes spread around it (some are easier than the oracle's average), none near valves shut
+    assert np.all(np.asarray(minari.get_normalized_score(ds, returns)) > 0.5)
+    zero, _ = run_suite("zero", NOMINAL)  # measured now: the stored end is current
+    assert float(minari.get_normalized_score(ds, zero["mean_return"])) == pytest.approx(0.0, abs=1e-9)
+    assert float(minari.get_normalized_score(ds, entry["oracle_return"])) == pytest.approx(1.0)
+    # the benchmark's figures of the same episodes, as cepam-gym bench gives them
+    assert bench_cli.main(["--controller", "baseline", "--suite", NOMINAL, "--json"]) == 0
+    base = json.loads(capsys.readouterr().out.strip().splitlines()[0])
+    assert meta["cepam_suite_episodes"] is True and meta["cepam_score"] == base["score"]
+    assert meta["cepam_headline"] == pytest.approx(base["headline"], abs=1e-9)
+    assert meta["cepam_normalized"] == pytest.approx(base["normalized"], rel=1e-12)
+
+
+def test_without_stored_reference_returns_the_dataset_has_no_minari_ends_and_says_how_to_get_them(
+    minari_home, capsys, monkeypatch
+):
+    import minari
+
+    table = references.load()
+    entry = {k: v for k, v in table[NOMINAL].items() if not k.endswith("_return")}
+    monkeypatch.setattr(references, "load", lambda: {**table, NOMINAL: entry})
     assert (
-        bench_cli.main(["--controller", "baseline", "--controller", "zero", "--suite", NOMINAL, "--json"])
+        cli_main(
+            ["dataset", "--suite", NOMINAL, "--controller", "zero", "--episodes", "1", "--max-steps", "3"]
+        )
         == 0
     )
-    rows = {r["controller"]: r for r in map(json.loads, capsys.readouterr().out.strip().splitlines())}
-    base = rows["baseline"]
-    assert base["normalized_from"] == "reference scores"
-    meta = ds.storage.metadata
-    assert meta["cepam_suite_episodes"] is True and meta["cepam_score"] == base["score"]
-    got = minari.get_normalized_score(ds, -np.array([base["score"], rows["zero"]["score"]]))
-    np.testing.assert_allclose(
-        100 * got, [base["normalized"], rows["zero"]["normalized"]], rtol=1e-12, atol=1e-9
-    )
-    assert abs(100 * got[1]) < 1e-6  # the zero controller is 0
-    assert meta["cepam_normalized"] == pytest.approx(base["normalized"], rel=1e-12)
-    zero, oracle = SUITES[NOMINAL].reference
-    assert (meta["ref_min_score"], meta["ref_max_score"]) == (-zero, -oracle)
-    assert float(minari.get_normalized_score(ds, -oracle)) == pytest.approx(1.0)
+    out, err = capsys.readouterr()
+    assert f"no reference returns stored for {NOMINAL}" in err
+    assert f"cepam-gym bench --update-references --suite {NOMINAL}" in err
+    ds = minari.load_dataset(out.strip().splitlines()[-1])
+    assert ds.storage.metadata.get("ref_min_score") is None
 
 
 @pytest.mark.parametrize(

@@ -11,45 +11,72 @@ from pathlib import Path
 from .. import versions
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
+from .headline import BASELINE, ORACLE, headline_score
 from .metrics import normalized_score
-from .references import stored_ends
+from .references import stored_entry
 from .suites import SUITES, available
 
+# the controllers whose scores the normalized score (zero, oracle) and the headline (baseline,
+# oracle) are measured against
+ENDS = {"headline": (BASELINE, ORACLE), "normalized": ("zero", ORACLE)}
+REFERENCE_CONTROLLERS = ("zero", BASELINE, ORACLE)  # every end, in the order a run measures them
 
-def add_normalized(rows: list[dict]) -> None:
-    """``normalized`` (0 = zero controller, 100 = oracle) in each row: from the zero controller's
-    and the oracle's scores of the same run on that suite when both ran, else from the suite's
-    stored reference scores when they were measured on the same episodes (``normalized_from``
-    says which); absent otherwise (:func:`missing_ends` says what to run)."""
+
+def _add_relative(rows: list[dict], key: str, score_fn) -> None:
+    """``key`` in each row, ``score_fn(score, low end, high end)`` with the ends :data:`ENDS`
+    names: from the same run on that suite when both ran, else from the suite's stored reference
+    scores when they were measured on the same episodes (``<key>_from`` says which); absent
+    otherwise (:func:`missing_ends` says what to run)."""
+    low, high = ENDS[key]
     for suite in dict.fromkeys(r["suite"] for r in rows):
         ran = {r["controller"]: r["score"] for r in rows if r["suite"] == suite}
         episodes = next(r["episodes"] for r in rows if r["suite"] == suite)
-        if "zero" in ran and "oracle" in ran:
-            ends, source = (ran["zero"], ran["oracle"]), "this run"
-        elif (stored := _stored(suite, episodes)) is not None:
-            ends, source = stored, "reference scores"
+        stored = _stored(suite, episodes) or {}
+        if low in ran and high in ran:
+            ends, source = (ran[low], ran[high]), "this run"
+        elif low in stored and high in stored:
+            ends, source = (stored[low], stored[high]), "reference scores"
         else:
             continue
         for r in rows:
             if r["suite"] == suite:
-                r["normalized"] = normalized_score(r["score"], *ends)
-                r["normalized_from"] = source
+                r[key] = score_fn(r["score"], *ends)
+                r[f"{key}_from"] = source
 
 
-def _stored(suite: str, episodes: int):
-    """The stored ends of ``suite`` if measured on these episodes (from the suite's seed)."""
-    return stored_ends(suite, episodes, SUITES[suite].seed)
+def add_normalized(rows: list[dict]) -> None:
+    """``normalized`` (0 = zero controller, 100 = oracle; D4RL) in each row where its ends are
+    known (:func:`_add_relative`)."""
+    _add_relative(rows, "normalized", normalized_score)
+
+
+def add_headline(rows: list[dict]) -> None:
+    """``headline`` (0 = the baseline, 100 = the oracle; :mod:`cepam_gym.bench.headline`) in each
+    row where its ends are known (:func:`_add_relative`)."""
+    _add_relative(rows, "headline", headline_score)
+
+
+def add_scores(rows: list[dict]) -> None:
+    """Both relative scores: the headline and the normalized score."""
+    add_headline(rows)
+    add_normalized(rows)
+
+
+def _stored(suite: str, episodes: int) -> dict | None:
+    """The stored references of ``suite`` if measured on these episodes (from the suite's seed)."""
+    return stored_entry(suite, episodes, SUITES[suite].seed)
 
 
 def missing_ends(rows: list[dict]) -> list[tuple[str, str]]:
-    """``(suite, controller)`` pairs of the ends (zero, oracle) a run must measure itself to
-    normalize: its suites whose stored references were measured on other episodes (or never)."""
+    """``(suite, controller)`` pairs of the ends (zero, baseline, oracle) a run must measure itself
+    to give every row both relative scores: its suites whose stored references were measured on
+    other episodes (or never, or lack that end)."""
     out = []
     for suite in dict.fromkeys(r["suite"] for r in rows):
         ran = {r["controller"] for r in rows if r["suite"] == suite}
         episodes = next(r["episodes"] for r in rows if r["suite"] == suite)
-        if _stored(suite, episodes) is None:
-            out += [(suite, c) for c in ("zero", "oracle") if c not in ran]
+        stored = _stored(suite, episodes) or {}
+        out += [(suite, c) for c in REFERENCE_CONTROLLERS if c not in ran and c not in stored]
     return out
 
 
@@ -140,7 +167,7 @@ def _run_suites(args, controllers: list[str], suites: list[str], rows: list, tra
                 _run_into(rows, traces, c, s, args.episodes)
         except Exception as e:
             finished = [r for r in rows if r["suite"] != s]
-            add_normalized(finished)
+            add_scores(finished)
             if args.json:
                 for metrics in finished:
                     print(json.dumps(metrics), flush=True)
@@ -159,7 +186,7 @@ def _run_suites(args, controllers: list[str], suites: list[str], rows: list, tra
             e.add_note(f"cepam-gym bench: suite {s} failed; {where}")
             raise
         if not args.json:
-            add_normalized(rows)
+            add_scores(rows)
             _write(out, rows)
 
 
@@ -191,14 +218,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--measure-references",
         action="store_true",
-        help="run the zero controller and the oracle too where the stored references do not fit the "
-        "episodes, so every row gets a normalized score",
+        help="run the zero controller, the baseline and the oracle too where the stored references do "
+        "not fit the episodes, so every row gets a headline and a normalized score",
     )
     ap.add_argument(
         "--update-references",
         action="store_true",
-        help="re-measure the zero controller and the oracle on the suites (default episodes) and store "
-        "them as the ends of the normalized score",
+        help="re-measure the zero controller, the baseline and the oracle on the suites (default "
+        "episodes) and store them as the ends of the headline and the normalized score",
     )
     args = ap.parse_args(argv)
     controllers = args.controller or ["baseline"]
@@ -229,8 +256,8 @@ def main(argv: list[str] | None = None) -> int:
                 t = time.perf_counter()
                 store({s: (entry := measure_references(s))})
                 print(
-                    f"{s}: zero {entry['zero']:.6g}, oracle {entry['oracle']:.6g} "
-                    f"({time.perf_counter() - t:.0f} s)",
+                    f"{s}: zero {entry['zero']:.6g}, baseline {entry['baseline']:.6g}, oracle "
+                    f"{entry['oracle']:.6g} ({time.perf_counter() - t:.0f} s)",
                     flush=True,
                 )
         return 0
@@ -248,14 +275,15 @@ def main(argv: list[str] | None = None) -> int:
             for c in ends:
                 _run_into(rows, traces, c, s, args.episodes)
         else:
+            lacking = " or ".join(k for k, pair in ENDS.items() if set(pair) & set(ends))
             print(
-                f"cepam-gym bench: no normalized score on {s}: its stored references were measured on "
+                f"cepam-gym bench: no {lacking} score on {s}: its stored references were measured on "
                 f"other episodes (or never); add {' '.join('--controller ' + c for c in ends)} or "
                 "--measure-references",
                 file=sys.stderr,
                 flush=True,
             )
-    add_normalized(rows)
+    add_scores(rows)
     if args.json:
         for metrics in rows:
             print(json.dumps(metrics), flush=True)

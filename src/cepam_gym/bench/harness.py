@@ -97,14 +97,19 @@ def run_suite(
 
 
 def measure_references(name: str, episodes: int | None = None) -> dict:
-    """The zero controller's and the oracle's scores on suite ``name``: an entry of the stored
-    references (:mod:`cepam_gym.bench.references`) with the episodes it was measured on."""
+    """The zero controller's, the baseline's and the oracle's scores on suite ``name``, and the
+    zero controller's and the oracle's mean episode returns: an entry of the stored references
+    (:mod:`cepam_gym.bench.references`) with the episodes it was measured on."""
     suite = SUITES[name]
     zero, _ = run_suite("zero", suite, episodes)
+    baseline, _ = run_suite("baseline", suite, episodes)
     oracle, _ = run_suite("oracle", suite, episodes)
     return {
         "seed": suite.seed,
         "episodes": zero["episodes"],
         "zero": zero["score"],
+        "baseline": baseline["score"],
         "oracle": oracle["score"],
+        "zero_return": zero["mean_return"],
+        "oracle_return": oracle["mean_return"],
     }

@@ -16,8 +16,10 @@ COLUMNS = (
     ("failure_rate", "fail"),
     ("air_g_per_episode", "air g/ep"),
     ("score", "score"),
+    ("headline", "headline"),
     ("normalized", "normalized"),
 )
+RELATIVE = ("headline", "normalized")  # shown when some row has them
 
 
 def table(rows: list[dict]) -> str:
@@ -25,7 +27,7 @@ def table(rows: list[dict]) -> str:
     cols = [
         (k, t)
         for k, t in COLUMNS
-        if k not in ("length_rmse_mm", "angle_rmse_deg", "normalized") or any(k in r for r in rows)
+        if k not in ("length_rmse_mm", "angle_rmse_deg", *RELATIVE) or any(k in r for r in rows)
     ]
     head = (
         f"{'suite':27s} {'controller':14s}" + "".join(f"{t:>12s}" for _, t in cols) + f"{'score 95% CI':>18s}"
@@ -36,6 +38,10 @@ def table(rows: list[dict]) -> str:
         ci = r.get("score_ci95")  # over episodes (bench.metrics.score_interval)
         cells += f"{'-':>18s}" if ci is None else f"{f'{ci[0]:.3f}-{ci[1]:.3f}':>18s}"
         lines.append(f"{r['suite']:27s} {str(r['controller'])[:14]:14s}{cells}")
+    if any(k in {c for c, _ in cols} for k in RELATIVE):
+        from .headline import LEGEND
+
+        lines.append(LEGEND)
     return "\n".join(lines)
 
 

@@ -26,6 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--overwrite", action="store_true", help="replace a dataset of the same id")
     ap.add_argument("--json", action="store_true", help="print the summary as JSON before the id")
     args = ap.parse_args(argv)
+    from . import store
     from .record import check_inputs, record_dataset
 
     check_inputs(args.suite, args.controller, args.episodes, args.max_steps, args.name, args.dataset_version)
@@ -46,10 +47,17 @@ def main(argv: list[str] | None = None) -> int:
         dataset_version=args.dataset_version,
         overwrite=args.overwrite,
     )
-    if out["normalized"] is None:
+    if not store.reference_scores(SUITES[out["suite"]]):
+        from ..bench.cli import _oracle_drives
+
+        how = (
+            f"cepam-gym bench --update-references --suite {out['suite']} measures them"
+            if _oracle_drives(out["suite"])
+            else "the oracle does not drive this suite"
+        )
         print(
-            f"cepam-gym dataset: no reference scores stored for {out['suite']}: the dataset has no "
-            "ref_min_score / ref_max_score (minari.get_normalized_score refuses it)",
+            f"cepam-gym dataset: no reference returns stored for {out['suite']}: the dataset has no "
+            f"ref_min_score / ref_max_score (minari.get_normalized_score refuses it; {how})",
             file=sys.stderr,
             flush=True,
         )
@@ -58,11 +66,11 @@ def main(argv: list[str] | None = None) -> int:
 
         print(json.dumps(out), flush=True)
     else:
-        norm = "-" if out["normalized"] is None else f"{out['normalized']:.1f}"
+        head, norm = ("-" if out[k] is None else f"{out[k]:.1f}" for k in ("headline", "normalized"))
         print(
             f"{out['controller']} on {out['suite']}: {out['episodes']} episodes, {out['steps']} steps in "
             f"{out['record_seconds']:.1f} s, {out['size_mb']:.1f} MB at {out['path']}; benchmark score "
-            f"{out['score']:.4g}, normalized {norm}"
+            f"{out['score']:.4g}, headline {head}, normalized {norm}"
             + ("" if out["suite_episodes"] else " (not the suite's episodes: not the benchmark's figure)"),
             flush=True,
         )

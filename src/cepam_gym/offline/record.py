@@ -7,7 +7,9 @@ from __future__ import annotations
 import time
 
 from ..bench.harness import record
+from ..bench.headline import headline_score
 from ..bench.metrics import normalized_score, score_traces
+from ..bench.references import stored_entry
 from ..bench.suites import SUITES, Suite
 from ..control import check_controller_spec, make_controller
 from ..control.baseline import UnsupportedEnvError
@@ -64,8 +66,8 @@ def record_dataset(
     """Record ``episodes`` (default: the suite's 20) episodes of ``controller`` on ``suite`` (its
     seed unless ``seed``; at most ``max_steps`` steps each, default the env's 500) into the Minari
     dataset :func:`~cepam_gym.offline.naming.dataset_id` names. Returns a summary: ``dataset_id``,
-    ``path``, the benchmark ``score`` of the recorded episodes and its ``normalized`` score
-    (against the suite's references: the benchmark's own when the episodes are the suite's),
+    ``path``, the benchmark ``score`` of the recorded episodes, its ``headline`` and ``normalized``
+    scores (against the suite's references: the benchmark's own when the episodes are the suite's),
     ``steps``, ``record_seconds``, ``size_mb``."""
     s, dataset_id = check_inputs(suite, controller, episodes, max_steps, name, dataset_version)
     store.require_minari()
@@ -87,7 +89,8 @@ def record_dataset(
     seconds = time.perf_counter() - t0
     metrics = score_traces(tr, track_k, s.traces)
     steps = int(tr["alive"].shape[0])
-    ends = s.reference
+    ref = stored_entry(s.name, s.episodes, s.seed) or {}
+    score = metrics["score"]
     summary = {
         "dataset_id": dataset_id,
         "suite": s.name,
@@ -100,7 +103,8 @@ def record_dataset(
         "score_ci95": metrics["score_ci95"],
         "failure_rate": metrics["failure_rate"],
         "mean_return": metrics["mean_return"],
-        "normalized": normalized_score(metrics["score"], *ends) if ends is not None else None,
+        "headline": headline_score(score, ref["baseline"], ref["oracle"]) if "baseline" in ref else None,
+        "normalized": normalized_score(score, ref["zero"], ref["oracle"]) if ref else None,
         "suite_episodes": (seed, n, steps) == (s.seed, s.episodes, _full_steps(s)),
         "record_seconds": seconds,
     }

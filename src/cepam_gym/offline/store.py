@@ -1,15 +1,15 @@
 """Writing and finding Minari datasets (Younis et al. 2024). Minari is an optional extra
 (``pip install 'cepam-gym[offline]'``), imported only here and only when called.
 
-**Normalization.** The benchmark's score is a cost (lower is better), normalized as D4RL
-normalizes returns (Fu et al. 2020) but with the sign turned: ``100 (zero - s) / (zero -
-oracle)``. Minari's ``get_normalized_score(dataset, returns)`` is ``(returns - ref_min_score) /
-(ref_max_score - ref_min_score)``. So a dataset stores the *negated* benchmark scores of its
-suite's two ends, ``ref_min_score = -zero`` and ``ref_max_score = -oracle`` (the stored
-references, :mod:`cepam_gym.bench.references`), and ``get_normalized_score(dataset, -score)`` is
-the benchmark's normalized score / 100 for a ``score`` from ``cepam-gym bench --suite SUITE``
-(the suite's own episodes, those the references were measured on). It is not a normalization of
-the env's reward returns.
+**Normalization.** Minari's ``get_normalized_score(dataset, returns)`` is ``(returns -
+ref_min_score) / (ref_max_score - ref_min_score)``, with the references the mean episode returns
+of a poor and an expert policy on the dataset's env (D4RL's random and expert policies; Fu et al.
+2020). A dataset stores the mean episode returns of the zero controller (valves shut) and of the
+oracle on its suite's episodes (``zero_return`` and ``oracle_return`` of the stored references,
+:mod:`cepam_gym.bench.references`), so ``get_normalized_score(dataset, episode_returns)`` is 0 for
+the zero controller's returns and 1 for the oracle's. The benchmark ranks by its score, not by the
+return: its own figures (the headline, :mod:`cepam_gym.bench.headline`, and the normalized score)
+are in the dataset's ``cepam_*`` metadata.
 
 Written with ``minari.create_dataset_from_buffers``, not the ``DataCollector`` wrapper: the
 benchmark's episode ``i`` is env ``i`` of one batched env seeded with the suite's seed (stream
@@ -25,8 +25,6 @@ import dataclasses
 import shutil
 import warnings
 from importlib import metadata as importlib_metadata
-
-import numpy as np
 
 from ..bench.suites import Suite
 from ..errors import InputError
@@ -75,13 +73,15 @@ def env_spec(suite: Suite, max_episode_steps: int | None = None):
 
 
 def reference_scores(suite: Suite) -> dict[str, float]:
-    """``{"ref_min_score": -zero, "ref_max_score": -oracle}`` from the suite's stored references
-    (empty where none are stored: the MuJoCo joint suite, which the oracle does not drive)."""
-    ends = suite.reference
-    if ends is None:
+    """``{"ref_min_score": zero controller's mean episode return, "ref_max_score": the oracle's}``
+    on the suite's episodes, from its stored references (empty where none are stored: the MuJoCo
+    joint suite, which the oracle does not drive)."""
+    from ..bench.references import stored_entry
+
+    entry = stored_entry(suite.name, suite.episodes, suite.seed) or {}
+    if "zero_return" not in entry or "oracle_return" not in entry:
         return {}
-    zero, oracle = ends
-    return {"ref_min_score": -float(zero), "ref_max_score": -float(oracle)}
+    return {"ref_min_score": float(entry["zero_return"]), "ref_max_score": float(entry["oracle_return"])}
 
 
 def _version() -> str:
@@ -153,16 +153,9 @@ def _description(suite: Suite, controller: str, refs: dict) -> str:
     )
     if refs:
         text += (
-            f" ref_min_score / ref_max_score are the negated benchmark scores of the zero controller and "
-            f"the oracle on the suite's {suite.episodes} episodes (seed {suite.seed}): "
-            f"minari.get_normalized_score(dataset, -score) is the benchmark's normalized score / 100 for a "
-            f"score of `cepam-gym bench --suite {suite.name}`."
+            f" ref_min_score / ref_max_score are the mean episode returns of the zero controller "
+            f"(valves shut) and of the oracle on the suite's {suite.episodes} episodes (seed "
+            f"{suite.seed}), the ends of minari.get_normalized_score(dataset, returns); the benchmark's "
+            f"own scores of the recorded episodes are the cepam_* metadata."
         )
     return text
-
-
-def normalized(dataset, score: float) -> float:
-    """The benchmark's normalized score (0 = zero controller, 100 = oracle) of ``score`` through
-    the dataset's references: ``100 * minari.get_normalized_score(dataset, -score)``."""
-    minari = require_minari()
-    return float(100.0 * np.asarray(minari.get_normalized_score(dataset, -np.asarray(score, dtype=float))))
