@@ -31,7 +31,8 @@ def _drop_stale_caches() -> None:
     caches, which were built with its own sources)."""
     try:
         files = [p for folder in ("physics", "plant") for p in sorted((_PKG / folder).glob("*.py"))]
-        text = "".join(p.read_text() for p in files + [_PKG / "tasks" / f for f in _RECORD_FILES])
+        records = [p for p in (_PKG / "tasks" / f for f in _RECORD_FILES) if p.exists()]
+        text = "".join(p.read_text() for p in files + records)
         stamp = hashlib.sha1(text.encode()).hexdigest()
         path = _PKG / "__pycache__" / "numba_layout.stamp"
         if path.exists() and path.read_text() == stamp:
