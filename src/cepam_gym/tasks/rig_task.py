@@ -20,19 +20,10 @@ from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
 from .task import Task
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
-# info keys read from aux, in the order tasks.single.env_step_single writes them
-_AUX_NAMES = (
-    "stiffness",
-    "stiffness_closed",
-    "force",
-    "pressure_c",
-    "pressure_e",
-    "temperature_c",
-    "temperature_e",
-    "air_used",
-)
-INFO_KEYS = ("length", "velocity", *_AUX_NAMES, "load_mass", "target_length", "target_stiffness")
-assert (*INFO_KEYS, "redraws") == RIG.info_keys  # the contract's, read off these columns
+# the contract's info keys: length and velocity, then the columns read from aux in the order
+# tasks.single.env_step_single writes them, then load and targets (redraws comes from the state)
+INFO_KEYS = RIG.info_keys[: RIG.info_keys.index("redraws")]
+_AUX_NAMES = INFO_KEYS[2 : 2 + len(AUX_INFO)]
 _AUX_INFO = dict(zip(_AUX_NAMES, AUX_INFO))
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _AUX_COLS = np.array(list(_AUX_INFO.values()))
