@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+import cepam_gym
+
 ROOT = Path(__file__).resolve().parents[2]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 
@@ -74,7 +76,8 @@ def wheel(tmp_path_factory) -> Path:
 def test_wheel_has_no_top_level_agents_and_ships_data(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/")[0] for n in names}
-    assert tops == {"cepam_gym", "cepam_gym_agents", "cepam_gym-0.1.0.dist-info"}, tops
+    dist_info = f"cepam_gym-{cepam_gym.__version__}.dist-info"
+    assert tops == {"cepam_gym", "cepam_gym_agents", dist_info}, tops
     for src in (ROOT / "agents").glob("*.py"):
         assert f"cepam_gym_agents/{src.name}" in names
     for cfg in (ROOT / "configs").glob("*.yaml"):
@@ -87,7 +90,7 @@ def test_wheel_has_no_top_level_agents_and_ships_data(wheel):
     ):
         assert shipped in names
     assert not [n for n in names if ".data/" in n]  # no data-files outside the packages
-    eps = zipfile.ZipFile(wheel).read("cepam_gym-0.1.0.dist-info/entry_points.txt").decode()
+    eps = zipfile.ZipFile(wheel).read(f"{dist_info}/entry_points.txt").decode()
     assert "agent = cepam_gym_agents.policy:load_policy" in eps
     assert "train = cepam_gym_agents.train:main" in eps
 
