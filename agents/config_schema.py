@@ -278,7 +278,10 @@ class StudentConfig:
     * ``gradient_steps``, ``batch_size``, ``learning_rate``: the supervised fit per round (Adam,
       cosine-decayed, on all data so far; actions scaled by their standard deviation).
     * ``net_arch``: the actor's hidden layers (tanh), saved as an SB3 PPO policy so that every tool
-      that loads a run loads the student."""
+      that loads a run loads the student.
+    * ``teacher_options``: keyword arguments of the teacher's constructor, e.g. a cheaper search
+      for an MPC teacher (``{population: 24, iterations: 3}``: the fields of
+      :class:`cepam_gym.control.planner.CEMConfig`); the labels are most of a student's time."""
 
     teacher: str = "oracle"
     suites: dict = field(default_factory=lambda: {"nominal-v1": 32, "randomized-v1": 32})
@@ -288,6 +291,7 @@ class StudentConfig:
     batch_size: int = 512
     learning_rate: float = 1e-3
     net_arch: list = field(default_factory=lambda: [256, 256])
+    teacher_options: dict = field(default_factory=dict)
 
     @classmethod
     def parse(cls, data: Any) -> StudentConfig | None:
@@ -314,6 +318,7 @@ class StudentConfig:
         beta = as_float(d.get("beta", cls.beta), "student.beta", 0.0)
         if beta > 1:
             raise ConfigError(f"student.beta is a probability in [0, 1], got {beta!r}")
+        options = dict(as_mapping(d.get("teacher_options", {}), "student.teacher_options"))
         return cls(
             teacher,
             counts,
@@ -323,6 +328,7 @@ class StudentConfig:
             as_int(d.get("batch_size", cls.batch_size), "student.batch_size", 1),
             as_float(d.get("learning_rate", cls.learning_rate), "student.learning_rate", 0.0),
             arch,
+            {str(k): v for k, v in options.items()},
         )
 
 

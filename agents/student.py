@@ -67,6 +67,25 @@ def check_student(cfg: TrainConfig) -> None:
         raise ConfigError(
             f"student.suites must run env.id {cfg.env.id!r} (the student's observation): {other} do not"
         )
+    if cfg.student.teacher_options:  # a misspelt option fails here, not after the first round
+        _teacher_for_check(cfg)
+
+
+def _teacher_for_check(cfg: TrainConfig) -> None:
+    import gymnasium as gym
+
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.control import make_controller
+
+    s = SUITES[next(iter(cfg.student.suites))]
+    venv = gym.make_vec(s.env_id, num_envs=1, **s.env_kwargs)
+    try:
+        make_controller(cfg.student.teacher, venv, **cfg.student.teacher_options)
+    except (TypeError, ValueError) as e:
+        teacher = cfg.student.teacher
+        raise ConfigError(f"student.teacher_options do not fit teacher {teacher!r}: {e}") from None
+    finally:
+        venv.close()
 
 
 class _Actor:
@@ -117,7 +136,7 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
     s = SUITES[suite]
     venv = gym.make_vec(s.env_id, num_envs=num_envs, **s.env_kwargs)
     try:
-        teacher = make_controller(cfg.student.teacher, venv)
+        teacher = make_controller(cfg.student.teacher, venv, **cfg.student.teacher_options)
         env_model = model_of(venv)
         features = Features(venv, cfg.agent, env_model.obs_dim)
         rng = np.random.default_rng(seed)

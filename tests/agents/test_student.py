@@ -34,6 +34,7 @@ def _cfg(suite: str = "nominal-v1", env_id: str = "cepam_gym/CEPAM-v1", **studen
         ({"iterations": 0}, "student.iterations"),
         ({"net_arch": "big"}, "student.net_arch"),
         ({"teachr": "oracle"}, "teachr"),
+        ({"teacher_options": [24]}, "student.teacher_options"),
     ],
 )
 def test_bad_student_config_is_named(student, words):
@@ -52,6 +53,18 @@ def test_student_needs_ppo_and_normalized_inputs():
         check_student(_cfg(suites={"length-v1": 4}))
     with pytest.raises(ConfigError, match="'orcale' is not a registered controller"):
         check_student(_cfg(teacher="orcale"))
+    # a misspelt search setting of an MPC teacher fails before the first round
+    with pytest.raises(ConfigError, match="teacher_options do not fit teacher 'mpc_known_params'.*populaton"):
+        check_student(_cfg(teacher="mpc_known_params", teacher_options={"populaton": 24}))
+    check_student(_cfg(teacher="mpc_known_params", teacher_options={"population": 24, "iterations": 3}))
+
+
+def test_teacher_options_reach_the_teachers_search():
+    from cepam_gym_agents.student import collect
+
+    cfg = _cfg(teacher="mpc_known_params", teacher_options={"population": 8, "iterations": 1})
+    x, y = collect(cfg, "nominal-v1", 2, seed=3)
+    assert x.shape[0] == y.shape[0] > 0 and np.isfinite(y).all()
 
 
 def test_saved_student_acts_as_the_fitted_actor(tmp_path):

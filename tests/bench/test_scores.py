@@ -88,28 +88,23 @@ def test_iqm_over_seeds_with_rliable():
     assert 2.0 <= iqm <= 4.0 and lo <= iqm <= hi  # the outlier does not drag the IQM
 
 
-# the v2 suites' oracle costs twice v1's (0.16 s, 40 iterations): in `make test` the oracle end of
-# the v2 entries is recomputed on the two headline suites; CEPAM_ALL_REFERENCES=1 recomputes all
-V2_ORACLE_CHECKED = ("nominal-v2", "randomized-v2")
-
-
 # every stored entry, recomputed: a change of the plant, a suite or the oracle that moves a
-# reference by more than 2 % fails here (then: cepam-gym bench --update-references)
+# reference by more than 2 % fails here (then: cepam-gym bench --update-references). The zero
+# controller and the baseline run the whole suite (seconds); the oracle (most of the cost) its
+# stored check episodes, which move with the full score; CEPAM_ALL_REFERENCES=1 re-runs it all.
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(references.load()))
 def test_stored_references_are_current(name):
     import os
 
-    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.harness import oracle_check, run_suite
 
     stored = references.load()[name]
-    everything = os.environ.get("CEPAM_ALL_REFERENCES") == "1"
-    if everything or not name.endswith("-v2") or name in V2_ORACLE_CHECKED:
+    if os.environ.get("CEPAM_ALL_REFERENCES") == "1":
         now = measure_references(name)
         assert now["oracle"] == pytest.approx(stored["oracle"], rel=0.02), name
-        if "oracle_return" in stored:  # the datasets' Minari end (cepam_gym.offline.store)
-            assert now["oracle_return"] == pytest.approx(stored["oracle_return"], rel=0.02), name
-    else:  # the zero controller's and the baseline's ends (seconds); the oracle's: CEPAM_ALL_REFERENCES=1
+        assert now["oracle_return"] == pytest.approx(stored["oracle_return"], rel=0.02), name
+    else:
         zero, _ = run_suite("zero", name)
         baseline, _ = run_suite("baseline", name)
         now = {
@@ -118,7 +113,21 @@ def test_stored_references_are_current(name):
             "zero": zero["score"],
             "baseline": baseline["score"],
             "zero_return": zero["mean_return"],
+            "oracle_check": oracle_check(name),
         }
     assert now["episodes"] == stored["episodes"] and now["seed"] == stored["seed"]
     for end in ("zero", "baseline", "zero_return"):
         assert now[end] == pytest.approx(stored[end], rel=0.02), (name, end)
+    check, was = now["oracle_check"], stored["oracle_check"]
+    assert check["episodes"] == was["episodes"]
+    for key in ("score", "mean_return"):
+        assert check[key] == pytest.approx(was[key], rel=0.02), (name, "oracle_check", key)
+
+
+def test_every_stored_entry_has_both_minari_ends_and_an_oracle_check():
+    """The datasets' ``ref_min_score``/``ref_max_score`` read ``zero_return``/``oracle_return``
+    (cepam_gym.offline.store), and the test above re-runs ``oracle_check``."""
+    for name, entry in references.load().items():
+        missing = {"zero_return", "oracle_return", "oracle_check"} - set(entry)
+        assert not missing, (name, missing)
+        assert entry["oracle_check"]["episodes"] < entry["episodes"], name

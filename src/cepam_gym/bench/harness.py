@@ -96,9 +96,16 @@ def run_suite(
     return metrics, tr
 
 
+# episodes of the oracle's short check run, stored beside its full-suite score: the test suite
+# re-runs these few instead of the whole suite (a change of the plant, the suite or the oracle
+# moves them as it moves the full score; the full recomputation: CEPAM_ALL_REFERENCES=1)
+ORACLE_CHECK_EPISODES = 3
+
+
 def measure_references(name: str, episodes: int | None = None) -> dict:
-    """The zero controller's, the baseline's and the oracle's scores on suite ``name``, and the
-    zero controller's and the oracle's mean episode returns: an entry of the stored references
+    """The zero controller's, the baseline's and the oracle's scores on suite ``name``, the zero
+    controller's and the oracle's mean episode returns, and the oracle on the suite's first
+    :data:`ORACLE_CHECK_EPISODES` episodes (``oracle_check``): an entry of the stored references
     (:mod:`cepam_gym.bench.references`) with the episodes it was measured on."""
     suite = SUITES[name]
     zero, _ = run_suite("zero", suite, episodes)
@@ -112,4 +119,12 @@ def measure_references(name: str, episodes: int | None = None) -> dict:
         "oracle": oracle["score"],
         "zero_return": zero["mean_return"],
         "oracle_return": oracle["mean_return"],
+        "oracle_check": oracle_check(name),
     }
+
+
+def oracle_check(name: str) -> dict:
+    """The oracle's score and mean return on the first :data:`ORACLE_CHECK_EPISODES` episodes of
+    suite ``name``."""
+    check, _ = run_suite("oracle", name, ORACLE_CHECK_EPISODES)
+    return {"episodes": check["episodes"], "score": check["score"], "mean_return": check["mean_return"]}

@@ -9,12 +9,13 @@ They are stored with the episodes they were measured on (the suite's seed and ep
     cepam-gym bench --update-references [--suite NAME ...]
 
 (the zero controller, the baseline and the oracle on every suite the oracle drives, at the suite's default
-episodes; measured on one core of a busy machine: about 1 minute per v1 rig suite, 1.6 on a v0
-suite, 5.6 on joint-v1, 18 for all). ``--suite v2`` names exactly the v2 suites (``*-v2``), so a
-change of plant v2 re-measures its references and no others. A normalized or headline score uses
+episodes, and the oracle again on the suite's first few episodes, ``oracle_check``: what the test
+suite re-runs instead of the whole oracle suite). ``--suite v2`` names exactly the v2 suites
+(``*-v2``), so a change of plant v2 re-measures its references and no others. A normalized or headline score uses
 them only for a run on the same episodes (:func:`stored_entry`); any other run uses the ends it measured
 itself, measures them on request (``--measure-references``) or says it cannot normalize
-(:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry (``tests/bench/test_scores.py``).
+(:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry (``tests/bench/test_scores.py``: the oracle's check episodes;
+``CEPAM_ALL_REFERENCES=1``: everything).
 """
 
 from __future__ import annotations
@@ -30,8 +31,8 @@ def _path() -> Path:
 
 
 def load() -> dict[str, dict]:
-    """``{suite: {"seed", "episodes", "zero", "baseline", "oracle", "zero_return", "oracle_return"}}``
-    as stored (empty without the file)."""
+    """``{suite: {"seed", "episodes", "zero", "baseline", "oracle", "zero_return", "oracle_return",
+    "oracle_check"}}`` as stored (empty without the file)."""
     path = _path()
     if not path.exists():
         return {}
