@@ -229,7 +229,7 @@ def test_the_commands_of_the_training_package_load_without_torch():
     """The command line loads a command's module to run it, ``--help`` included; the main job runs
     without the [train] extra with ``--no-train``: torch and SB3 are imported only to train or
     to load a model."""
-    assert set(COMMANDS) == {"run", "train", "eval"}
+    assert set(COMMANDS) == {"run", "train", "eval", "export"}
     modules = sorted({target.partition(":")[0] for target in COMMANDS.values()})
     code = (
         "import importlib, sys\n"
