@@ -88,6 +88,21 @@ def test_the_watchdog_trips_when_readings_stop_or_freeze():
     assert LIM.frozen_after_s < (k - 1) * DT <= LIM.frozen_after_s + DT
 
 
+def test_a_chamber_that_does_not_vent_when_told_to_trips_and_one_that_vents_does_not():
+    def run(pressure_of_t):
+        sup = Supervisor(LIM, DT)
+        for k in range(40):
+            t = k * DT
+            r = _ok(t, pressure_c=pressure_of_t(t))
+            sup.filter(r, (-1.0, 0.0), now=t)
+        return sup.trip
+
+    stuck = run(lambda t: 240e3)
+    assert stuck is not None and stuck.reason == "valve_fault" and "CPAM" in stuck.detail
+    assert stuck.host_time == pytest.approx(DT + LIM.valve_check_s, abs=DT)
+    assert run(lambda t: 200e3 * math.exp(-t / 0.05)) is None
+
+
 def test_a_non_finite_command_trips():
     sup = Supervisor(LIM, DT)
     cmd, trip = sup.filter(_ok(0.0), (math.nan, 0.0), now=0.0)

@@ -50,6 +50,10 @@ class RigObserver:
         self._last: Reading | None = None
         self._velocity = 0.0
 
+    def reset(self) -> None:
+        """Forget the readings (the velocity estimate starts again)."""
+        self._last, self._velocity = None, 0.0
+
     def velocity(self, reading: Reading) -> float:
         """The length's rate [m/s] estimated from this reading and the previous one."""
         last, self._last = self._last, reading

@@ -8,7 +8,8 @@ A rig offers three things (:class:`Rig`):
 * ``write(command_c, command_e)``: the two valve commands, each in [-1, 1] as the env's action
   (spool set-points, PWM duties or pressure set-points by the rig's action mode);
 * ``stop()``: the rig goes to its safe state (:data:`SAFE_COMMANDS`, supply shut off) and stays
-  there until it is commanded again.
+  there, ignoring commands, until it is armed again;
+* ``arm()``: the rig leaves its safe state and takes commands.
 
 The packets are fixed-size little-endian C structs (Python's ``struct``), so a microcontroller
 implements them with one ``memcpy``:
@@ -18,9 +19,9 @@ implements them with one ``memcpy``:
   f32 length_m, f32 supply_pa, u32 ack_seq``;
 * command packet, host -> rig, :data:`COMMAND` (16 bytes):
   ``u16 magic, u8 kind, u8 flags, u32 seq, f32 command_c, f32 command_e`` with ``kind`` 2 (valve
-  commands) or 3 (stop: the commands are ignored); the emulated rig also takes kind 4 (restart
-  the plant at rest) and kind 5 (inject fault number ``flags`` of :data:`FAULTS` of size
-  ``command_c``).
+  commands), 3 (stop: the commands are ignored) or 4 (arm: leave the safe state, supply on; the
+  emulated rig also restarts its plant at rest); the emulated rig also takes kind 5 (inject fault
+  number ``flags`` of :data:`FAULTS`, of size ``command_c``).
 
 ``magic`` is :data:`MAGIC`; ``seq`` counts each side's packets; ``ack_seq`` is the ``seq`` of the
 last command packet the rig applied; sensor ``flags`` bit 0 says the rig is stopped (safe state),
@@ -37,7 +38,7 @@ from typing import Protocol, runtime_checkable
 MAGIC = 0xCE5A
 SENSOR = struct.Struct("<HBBIdffffI")
 COMMAND = struct.Struct("<HBBIff")
-KIND_SENSOR, KIND_COMMAND, KIND_STOP, KIND_RESTART, KIND_FAULT = 1, 2, 3, 4, 5
+KIND_SENSOR, KIND_COMMAND, KIND_STOP, KIND_ARM, KIND_FAULT = 1, 2, 3, 4, 5
 FLAG_STOPPED, FLAG_FAULT = 1, 2
 # the commands of the safe state: both chambers vented. In every action mode -1 is exhaust: the
 # spool fully to exhaust (valve), the exhaust solenoid held open (pwm), a 0 Pa set-point (pressure)
@@ -104,7 +105,7 @@ def unpack_command(data: bytes) -> tuple[int, int, int, float, float]:
     if len(data) != COMMAND.size:
         raise PacketError(f"command packet of {len(data)} bytes, expected {COMMAND.size}")
     magic, kind, flags, seq, c, e = COMMAND.unpack(data)
-    if magic != MAGIC or kind not in (KIND_COMMAND, KIND_STOP, KIND_RESTART, KIND_FAULT):
+    if magic != MAGIC or kind not in (KIND_COMMAND, KIND_STOP, KIND_ARM, KIND_FAULT):
         raise PacketError(f"not a command packet (magic {magic:#x}, kind {kind})")
     return kind, flags, seq, c, e
 
@@ -118,5 +119,7 @@ class Rig(Protocol):
     def write(self, command_c: float, command_e: float) -> None: ...
 
     def stop(self) -> None: ...
+
+    def arm(self) -> None: ...
 
     def close(self) -> None: ...

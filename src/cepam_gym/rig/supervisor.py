@@ -12,6 +12,9 @@ wants; it returns the command to send. Checks, in this order:
 * **length limit**: the length outside ``[length_min, length_max]`` (the end stops with a margin:
   beyond them the sensor or the mechanism has failed);
 * **stopped**: the rig says it is in its safe state (its own emergency stop);
+* **valve fault**: a chamber commanded to exhaust (command <= -0.9) for ``valve_check_s`` still
+  holds more than half its pressure and more than :data:`VENTED` (a valve stuck open to the
+  supply, a blocked exhaust);
 * **bad command**: the policy's command is not finite;
 * **command rate**: each command moves at most ``command_rate_per_s`` per second (a clamp, not a
   trip; unlimited by default, as the envs train).
@@ -34,7 +37,8 @@ units with the unit in the key::
     length_max_cm: 18.5          # <=
     supply_min_kpa: 150          # >=
     stale_after_s: 0.05          # <=
-    frozen_after_s: 0.3          # <=
+    frozen_after_s: 0.05         # <=
+    valve_check_s: 0.1           # <=
     command_rate_per_s: 20       # <=
 """
 
@@ -52,6 +56,8 @@ from .protocol import SAFE_COMMANDS, Reading
 BURST_MARGIN = 0.9  # default pressure limit: this fraction of the burst pressure
 LENGTH_MARGIN = 0.002  # m beyond each end stop before the length trips
 SUPPLY_MIN_FRACTION = 0.5  # of the nominal supply
+EXHAUST = -0.9  # a command at or below this asks a chamber to empty
+VENTED = 20e3  # Pa: a chamber below this gauge pressure counts as emptied
 
 
 @dataclass(frozen=True)
@@ -64,7 +70,8 @@ class SafetyLimits:
     length_max: float
     supply_min: float
     stale_after_s: float = 0.1
-    frozen_after_s: float = 0.5
+    frozen_after_s: float = 0.1
+    valve_check_s: float = 0.2
     command_rate_per_s: float = math.inf
 
     @classmethod
@@ -128,6 +135,7 @@ _KEYS = {
     "supply_min_kpa": ("supply_min", 1e3, False),
     "stale_after_s": ("stale_after_s", 1.0, True),
     "frozen_after_s": ("frozen_after_s", 1.0, True),
+    "valve_check_s": ("valve_check_s", 1.0, True),
     "command_rate_per_s": ("command_rate_per_s", 1.0, True),
 }
 assert set(n for n, _s, _u in _KEYS.values()) == {f.name for f in fields(SafetyLimits)}
@@ -150,6 +158,7 @@ REASONS = (
     "supply_loss",
     "pressure_limit",
     "length_limit",
+    "valve_fault",
     "stopped",
     "bad_command",
 )
@@ -166,6 +175,8 @@ class Supervisor:
         self._last_values: tuple | None = None
         self._same_since: float | None = None
         self._last_command = None
+        self._exhaust_since: list[float | None] = [None, None]  # host time each chamber began to exhaust
+        self._exhaust_from = [0.0, 0.0]  # its pressure then [Pa]
         self.clamped = 0  # steps whose command the rate limit changed
 
     @property
@@ -209,6 +220,24 @@ class Supervisor:
                 f"length {reading.length * 100:.2f} cm outside "
                 f"[{lim.length_min * 100:.2f}, {lim.length_max * 100:.2f}] cm"
             )
+        return self._check_exhaust(reading, now)
+
+    def _check_exhaust(self, reading: Reading, now: float) -> tuple[str, str] | None:
+        if self._last_command is None:
+            return None
+        for i, (name, p) in enumerate((("CPAM", reading.pressure_c), ("EPAM", reading.pressure_e))):
+            if self._last_command[i] > EXHAUST:
+                self._exhaust_since[i] = None
+            elif self._exhaust_since[i] is None:
+                self._exhaust_since[i], self._exhaust_from[i] = now, p
+            elif now - self._exhaust_since[i] >= self.limits.valve_check_s:
+                p0 = self._exhaust_from[i]
+                if p > max(0.5 * p0, VENTED):
+                    held = now - self._exhaust_since[i]
+                    return "valve_fault", (
+                        f"{name} chamber at {p / 1e3:.1f} kPa after {held * 1e3:.0f} ms "
+                        f"of exhaust (from {p0 / 1e3:.1f} kPa): its valve does not vent"
+                    )
         return None
 
     def filter(self, reading: Reading | None, command, now: float) -> tuple[tuple[float, float], Trip | None]:

@@ -12,9 +12,9 @@ import socket
 
 from ..errors import InputError
 from .protocol import (
+    KIND_ARM,
     KIND_COMMAND,
     KIND_FAULT,
-    KIND_RESTART,
     KIND_STOP,
     SAFE_COMMANDS,
     PacketError,
@@ -90,9 +90,9 @@ class UdpRig:
         for _ in range(STOP_REPEATS):
             self._send(KIND_STOP, *SAFE_COMMANDS)
 
-    def restart(self) -> None:
-        """Emulated rig: restart its plant at rest (a real rig ignores it)."""
-        self._send(KIND_RESTART)
+    def arm(self) -> None:
+        """Leave the safe state (the emulated rig also restarts its plant at rest)."""
+        self._send(KIND_ARM)
 
     def inject(self, fault: int, size: float = 0.0) -> None:
         """Emulated rig: inject fault number ``fault`` (:data:`~cepam_gym.rig.protocol.FAULTS`)."""
