@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from .. import plant as pl
+from .._jit import bound
 from ..errors import InputError
 from ..physics import layout as ix
 from ..tasks.kernel import observe
@@ -49,6 +50,8 @@ class RigObserver:
         self.velocity_filter_s = float(velocity_filter_s)
         self._last: Reading | None = None
         self._velocity = 0.0
+        # the compiled entry point for these argument types: no type dispatch each step
+        self._observe = bound(observe, (self.s, pl.RIG, model.task_params))
 
     def reset(self) -> None:
         """Forget the readings (the velocity estimate starts again)."""
@@ -78,7 +81,7 @@ class RigObserver:
         s.params[0, ix.P_SUP] = reading.supply + s.params[0, ix.P_ATM]
         s.prev_action[0] = prev_action
         s.t_idx[0] = int(step)
-        observe(s, pl.RIG, self.model.task_params)
+        self._observe(s, pl.RIG, self.model.task_params)
         return s.obs[0].copy()
 
     def targets(self, step: int) -> tuple[float, float]:
