@@ -185,7 +185,7 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
         "import cepam_gym, cepam_gym.control, cepam_gym.bench, cepam_gym.envs, cepam_gym.cli\n"
         "import cepam_gym.integrations, cepam_gym.integrations.rllib, cepam_gym.rllib\n"
         "import cepam_gym.offline, cepam_gym.offline.cli, cepam_gym.offline.store\n"
-        "import cepam_gym.rig, cepam_gym.rig.onnx_policy\n"
+        "import cepam_gym.rig.cli, cepam_gym.rig.deploy, cepam_gym.rig.emulator, cepam_gym.rig.onnx_policy\n"
         "from cepam_gym.control import controller_names\n"
         "controller_names()\n"
         "bad = [m for m in sys.modules if m.split('.')[0] in "

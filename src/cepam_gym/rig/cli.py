@@ -184,7 +184,6 @@ def emulator_main(argv: list[str] | None = None) -> int:
         "--fault",
         action="append",
         default=[],
-        type=_fault,
         help="NAME@SECONDS[:SIZE]: inject a fault that long after arming "
         "(frozen_sensor, supply_drop, leak, stuck_valve); repeatable",
     )
@@ -198,6 +197,7 @@ def emulator_main(argv: list[str] | None = None) -> int:
         raise InputError(f"--port must lie in [0, 65535], got {args.port}")
     if not args.rate_hz >= 50:
         raise InputError(f"--rate-hz must be >= 50, got {args.rate_hz}")
+    faults = [_fault(f) for f in args.fault]
     params = PlantParams.from_yaml(args.plant) if args.plant else preset(args.preset)
     imp = RigImperfections(
         latency_s=args.latency_ms * 1e-3,
@@ -211,7 +211,7 @@ def emulator_main(argv: list[str] | None = None) -> int:
     plant = EmulatedPlant(params, mode=args.mode, load=args.load_g * 1e-3, rate_hz=args.rate_hz)
     events = open(args.events, "a") if args.events else None  # noqa: SIM115 (held for the process)
     try:
-        return serve(plant, args.port, imp, args.seed, args.fault, args.seconds, events)
+        return serve(plant, args.port, imp, args.seed, faults, args.seconds, events)
     finally:
         if events is not None:
             events.close()
