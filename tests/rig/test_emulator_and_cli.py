@@ -72,3 +72,25 @@ def test_usage_errors_are_one_line(argv, match, capsys):
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert match in err and "Traceback" not in err
+
+
+def test_deploy_without_a_rig_answering_is_one_line(capsys):
+    import socket
+
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))  # a port that is bound but never answers
+    try:
+        argv = [
+            "deploy",
+            "--controller",
+            "zero",
+            "--rig",
+            f"127.0.0.1:{s.getsockname()[1]}",
+            "--seconds",
+            "1",
+        ]
+        assert cli.main([*argv, "--log", "/dev/null/never.csv"]) == 2
+    finally:
+        s.close()
+    err = capsys.readouterr().err
+    assert "no reading from the rig" in err and "Traceback" not in err
