@@ -14,9 +14,12 @@ holds either way). Printed:
 * the same for the baseline controller, for comparison.
 
 The machine's load average is printed too: on a shared machine the lateness's tail is the other
-processes' (the loop sleeps, then spins the last 1.5 ms). Needs the [train] and [deploy] extras.
+processes' (the loop sleeps, then spins the last 1.5 ms); ``--realtime PRIORITY`` runs the loop and
+the emulator under ``SCHED_FIFO`` (root or CAP_SYS_NICE), which removes it. Needs the [train] and
+[deploy] extras.
 
-Run: ``.venv/bin/python benchmarks/deploy_loop.py`` (options: ``--seconds``, ``--net-arch``).
+Run: ``.venv/bin/python benchmarks/deploy_loop.py`` (options: ``--seconds``, ``--net-arch``,
+``--realtime``).
 """
 
 from __future__ import annotations
@@ -38,13 +41,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--net-arch", default="64,64")
+    ap.add_argument(
+        "--realtime", type=int, metavar="PRIORITY", help="SCHED_FIFO for the loop and the emulator"
+    )
     args = ap.parse_args()
     import gymnasium as gym
     from stable_baselines3 import PPO
 
     from cepam_gym.control import make_controller
     from cepam_gym.rig.cli import DEFAULT_ENV, _episode
-    from cepam_gym.rig.deploy import run
+    from cepam_gym.rig.deploy import run, set_realtime
     from cepam_gym.rig.observation import RigObserver
     from cepam_gym.rig.onnx_policy import OnnxPolicy
     from cepam_gym.rig.supervisor import SafetyLimits, Supervisor
@@ -70,16 +76,19 @@ def main() -> None:
             t[i] = time.perf_counter() - t0
         return np.percentile(t, 50), np.percentile(t, 99)
 
+    rt = [] if args.realtime is None else ["--realtime", str(args.realtime)]
     emu = subprocess.Popen(
-        [sys.executable, "-m", "cepam_gym.cli", "rig-emulator", "--port", "0"],
+        [sys.executable, "-m", "cepam_gym.cli", "rig-emulator", "--port", "0", *rt],
         stdout=subprocess.PIPE,
         text=True,
     )
     try:
         port = json.loads(emu.stdout.readline())["port"]
+        sched = "time-sharing" if args.realtime is None else set_realtime(args.realtime)
         n = int(round(args.seconds / model.control_dt))
         print(
-            f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; MLP {arch}, {n} steps at 50 Hz"
+            f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs; {sched}; MLP {arch}, "
+            f"{n} steps at 50 Hz"
         )
         for name, controller in (("ONNX MLP policy", policy), ("baseline", make_controller("baseline", env))):
             p50, p99 = call_p99(controller)

@@ -66,6 +66,7 @@ def test_faults_change_what_the_rig_does_and_a_stop_vents_and_shuts_the_supply()
         (["deploy", "--controller", "baseline", "--rig", "nohost"], "host:port"),
         (["deploy", "--controller", "baseline", "--suite", "nope"], "unknown suite 'nope'"),
         (["deploy", "--controller", "baseline", "--limits", "/no/such.yaml"], "does not exist"),
+        (["deploy", "--controller", "baseline", "--realtime", "0"], "priority must lie in [1, 99]"),
     ],
 )
 def test_usage_errors_are_one_line(argv, match, capsys):

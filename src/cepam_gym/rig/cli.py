@@ -96,12 +96,20 @@ def deploy_main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--log", default="runs/deploy/deploy.csv", help="the step log (CSV; a .json summary beside)"
     )
+    ap.add_argument(
+        "--realtime",
+        type=int,
+        metavar="PRIORITY",
+        help="run the loop under the real-time scheduler (SCHED_FIFO, 1-99; needs root or CAP_SYS_NICE)",
+    )
     args = ap.parse_args(argv)
-    from .deploy import run
+    from .deploy import run, set_realtime
     from .supervisor import Supervisor
     from .udp import UdpRig, parse_address
 
     address = parse_address(args.rig)
+    if args.realtime is not None:
+        print(f"real-time scheduling: {set_realtime(args.realtime)}")
     _env, model, controller, observer, limits = build(args)
     n_steps = observer.n_steps
     if args.seconds is not None:
@@ -190,9 +198,13 @@ def emulator_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--seconds", type=float, help="exit after this long (default: until SIGINT/SIGTERM)")
     ap.add_argument("--events", help="write the events (JSON lines) here instead of stdout")
+    ap.add_argument("--realtime", type=int, metavar="PRIORITY", help="SCHED_FIFO priority (see deploy)")
     args = ap.parse_args(argv)
+    from .deploy import set_realtime
     from .emulator import EmulatedPlant, RigImperfections, serve
 
+    if args.realtime is not None:
+        set_realtime(args.realtime)
     if not 0 <= args.port < 65536:
         raise InputError(f"--port must lie in [0, 65535], got {args.port}")
     if not args.rate_hz >= 50:

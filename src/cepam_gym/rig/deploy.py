@@ -13,7 +13,9 @@ Each control step ``k``, released at ``t0 + k * dt`` on the host's monotonic clo
 Timing: the step's *lateness* is how long after its release it woke; its *compute* is wake to
 command sent. A step misses its deadline when its command goes out after the next step's release;
 a step whose release has passed by a whole period before it could start is skipped (a miss too),
-so the loop never bursts to catch up. The *capacity* is ``1 / p99(compute)``: the highest rate
+so the loop never bursts to catch up. Other processes on the machine delay the wake-ups by
+milliseconds; under the real-time scheduler (:func:`set_realtime`, ``deploy --realtime``) by
+microseconds. The *capacity* is ``1 / p99(compute)``: the highest rate
 the loop could hold on this machine with this controller.
 
 The log is ``identify``'s CSV (:func:`cepam_gym.identify.logs.write_log`): each step's host time
@@ -24,6 +26,7 @@ deployment log feeds the next identification (the sensors' latency is one of the
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import time
@@ -72,6 +75,27 @@ class DeployResult:
                 f"{head}\nSAFETY TRIP {self.trip['reason']}: {self.trip['detail']} (rig stopped, safe state)"
             )
         return f"{head}\nstopped: {self.stopped_by} (rig stopped, safe state)"
+
+
+def set_realtime(priority: int) -> str:
+    """Run this process (and the processes it starts) under the real-time scheduler ``SCHED_FIFO``
+    at ``priority`` (1-99), so that other processes no longer delay its wake-ups; needs the
+    privilege to (root, CAP_SYS_NICE or an ``rtprio`` limit). Returns what was done, in words;
+    ``InputError`` when the system refuses."""
+    import os
+
+    if not 1 <= int(priority) <= 99:
+        raise InputError(f"the real-time priority must lie in [1, 99], got {priority}")
+    if not hasattr(os, "sched_setscheduler"):
+        raise InputError("this system has no real-time scheduler (os.sched_setscheduler)")
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(int(priority)))
+    except PermissionError:
+        raise InputError(
+            "the real-time scheduler needs the privilege (root, CAP_SYS_NICE or an rtprio limit); "
+            "run without --realtime"
+        ) from None
+    return f"SCHED_FIFO priority {int(priority)}"
 
 
 def sleep_until(t: float) -> None:
@@ -130,6 +154,8 @@ def run(
     trip: Trip | None = None
     t0 = time.perf_counter() + dt
     k = 0
+    gc_was_on = gc.isenabled()
+    gc.disable()  # a collection's pause would land in some step; refcounting frees the loop's garbage
     try:
         while k < n:
             release = t0 + k * dt
@@ -181,6 +207,8 @@ def run(
     finally:
         rig.write(*SAFE_COMMANDS)
         rig.stop()
+        if gc_was_on:
+            gc.enable()
     done = ~np.isnan(lateness)
     rows = rows[~np.isnan(rows[:, 0])]
     if log_path is not None and len(rows) >= 1:
