@@ -1,5 +1,5 @@
 """``cepam-gym`` command line: the library's commands (``demo``, ``validate``, ``bench``, ``rollout``...)
-and the hook of the training package's (``run``, the main job; ``train``; ``eval``)."""
+and the hook of the training package's (``run``, the main job; ``train``; ``eval``; ``export``)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import argparse
 import sys
 
 # commands of other packages, found by name: the training package's run (the main job, with its
-# default config and summary), train and eval
+# default config and summary), train, eval and export (a trained agent as an ONNX file)
 PLUGIN_GROUP = "cepam_gym.commands"
-PLUGIN_COMMANDS = ("run", "train", "eval")
+PLUGIN_COMMANDS = ("run", "train", "eval", "export")
 PLUGIN_EXTRA = "pip install 'cepam-gym[train]'"  # what installs them and what they need
 
 
@@ -104,15 +104,20 @@ def _dispatch(argv: list[str]) -> int:
         "calibrate": "cepam_gym.validation.cli:calibrate_main",
         "identify": "cepam_gym.identify.cli:identify_main",
         "excite": "cepam_gym.identify.cli:excite_main",
+        "deploy": "cepam_gym.rig.cli:deploy_main",
+        "rig-emulator": "cepam_gym.rig.cli:emulator_main",
     }
     if not argv or argv[0] in ("-h", "--help"):
         print(
-            "usage: cepam-gym [--version] {run,bench,dataset,train,eval,demo,validate,calibrate,identify,"
-            "excite,rollout,video} [options] [--debug]\n"
+            "usage: cepam-gym [--version] {run,bench,dataset,train,eval,export,deploy,rig-emulator,demo,"
+            "validate,calibrate,identify,excite,rollout,video} [options] [--debug]\n"
             "  bench     score controllers on the benchmark suites\n"
             "  dataset   record a Minari offline-RL dataset of a controller on a suite ([offline] extra)\n"
             "  train     train an agent from a YAML config (--config quick, or a file)\n"
             "  eval      score a trained agent beside the baseline (--run DIR)\n"
+            "  export    a trained agent as one ONNX file (--run DIR --out policy.onnx)\n"
+            "  deploy    run an ONNX policy or a controller on a rig, under the safety supervisor\n"
+            "  rig-emulator  a simulated rig behind the rig protocol (UDP), with faults to inject\n"
             "  run       the main job on its default config (declared by the training package)\n"
             "  demo      plant step response plot\n"
             "  validate  the paper's reported numbers beside the model's\n"

@@ -185,10 +185,12 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
         "import cepam_gym, cepam_gym.control, cepam_gym.bench, cepam_gym.envs, cepam_gym.cli\n"
         "import cepam_gym.integrations, cepam_gym.integrations.rllib, cepam_gym.rllib\n"
         "import cepam_gym.offline, cepam_gym.offline.cli, cepam_gym.offline.store\n"
+        "import cepam_gym.rig.cli, cepam_gym.rig.deploy, cepam_gym.rig.emulator, cepam_gym.rig.onnx_policy\n"
         "from cepam_gym.control import controller_names\n"
         "controller_names()\n"
         "bad = [m for m in sys.modules if m.split('.')[0] in "
-        "('torch', 'stable_baselines3', 'agents', 'cepam_gym_agents', 'mujoco', 'ray', 'minari', 'h5py')]\n"
+        "('torch', 'stable_baselines3', 'agents', 'cepam_gym_agents', 'mujoco', 'ray', 'minari', 'h5py', "
+        "'onnxruntime', 'onnx')]\n"
         "assert not bad, bad\n"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
@@ -229,7 +231,7 @@ def test_the_commands_of_the_training_package_load_without_torch():
     """The command line loads a command's module to run it, ``--help`` included; the main job runs
     without the [train] extra with ``--no-train``: torch and SB3 are imported only to train or
     to load a model."""
-    assert set(COMMANDS) == {"run", "train", "eval"}
+    assert set(COMMANDS) == {"run", "train", "eval", "export"}
     modules = sorted({target.partition(":")[0] for target in COMMANDS.values()})
     code = (
         "import importlib, sys\n"
@@ -257,6 +259,7 @@ FOLDER_LAYERS = (
     "offline",  # offline-RL datasets (Minari) of the benchmark's rollouts
     "validation",  # the paper's experiments, calibration, the fitting core
     "identify",  # fitting the plant's dynamics to a rig's logs (on the fitting core)
+    "rig",  # a rig's protocol and transport, the safety supervisor, deployment, the emulated rig
     "integrations",  # adapters to SB3 and RLlib
 )
 ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "versions", "viewer", "_cli_errors"}

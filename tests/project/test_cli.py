@@ -27,7 +27,7 @@ class _EntryPoint:
         self.load = load
 
 
-@pytest.mark.parametrize("cmd", ["run", "train", "eval"])
+@pytest.mark.parametrize("cmd", ["run", "train", "eval", "export"])
 def test_the_training_packages_commands_are_dispatched_to_its_entry_points(cmd, monkeypatch):
     calls = []
     found = {}

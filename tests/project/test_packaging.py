@@ -40,7 +40,7 @@ def test_entry_points_name_existing_functions():
     """The plug-ins the library finds by name: each ``module:function`` exists in the source."""
     eps = PYPROJECT["project"]["entry-points"]
     assert set(eps) == {"cepam_gym.controllers", "cepam_gym.commands"}
-    assert set(eps["cepam_gym.commands"]) == {"run", "train", "eval"}
+    assert set(eps["cepam_gym.commands"]) == {"run", "train", "eval", "export"}
     for group in eps.values():
         for target in group.values():
             module, _, func = target.partition(":")
@@ -169,7 +169,7 @@ def test_cli_reaches_run_train_and_eval_only_through_entry_points(monkeypatch, c
     from cepam_gym import cli
 
     monkeypatch.setattr(importlib.metadata, "entry_points", lambda **kw: [])  # no training package
-    for cmd in ("run", "train", "eval"):
+    for cmd in ("run", "train", "eval", "export"):
         assert cli.main([cmd, "--help"]) == 2
         err = capsys.readouterr().err
         assert f"cepam-gym {cmd}: no package provides the command '{cmd}'" in err

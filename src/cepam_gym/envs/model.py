@@ -129,6 +129,13 @@ class EnvModel:
         )
 
     @property
+    def task_params(self):
+        """The task's settings as the compiled step reads them
+        (:class:`~cepam_gym.tasks.task_params.TaskParams`): the observation encoding that a rig's
+        measurements go through too (:mod:`cepam_gym.rig.observation`)."""
+        return self._core.task_params
+
+    @property
     def hinge(self) -> np.ndarray:
         """(1, N_HINGE) the hinge's constants (lever arm ``[:, tasks.kernel.H_R]``, ...), one row
         shared by the batch; unused on the rig."""

@@ -1,0 +1,229 @@
+"""``cepam-gym deploy`` and ``cepam-gym rig-emulator`` (docs/deploy.md)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+from pathlib import Path
+
+from ..errors import InputError
+
+DEFAULT_ADDRESS = "127.0.0.1:9870"
+DEFAULT_ENV = "cepam_gym/CEPAM-v2"
+
+
+def _episode(env_id: str, kwargs: dict, seed: int, episode: int, episodes: int):
+    """``(single env, its model, target_l, target_k)``: episode ``episode`` of a batch of
+    ``episodes`` envs reset with ``seed`` (as the benchmark runs a suite), and a single env of the
+    same id for the controller."""
+    import gymnasium as gym
+
+    from ..envs.model import model_of
+
+    if not 0 <= episode < episodes:
+        raise InputError(f"--episode must lie in [0, {episodes}), got {episode}")
+    venv = gym.make_vec(env_id, num_envs=episodes, **kwargs)
+    venv.reset(seed=seed)
+    vm = model_of(venv)
+    tl, tk = vm.target_l[episode].copy(), vm.target_k[episode].copy()
+    venv.close()
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=seed)
+    return env, model_of(env), tl, tk
+
+
+def build(args):
+    """The env, controller, observer and supervisor limits a deploy's arguments ask for."""
+    from ..plant.params import PlantParams
+    from .observation import RigObserver
+    from .supervisor import SafetyLimits
+
+    policy = None
+    if args.policy:
+        from .onnx_policy import OnnxPolicy
+
+        policy = OnnxPolicy(args.policy)
+    kwargs: dict = {}
+    env_id = args.env
+    seed, episodes = args.seed, args.episode + 1
+    if args.suite:
+        from ..bench.suites import SUITES
+
+        if args.suite not in SUITES:
+            raise InputError(f"unknown suite {args.suite!r}; the suites are {', '.join(SUITES)}")
+        s = SUITES[args.suite]
+        env_id, kwargs, seed, episodes = s.env_id, dict(s.env_kwargs), s.seed, s.episodes
+    elif policy is not None and env_id is None and policy.env_id:
+        env_id, kwargs = policy.env_id, dict(policy.env_kwargs)
+    env_id = env_id or DEFAULT_ENV
+    if args.plant:
+        kwargs["plant"] = PlantParams.from_yaml(args.plant)
+    env, model, tl, tk = _episode(env_id, kwargs, seed, args.episode, episodes)
+    if policy is not None:
+        policy.check_env(model.obs_dim, model.action_mode)
+        controller = policy
+    else:
+        from ..control import make_controller
+
+        controller = make_controller(args.controller, env)
+    limits = SafetyLimits.from_plant(model.nominal)
+    if args.limits:
+        limits = limits.tightened(args.limits)
+    observer = RigObserver(model, tl, tk)
+    return env, model, controller, observer, limits
+
+
+def deploy_main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="cepam-gym deploy",
+        description="run an exported policy or a registered controller on a rig at the env's control "
+        "rate, under the safety supervisor; log every step in identify's CSV format",
+    )
+    who = ap.add_mutually_exclusive_group(required=True)
+    who.add_argument("--policy", help="an ONNX file written by cepam-gym export")
+    who.add_argument("--controller", help="a registered controller (baseline, mpc, ...)")
+    ap.add_argument(
+        "--rig", default=DEFAULT_ADDRESS, help=f"the rig's UDP address (default {DEFAULT_ADDRESS})"
+    )
+    ap.add_argument("--suite", help="play an episode of this benchmark suite (its env, kwargs and seed)")
+    ap.add_argument("--episode", type=int, default=0, help="the suite's episode (default 0)")
+    ap.add_argument("--env", help=f"env id when no --suite (default: the policy's, else {DEFAULT_ENV})")
+    ap.add_argument("--seed", type=int, default=0, help="the episode's seed when no --suite")
+    ap.add_argument("--plant", help="the nominal plant YAML the env is built on (e.g. identify's fit)")
+    ap.add_argument("--limits", help="a YAML file that tightens the supervisor's limits")
+    ap.add_argument("--seconds", type=float, help="stop after this long (default: the whole episode)")
+    ap.add_argument("--load-g", type=float, default=0.0, help="the rig's hanging load [g], for the log")
+    ap.add_argument(
+        "--log", default="runs/deploy/deploy.csv", help="the step log (CSV; a .json summary beside)"
+    )
+    ap.add_argument(
+        "--realtime",
+        type=int,
+        metavar="PRIORITY",
+        help="run the loop under the real-time scheduler (SCHED_FIFO, 1-99; needs root or CAP_SYS_NICE)",
+    )
+    args = ap.parse_args(argv)
+    from .deploy import run, set_realtime
+    from .supervisor import Supervisor
+    from .udp import UdpRig, parse_address
+
+    address = parse_address(args.rig)
+    if args.realtime is not None:
+        print(f"real-time scheduling: {set_realtime(args.realtime)}")
+    _env, model, controller, observer, limits = build(args)
+    n_steps = observer.n_steps
+    if args.seconds is not None:
+        if not args.seconds > 0:
+            raise InputError(f"--seconds must be > 0, got {args.seconds}")
+        n_steps = min(n_steps, max(1, int(round(args.seconds / model.control_dt))))
+    stop = {"signal": None}
+
+    def _stop(signum, frame):
+        stop["signal"] = signum
+
+    old = {sig: signal.signal(sig, _stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    rig = UdpRig(address)
+    try:
+        print(
+            f"deploying on {args.rig} at {1 / model.control_dt:g} Hz for {n_steps} steps; "
+            f"limits: {limits.describe()}"
+        )
+        result = run(
+            rig,
+            controller,
+            observer,
+            Supervisor(limits, model.control_dt),
+            args.load_g * 1e-3,
+            n_steps=n_steps,
+            should_stop=lambda: stop["signal"] is not None,
+            log_path=args.log,
+        )
+    finally:
+        rig.close()
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+    print(result.summary())
+    print(f"wrote {args.log} and {Path(args.log).with_suffix('.json')}")
+    return 0
+
+
+def _fault(text: str) -> tuple[str, float, float | None]:
+    from .protocol import FAULTS
+
+    name, sep, rest = text.partition("@")
+    when, _, size = rest.partition(":")
+    try:
+        if name not in FAULTS or not sep:
+            raise ValueError
+        t = float(when)
+        s = float(size) if size else None
+        if t < 0:
+            raise ValueError
+    except ValueError:
+        raise InputError(
+            f"--fault must be NAME@SECONDS[:SIZE] with NAME in {', '.join(FAULTS)}; got {text!r}"
+        ) from None
+    return name, t, s
+
+
+def emulator_main(argv: list[str] | None = None) -> int:
+    from ..plant import MODES
+    from ..plant.params import PlantParams, preset
+
+    ap = argparse.ArgumentParser(
+        prog="cepam-gym rig-emulator",
+        description="a simulated rig behind the rig protocol (UDP): the plant in real time with latency, "
+        "jitter, sensor noise and quantisation, lost packets and injectable faults",
+    )
+    ap.add_argument("--plant", help="plant parameter YAML (default: --preset)")
+    ap.add_argument("--preset", default="balloon_v2")
+    ap.add_argument("--port", type=int, default=9870)
+    ap.add_argument("--mode", default="valve", choices=sorted(MODES))
+    ap.add_argument("--load-g", type=float, default=100.0, help="the hanging load [g]")
+    ap.add_argument("--rate-hz", type=float, default=500.0, help="plant ticks and sensor packets per second")
+    ap.add_argument("--latency-ms", type=float, default=1.0, help="one-way latency of each packet")
+    ap.add_argument("--jitter-ms", type=float, default=0.5, help="uniform extra latency per packet")
+    ap.add_argument("--noise-kpa", type=float, default=0.2)
+    ap.add_argument("--noise-mm", type=float, default=0.03)
+    ap.add_argument("--quant-kpa", type=float, default=0.05, help="pressure sensors' resolution")
+    ap.add_argument("--quant-mm", type=float, default=0.01, help="length sensor's resolution")
+    ap.add_argument("--drop", type=float, default=0.0, help="fraction of packets lost, each direction")
+    ap.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help="NAME@SECONDS[:SIZE]: inject a fault that long after arming "
+        "(frozen_sensor, supply_drop, leak, stuck_valve); repeatable",
+    )
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seconds", type=float, help="exit after this long (default: until SIGINT/SIGTERM)")
+    ap.add_argument("--events", help="write the events (JSON lines) here instead of stdout")
+    ap.add_argument("--realtime", type=int, metavar="PRIORITY", help="SCHED_FIFO priority (see deploy)")
+    args = ap.parse_args(argv)
+    from .deploy import set_realtime
+    from .emulator import EmulatedPlant, RigImperfections, serve
+
+    if args.realtime is not None:
+        set_realtime(args.realtime)
+    if not 0 <= args.port < 65536:
+        raise InputError(f"--port must lie in [0, 65535], got {args.port}")
+    if not args.rate_hz >= 50:
+        raise InputError(f"--rate-hz must be >= 50, got {args.rate_hz}")
+    faults = [_fault(f) for f in args.fault]
+    params = PlantParams.from_yaml(args.plant) if args.plant else preset(args.preset)
+    imp = RigImperfections(
+        latency_s=args.latency_ms * 1e-3,
+        jitter_s=args.jitter_ms * 1e-3,
+        noise_pressure=args.noise_kpa * 1e3,
+        noise_length=args.noise_mm * 1e-3,
+        quant_pressure=args.quant_kpa * 1e3,
+        quant_length=args.quant_mm * 1e-3,
+        drop=args.drop,
+    )
+    plant = EmulatedPlant(params, mode=args.mode, load=args.load_g * 1e-3, rate_hz=args.rate_hz)
+    events = open(args.events, "a") if args.events else None  # noqa: SIM115 (held for the process)
+    try:
+        return serve(plant, args.port, imp, args.seed, faults, args.seconds, events)
+    finally:
+        if events is not None:
+            events.close()

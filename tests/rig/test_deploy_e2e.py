@@ -1,0 +1,209 @@
+"""The loop closed on the loopback: an emulated rig in its own process (a plant whose parameters
+the deploy side does not know), a registered controller and an exported policy deployed on it, each
+injected fault ending in the safe state, and a clean stop on SIGTERM."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from cepam_gym.identify.logs import read_log
+from cepam_gym.plant.params import preset
+from cepam_gym.rig.cli import DEFAULT_ENV, _episode
+from cepam_gym.rig.deploy import run
+from cepam_gym.rig.observation import RigObserver
+from cepam_gym.rig.protocol import FAULTS
+from cepam_gym.rig.supervisor import SafetyLimits, Supervisor
+from cepam_gym.rig.udp import UdpRig
+
+pytestmark = pytest.mark.slow  # about half a minute of real time
+
+DT = 0.02
+# the rig's plant: the deploy side builds its env on the nominal preset and never sees these
+HIDDEN = {"valve_conductance": 1.15, "dead_volume_cpam": 1.3, "damping": 1.5, "spool_time_constant": 0.8}
+
+
+class Emulator:
+    """``cepam-gym rig-emulator`` in a subprocess; its events (JSON lines on stdout) collected."""
+
+    def __init__(self, tmp: Path, *extra: str):
+        base = preset("balloon_v2")
+        hidden = base.replace(**{k: getattr(base, k) * f for k, f in HIDDEN.items()})
+        plant = tmp / "hidden_plant.yaml"
+        plant.write_text(yaml.safe_dump(hidden.to_dict()))
+        cmd = [sys.executable, "-m", "cepam_gym.cli", "rig-emulator", "--plant", str(plant), "--port", "0"]
+        self.proc = subprocess.Popen(
+            [*cmd, *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        self.events: list[dict] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        first = self.wait_for("listening", timeout=120)
+        self.address = ("127.0.0.1", first["port"])
+
+    def _read(self):
+        for line in self.proc.stdout:
+            if line.startswith("{"):
+                self.events.append(json.loads(line))
+
+    def wait_for(self, event: str, after: int = 0, timeout: float = 5.0) -> dict:
+        end = time.time() + timeout
+        while time.time() < end:
+            found = [e for e in self.events[after:] if e["event"] == event]
+            if found:
+                return found[0]
+            if self.proc.poll() is not None:
+                raise AssertionError(f"the emulator exited: {self.proc.stderr.read()}")
+            time.sleep(0.01)
+        raise AssertionError(f"no {event!r} event within {timeout} s: {self.events[after:]}")
+
+    def close(self):
+        self.proc.send_signal(signal.SIGTERM)
+        assert self.proc.wait(timeout=10) == 0
+        self.wait_for("exit")
+
+
+@pytest.fixture(scope="module")
+def emulator(tmp_path_factory):
+    emu = Emulator(tmp_path_factory.mktemp("rig"), "--drop", "0.02", "--load-g", "100")
+    yield emu
+    emu.close()
+
+
+@pytest.fixture(scope="module")
+def episode():
+    return _episode(DEFAULT_ENV, {}, 1000, 0, 1)
+
+
+def _deploy(emulator, episode, controller, steps, log=None, on_step=None, limits=None):
+    _env, model, tl, tk = episode
+    limits = limits or SafetyLimits.from_plant(model.nominal)
+    rig = UdpRig(emulator.address)
+    try:
+        return run(
+            rig,
+            controller,
+            RigObserver(model, tl, tk),
+            Supervisor(limits, model.control_dt),
+            0.1,
+            n_steps=steps,
+            log_path=log,
+            on_step=on_step if on_step is None else (lambda k: on_step(k, rig)),
+        )
+    finally:
+        rig.close()
+
+
+def test_the_baseline_runs_on_the_emulated_rig_in_real_time_and_logs_for_identify(
+    emulator, episode, tmp_path
+):
+    from cepam_gym.control import make_controller
+
+    env = episode[0]
+    start = len(emulator.events)
+    result = _deploy(emulator, episode, make_controller("baseline", env), 150, log=tmp_path / "base.csv")
+    print(result.summary())
+    assert result.stopped_by == "end" and result.trip is None and result.steps == 150
+    assert result.deadline_misses <= 3 and result.lateness_p99 < 0.01
+    assert result.length_rmse_mm < 10.0  # it tracks the reference on a plant it does not know
+    emulator.wait_for("stop", after=start)  # the rig was left in its safe state
+    rec = read_log(tmp_path / "base.csv")  # identify reads the deployment log
+    assert len(rec.time) == 150 and np.all(rec.loads == pytest.approx(0.1))
+    assert json.loads((tmp_path / "base.json").read_text())["steps"] == 150
+
+
+def test_an_exported_policy_runs_on_the_emulated_rig(emulator, episode, tmp_path):
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("onnxruntime")
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from cepam_gym.rig.onnx_policy import OnnxPolicy
+    from cepam_gym_agents.export import export
+
+    PPO("MlpPolicy", gym.make(DEFAULT_ENV), policy_kwargs={"net_arch": [64, 64]}, seed=0).save(
+        str(tmp_path / "agent.zip")
+    )
+    with pytest.warns(UserWarning, match="no VecNormalize statistics"):  # a bare model: raw observations
+        export(tmp_path / "agent.zip", tmp_path / "policy.onnx")
+    policy = OnnxPolicy(tmp_path / "policy.onnx")
+    policy.check_env(episode[1].obs_dim, episode[1].action_mode)
+    result = _deploy(emulator, episode, policy, 100)
+    print(result.summary())
+    # an untrained policy may well trip a limit: what matters is that the loop ends in the safe state
+    assert result.steps >= 1 and result.stopped_by in ("end", "trip")
+    assert result.compute_p99 < DT and result.capacity_hz > 50
+
+
+@pytest.mark.parametrize(
+    "fault, reasons",
+    [
+        ("frozen_sensor", {"frozen_sensor"}),
+        ("supply_drop", {"supply_loss"}),
+        ("stuck_valve", {"valve_fault", "pressure_limit"}),
+        ("leak", {None}),  # a slow leak the controller compensates: the episode's end stops the rig
+    ],
+)
+def test_each_injected_fault_ends_in_the_safe_state(fault, reasons, emulator, episode):
+    from cepam_gym.control import make_controller
+
+    code = FAULTS.index(fault)
+    at = 50
+
+    def inject(k, rig):
+        if k == at:
+            rig.inject(code)
+
+    start = len(emulator.events)
+    result = _deploy(emulator, episode, make_controller("baseline", episode[0]), at + 40, on_step=inject)
+    trip = result.trip["reason"] if result.trip else None
+    emulator.wait_for("fault", after=start)
+    safe = emulator.wait_for("safe", after=start)
+    detail = result.trip["detail"] if result.trip else "none"
+    print(f"{fault}: trip {trip} ({detail}), safe state {safe['after_fault_s'] * 1e3:.0f} ms after the fault")
+    assert trip in reasons
+    if trip is not None:
+        # on the step the supervisor can tell: within one control period of the fault becoming
+        # detectable (a frozen sensor after frozen_after_s, a valve after valve_check_s)
+        lim = SafetyLimits.from_plant(episode[1].nominal)
+        window = {"frozen_sensor": lim.frozen_after_s, "valve_fault": lim.valve_check_s}.get(trip, 0.0)
+        assert safe["after_fault_s"] <= window + 2 * DT + 0.4  # the stuck valve first has to overfill
+
+
+def test_deploy_stops_cleanly_on_sigterm_and_leaves_the_rig_safe(emulator, tmp_path):
+    start = len(emulator.events)
+    log = tmp_path / "sig.csv"
+    cmd = [
+        sys.executable,
+        "-m",
+        "cepam_gym.cli",
+        "deploy",
+        "--controller",
+        "baseline",
+        "--rig",
+        f"127.0.0.1:{emulator.address[1]}",
+        "--suite",
+        "nominal-v2",
+        "--log",
+        str(log),
+    ]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=os.environ)
+    emulator.wait_for("armed", after=start, timeout=120)
+    time.sleep(3.0)  # past the controller's warm-up, into the timed loop
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    summary = json.loads(log.with_suffix(".json").read_text())
+    assert summary["stopped_by"] == "signal" and 10 <= summary["steps"] < summary["planned_steps"]
+    assert "safe state" in out
+    emulator.wait_for("stop", after=start)

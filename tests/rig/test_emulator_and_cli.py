@@ -1,0 +1,97 @@
+"""The emulated rig's plant is the plant's own kernel, its faults act, and the commands' usage
+errors are one line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cepam_gym import cli
+from cepam_gym import plant as pl
+from cepam_gym.errors import InputError
+from cepam_gym.plant.params import preset
+from cepam_gym.rig.emulator import EmulatedPlant, RigImperfections
+from cepam_gym.rig.protocol import SAFE_COMMANDS
+
+PLANT = preset("balloon_v2")
+
+
+def test_the_emulated_plant_ticks_are_the_plant_kernels_control_step():
+    e = EmulatedPlant(PLANT, load=0.1, rate_hz=500.0)
+    assert e.n_sub == 4 and e.tick_dt == pytest.approx(0.002)
+    e.command = (0.5, 0.2)
+    for _ in range(25):
+        e.tick()
+    row = PLANT.to_array()[None]
+    inputs = np.zeros((1, pl.N_INPUT))
+    inputs[0, [pl.I_CMD_C, pl.I_CMD_E, pl.I_LOAD]] = (0.5, 0.2, 0.1)
+    x, _aux = pl.step(pl.initial_state(row, PLANT.min_length), inputs, row, pl.PROPORTIONAL, 5e-4, 100)
+    np.testing.assert_array_equal(e.x, x)  # 25 ticks of 4 sub-steps = one call of 100, bit for bit
+
+
+def test_faults_change_what_the_rig_does_and_a_stop_vents_and_shuts_the_supply():
+    rng = np.random.default_rng(0)
+    quiet = RigImperfections(noise_pressure=0, noise_length=0, quant_pressure=0, quant_length=0)
+    e = EmulatedPlant(PLANT, load=0.1)
+    e.command = (1.0, 1.0)
+    for _ in range(100):
+        e.tick()
+    at_injection = e.true_values()
+    e.inject("frozen_sensor")
+    for _ in range(10):
+        e.tick()
+    assert e.sensed(quiet, rng)[:3] == at_injection and e.true_values() != at_injection
+    e.inject("supply_drop")
+    assert e.sensed(quiet, rng)[3] == pytest.approx(0.2 * PLANT.supply_pressure)
+    e.restart()
+    e.inject("stuck_valve")
+    e.command = SAFE_COMMANDS
+    for _ in range(200):
+        e.tick()
+    assert e.aux[0, pl.A_PC] > 0.9 * PLANT.supply_pressure and e.aux[0, pl.A_PE] < 5e3
+    e.stop()
+    for _ in range(500):
+        e.tick()
+    assert e.aux[0, pl.A_PC] < 5e3 and e.stopped  # the supply shut off: even the stuck chamber empties
+    with pytest.raises(InputError, match="unknown fault"):
+        e.inject("gremlins")
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["rig-emulator", "--fault", "gremlins@1"], "--fault must be NAME@SECONDS"),
+        (["rig-emulator", "--fault", "leak@-1"], "--fault must be NAME@SECONDS"),
+        (["rig-emulator", "--drop", "1.5"], "drop must be below 1"),
+        (["deploy", "--controller", "baseline", "--rig", "nohost"], "host:port"),
+        (["deploy", "--controller", "baseline", "--suite", "nope"], "unknown suite 'nope'"),
+        (["deploy", "--controller", "baseline", "--limits", "/no/such.yaml"], "does not exist"),
+        (["deploy", "--controller", "baseline", "--realtime", "0"], "priority must lie in [1, 99]"),
+    ],
+)
+def test_usage_errors_are_one_line(argv, match, capsys):
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err
+
+
+def test_deploy_without_a_rig_answering_is_one_line(capsys):
+    import socket
+
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))  # a port that is bound but never answers
+    try:
+        argv = [
+            "deploy",
+            "--controller",
+            "zero",
+            "--rig",
+            f"127.0.0.1:{s.getsockname()[1]}",
+            "--seconds",
+            "1",
+        ]
+        assert cli.main([*argv, "--log", "/dev/null/never.csv"]) == 2
+    finally:
+        s.close()
+    err = capsys.readouterr().err
+    assert "no reading from the rig" in err and "Traceback" not in err
