@@ -44,15 +44,17 @@ lock:
 run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run
 
-test: install install-distributed  ## every test; the RLlib ones (skipped in .venv) again in .venv-ray; the docs
-	$(PY) -m pytest -q
+# every test on every core (pytest-xdist; --dist worksteal keeps both cores busy behind the long
+# tests); the strict docs build is one of them (tests/project/test_docs.py); the RLlib tests,
+# skipped in .venv, run again in .venv-ray
+test: install install-distributed
+	$(PY) -m pytest -q -n auto --dist worksteal
 	$(RAY_PY) -m pytest -q tests/integrations/test_rllib.py
-	$(MAKE) docs
 
 # the inner loop: everything but the tests marked slow (training, wheel builds, videos, golden
 # trajectories), on every core when pytest-xdist is there
 test-fast: install
-	$(PY) -m pytest -q -m "not slow" $$($(PY) -c "import xdist" 2>/dev/null && echo "-n auto")
+	$(PY) -m pytest -q -m "not slow" -n auto --dist worksteal
 
 lint: install  ## ruff lint and format check (configured in pyproject.toml; tests/project/test_lint.py runs both)
 	$(PY) -m ruff check .

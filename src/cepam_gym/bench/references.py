@@ -8,13 +8,14 @@ They are stored with the episodes they were measured on (the suite's seed and ep
 
     cepam-gym bench --update-references [--suite NAME ...]
 
-(the zero controller, the baseline and the oracle on every suite the oracle drives, at the suite's default
-episodes, and the oracle again on the suite's first few episodes, ``oracle_check``: what the test
-suite re-runs instead of the whole oracle suite). ``--suite v2`` names exactly the v2 suites
-(``*-v2``), so a change of plant v2 re-measures its references and no others. A normalized or headline score uses
-them only for a run on the same episodes (:func:`stored_entry`); any other run uses the ends it measured
-itself, measures them on request (``--measure-references``) or says it cannot normalize
-(:mod:`cepam_gym.bench.cli`). A slow test recomputes every entry (``tests/bench/test_scores.py``: the oracle's check episodes;
+(the zero controller, the baseline and the oracle on every suite the oracle drives, at the
+suite's default episodes, and the oracle again on the suite's first few episodes,
+``oracle_check``: what the test suite re-runs instead of the whole oracle suite). ``--suite v2``
+names exactly the v2 suites (``*-v2``), so a change of plant v2 re-measures its references and no
+others. A normalized or headline score uses them only for a run on the same episodes
+(:func:`stored_entry`); any other run uses the ends it measured itself, measures them on request
+(``--measure-references``) or says it cannot normalize (:mod:`cepam_gym.bench.cli`). A slow test
+recomputes every entry (``tests/bench/test_scores.py``: the oracle's check episodes;
 ``CEPAM_ALL_REFERENCES=1``: everything).
 """
 
