@@ -149,6 +149,7 @@ def test_setpoint_gaps_are_the_nominal_models_pressure_gaps():
     venv.close()
 
 
+@pytest.mark.slow
 def test_comparison_table_gives_iqm_and_the_gap_closed():
     from cepam_gym_agents.compare import CONTROLLERS, SUITES, UNSEEN_CONTROLLERS, table
 

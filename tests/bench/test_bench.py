@@ -255,6 +255,7 @@ def test_normalized_score_is_zero_for_zero_and_hundred_for_the_oracle():
         normalized_score(1.0, 1.0, 2.0)
 
 
+@pytest.mark.slow
 def test_reference_scores_are_what_the_zero_controller_scores_now():
     """The stored ends of the normalized score are current: the zero controller's score of every
     suite with a reference, recomputed at the suite's default episodes (cheap: valves shut)."""

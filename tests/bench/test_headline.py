@@ -79,6 +79,7 @@ def test_bench_prints_the_headline_of_the_stored_baseline(tmp_path, capsys):
     assert (tmp_path / "table.txt").read_text().startswith(head)
 
 
+@pytest.mark.slow
 def test_eval_and_the_agents_comparison_use_the_same_function():
     pytest.importorskip("cepam_gym_agents")
     from cepam_gym_agents import compare, evaluate

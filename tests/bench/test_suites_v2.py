@@ -37,6 +37,7 @@ def test_every_v2_id_has_suites_mirroring_v1():
     assert trace_spec_for("cepam_gym/CEPAMJoint-v2") == JOINT_V1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", V2_SUITES)
 def test_v2_suite_runs(name):
     """One short episode of the zero controller and of the oracle on each v2 suite."""

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 import cepam_gym  # noqa: F401
 from cepam_gym.bench.harness import run_suite
@@ -29,6 +30,7 @@ def _actions(name: str, env_kwargs: dict, steps: int, seed: int = 3, env_id="cep
         env.close()
 
 
+@pytest.mark.slow
 def test_the_causal_oracle_is_the_oracle_where_the_load_is_constant():
     kw = {"task_options": {"load_kinds": ["constant"]}}
     np.testing.assert_array_equal(_actions("oracle_causal", kw, 30), _actions("oracle", kw, 30))
@@ -48,17 +50,20 @@ def test_the_causal_oracle_plans_with_the_current_load_held():
         env.close()
 
 
+@pytest.mark.slow
 def test_the_known_parameters_mpc_is_the_mpc_on_the_nominal_plant():
     kw = {"task_options": {"load_kinds": ["step"]}}
     np.testing.assert_array_equal(_actions("mpc_known_params", kw, 40), _actions("mpc", kw, 40))
 
 
+@pytest.mark.slow
 def test_the_friction_mpc_is_the_mpc_on_a_plant_without_friction():
     # plant v0 has no friction elements: the balance and the plan are the plain MPC's, bit for bit
     got = _actions("mpc_friction", {}, 40, env_id="cepam_gym/CEPAM-v0")
     np.testing.assert_array_equal(got, _actions("mpc", {}, 40, env_id="cepam_gym/CEPAM-v0"))
 
 
+@pytest.mark.slow
 def test_the_friction_mpc_given_the_true_parameters_is_the_friction_mpc_on_the_nominal_plant():
     kw = {"task_options": {"load_kinds": ["step"]}}
     np.testing.assert_array_equal(
@@ -74,6 +79,7 @@ def test_the_friction_baseline_is_the_baseline_without_friction_and_differs_with
     assert not np.array_equal(_actions("baseline_friction", {}, 60), _actions("baseline", {}, 60))
 
 
+@pytest.mark.slow
 def test_the_friction_mpc_tracks_the_plants_friction_deflections():
     from cepam_gym import plant as pl
 
@@ -98,6 +104,7 @@ def test_the_friction_mpc_tracks_the_plants_friction_deflections():
     assert np.median(errs) < 0.05 * max(sizes)
 
 
+@pytest.mark.slow
 def test_balancing_the_friction_makes_the_mpc_better_on_the_nominal_plant():
     # nominal-v1, 20 episodes: the MPC 0.0783, with its friction tracked 0.0428
     suite = SUITES["nominal-v1"]
@@ -106,6 +113,7 @@ def test_balancing_the_friction_makes_the_mpc_better_on_the_nominal_plant():
     assert friction["score"] < 0.8 * plain["score"]
 
 
+@pytest.mark.slow
 def test_knowing_the_parameters_makes_the_mpc_better_on_randomized_plants():
     # on randomized-v1 (20 episodes) the MPC scores 0.644, given the true parameters far less
     suite = SUITES["randomized-v1"]

@@ -265,6 +265,7 @@ def test_v1_calibration_recovers_known_elasticity_from_noisy_synthetic_data():
     assert np.sqrt(np.mean(res.residuals**2)) < 0.01  # residuals at the noise level
 
 
+@pytest.mark.slow
 def test_default_plant_is_the_v1_fit_to_every_reported_number():
     """PlantParams() (= presets/balloon.yaml) is plant v1 fitted to all computable reported numbers:
     the mean error matches docs/calibration.md, the angles sit inside the sleeve bounds, and a fit
