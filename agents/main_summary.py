@@ -9,19 +9,13 @@ import platform
 from datetime import UTC, datetime
 from pathlib import Path
 
-_PACKAGES = ("cepam-gym", "numpy", "numba", "scipy", "gymnasium", "stable-baselines3", "torch", "mujoco")
+from .provenance import package_versions
 
 
 def versions() -> dict[str, str]:
-    from importlib import metadata
-
-    out = {"python": platform.python_version()}
-    for name in _PACKAGES:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
+    """The run's package versions and machine facts (:func:`.provenance.package_versions`, the
+    ones ``run.json`` records), as text."""
+    return {k: "not installed" if v is None else str(v) for k, v in package_versions().items()}
 
 
 def _rel(path: Path, out: Path) -> str:
