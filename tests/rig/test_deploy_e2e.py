@@ -20,7 +20,7 @@ import yaml
 from cepam_gym.identify.logs import read_log
 from cepam_gym.plant.params import preset
 from cepam_gym.rig.cli import DEFAULT_ENV, _episode
-from cepam_gym.rig.deploy import run
+from cepam_gym.rig.deploy import connect, run
 from cepam_gym.rig.observation import RigObserver
 from cepam_gym.rig.protocol import FAULTS
 from cepam_gym.rig.supervisor import SafetyLimits, Supervisor
@@ -94,7 +94,7 @@ def _deploy(emulator, episode, controller, steps, log=None, on_step=None, limits
             rig,
             controller,
             RigObserver(model, tl, tk),
-            Supervisor(limits, model.control_dt),
+            Supervisor(limits, model.control_dt, model=model),
             0.1,
             n_steps=steps,
             log_path=log,
@@ -142,6 +142,7 @@ def test_an_exported_policy_runs_on_the_emulated_rig(emulator, episode, tmp_path
     print(result.summary())
     # an untrained policy may well trip a limit: what matters is that the loop ends in the safe state
     assert result.steps >= 1 and result.stopped_by in ("end", "trip")
+    assert result.trip is None or result.trip["reason"] != "leak"  # the rig has none
     assert result.compute_p99 < DT and result.capacity_hz > 50
 
 
@@ -151,7 +152,7 @@ def test_an_exported_policy_runs_on_the_emulated_rig(emulator, episode, tmp_path
         ("frozen_sensor", {"frozen_sensor"}),
         ("supply_drop", {"supply_loss"}),
         ("stuck_valve", {"valve_fault", "pressure_limit"}),
-        ("leak", {None}),  # a slow leak the controller compensates: the episode's end stops the rig
+        ("leak", {"leak"}),  # caught even while the controller compensates it
     ],
 )
 def test_each_injected_fault_ends_in_the_safe_state(fault, reasons, emulator, episode):
@@ -176,8 +177,28 @@ def test_each_injected_fault_ends_in_the_safe_state(fault, reasons, emulator, ep
         # on the step the supervisor can tell: within one control period of the fault becoming
         # detectable (a frozen sensor after frozen_after_s, a valve after valve_check_s)
         lim = SafetyLimits.from_plant(episode[1].nominal)
-        window = {"frozen_sensor": lim.frozen_after_s, "valve_fault": lim.valve_check_s}.get(trip, 0.0)
+        window = {
+            "frozen_sensor": lim.frozen_after_s,
+            "valve_fault": lim.valve_check_s,
+            "leak": lim.leak_window_s,
+        }.get(trip, 0.0)
         assert safe["after_fault_s"] <= window + 2 * DT + 0.4  # the stuck valve first has to overfill
+
+
+def test_each_new_host_drives_the_rig_from_its_first_command(emulator):
+    for commands in (40, 20):  # the second host's packet numbers start again below the first's
+        rig = UdpRig(emulator.address)
+        try:
+            connect(rig)
+            for _ in range(commands):
+                rig.write(-1.0, -1.0)
+                time.sleep(0.004)
+            time.sleep(0.03)
+            acks = [r.ack_seq for r in iter(rig.read, None)] or [-1]
+            assert rig.seq - 5 < acks[-1] <= rig.seq  # the rig applies this host's commands
+            rig.stop()
+        finally:
+            rig.close()
 
 
 def test_deploy_stops_cleanly_on_sigterm_and_leaves_the_rig_safe(emulator, tmp_path):

@@ -132,7 +132,7 @@ def deploy_main(argv: list[str] | None = None) -> int:
             rig,
             controller,
             observer,
-            Supervisor(limits, model.control_dt),
+            Supervisor(limits, model.control_dt, model=model),
             args.load_g * 1e-3,
             n_steps=n_steps,
             should_stop=lambda: stop["signal"] is not None,

@@ -259,6 +259,7 @@ def serve(
                     continue
                 plant.restart()
                 armed_at, fault_time, safe_reported = plant.time, None, False
+                ack = pseq  # a new host numbers its packets from 1: its commands follow its arm
                 pending = sorted(scheduled, key=lambda f: f[1])
                 emit(event="armed")
             elif kind == KIND_STOP:
