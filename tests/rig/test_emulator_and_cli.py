@@ -67,6 +67,14 @@ def test_faults_change_what_the_rig_does_and_a_stop_vents_and_shuts_the_supply()
         (["deploy", "--controller", "baseline", "--suite", "nope"], "unknown suite 'nope'"),
         (["deploy", "--controller", "baseline", "--limits", "/no/such.yaml"], "does not exist"),
         (["deploy", "--controller", "baseline", "--realtime", "0"], "priority must lie in [1, 99]"),
+        (["excite", "--out", "x.csv", "--rig", "127.0.0.1:1", "--simulate"], "exclude each other"),
+        (["excite", "--out", "x.csv", "--rig", "127.0.0.1:1", "--loads-g", "0,100"], "one load"),
+        (["excite", "--out", "x.csv", "--rig", "127.0.0.1:1"], "--rig needs --loads-g"),
+        (
+            ["excite", "--out", "x.csv", "--rig", "127.0.0.1:1", "--loads-g", "1", "--rate", "20"],
+            "--rate must",
+        ),
+        (["excite", "--out", "x.csv", "--rig", "nohost", "--loads-g", "100"], "host:port"),
     ],
 )
 def test_usage_errors_are_one_line(argv, match, capsys):

@@ -227,3 +227,52 @@ def emulator_main(argv: list[str] | None = None) -> int:
     finally:
         if events is not None:
             events.close()
+
+
+def excite_main(argv: list[str] | None = None) -> int:
+    """``cepam-gym excite``: identify's excitation schedule (:func:`cepam_gym.identify.cli.excite_main`),
+    or with ``--rig`` that schedule played on a rig through the deploy loop."""
+    from ..identify.cli import excite_loads, excite_parser
+    from ..identify.cli import excite_main as schedule_main
+
+    ap = excite_parser()
+    ap.add_argument(
+        "--rig",
+        help="play the schedule on the rig at HOST:PORT through the deploy loop (under the safety "
+        "supervisor, at --rate) and write what it measured to --out; --loads-g: the rig's one hanging load",
+    )
+    ap.add_argument("--env", default=DEFAULT_ENV, help="with --rig: the env whose plant and limits apply")
+    ap.add_argument("--limits", help="with --rig: a YAML file that tightens the supervisor's limits")
+    args = ap.parse_args(argv)
+    if args.rig is None:
+        return schedule_main(args=args)
+    from .excitation import excite
+    from .supervisor import SafetyLimits
+    from .udp import UdpRig, parse_address
+
+    if args.simulate:
+        raise InputError("--simulate and --rig exclude each other: the rig measures")
+    if args.loads_g is None:
+        raise InputError("--rig needs --loads-g: the load hanging on the rig [g], written in the log")
+    loads = excite_loads(args.loads_g)
+    if len(loads) != 1:
+        raise InputError(f"--loads-g: a rig hangs one load during an excitation, got {len(loads)}")
+    address = parse_address(args.rig)
+    kwargs = {"action_mode": args.mode}
+    if args.rate is not None:
+        if not 50 <= args.rate <= 2000:
+            raise InputError(f"--rate must lie in [50, 2000] Hz, got {args.rate:g}")
+        kwargs["control_dt"] = 1.0 / args.rate
+    _env, model, _tl, _tk = _episode(args.env, kwargs, 0, 0, 1)
+    limits = SafetyLimits.from_plant(model.nominal)
+    if args.limits:
+        limits = limits.tightened(args.limits)
+    rig = UdpRig(address)
+    try:
+        print(f"exciting the rig at {args.rig}: {args.seconds:g} s at {1 / model.control_dt:g} Hz")
+        result = excite(rig, model, args.seconds, loads[0] * 1e-3, args.out, args.seed, limits)
+    finally:
+        rig.close()
+    print(result.summary())
+    print(f"wrote {args.out}: the rig's log, for cepam-gym identify --data")
+    return 0 if result.trip is None else 1
