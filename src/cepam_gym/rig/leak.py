@@ -43,9 +43,10 @@ def interval_balance(row, chamber, dt, l0, l1, pg0, pg1, spool0, spool1, conduct
     """Energy balance of chamber ``chamber`` (0 CPAM, 1 annulus) of plant row ``row`` over ``dt``
     [s] between two readings: lengths ``l0, l1`` [m], gauge pressures ``pg0, pg1`` [Pa], valve
     openings ``spool0, spool1`` in [-1, 1] at each end (conductance ``conductance`` fully open),
-    supply ``p_sup`` [Pa abs]. Returns ``(residual, basis, throughput)`` [J, J per m^3/(s Pa), J]:
-    the energy the model predicts minus the energy measured, the energy a unit leak conductance
-    would carry out, and the energy the valves and the volume change moved (trapezoid rule)."""
+    supply ``p_sup`` [Pa abs]. Returns ``(residual, basis, basis_in, throughput)`` [J, J per
+    m^3/(s Pa), the same, J]: the energy the model predicts minus the energy measured, the energy
+    a unit conductance to the atmosphere would carry out and one from the supply would carry in,
+    and the energy the valves and the volume change moved (trapezoid rule)."""
     vc0, ve0, _a, _b = chamber_volumes(l0, row)
     vc1, ve1, _c, _d = chamber_volumes(l1, row)
     v0 = vc0 if chamber == 0 else ve0
@@ -59,6 +60,7 @@ def interval_balance(row, chamber, dt, l0, l1, pg0, pg1, spool0, spool1, conduct
     vk = (row[ix.B_CRIT], row[ix.INV_1MB], row[ix.R_LAM], row[ix.LAM_K])
     flows = 0.0
     basis = 0.0
+    basis_in = 0.0
     moved = 0.0
     for pa, s in ((pa0, spool0), (pa1, spool1)):
         c_in = conductance * max(s, 0.0)
@@ -67,23 +69,28 @@ def interval_balance(row, chamber, dt, l0, l1, pg0, pg1, spool0, spool1, conduct
         _m1, du_in, _s1 = chamber_rates(pa, t, k, 0.0, c_in, 0.0, p_sup, ts, ks, patm, t, k, vk, 0.0)
         _m2, du_out, _s2 = chamber_rates(pa, t, k, 0.0, 0.0, c_out, p_sup, ts, ks, patm, t, k, vk, 0.0)
         _m3, du_unit, _s3 = chamber_rates(pa, t, k, 0.0, 0.0, 1.0, p_sup, ts, ks, patm, t, k, vk, 0.0)
+        _m4, du_unit_in, _s4 = chamber_rates(pa, t, k, 0.0, 1.0, 0.0, p_sup, ts, ks, patm, t, k, vk, 0.0)
         flows += du_in + du_out
         basis -= du_unit
+        basis_in += max(du_unit_in, 0.0)
         moved += abs(du_in) + abs(du_out)
     half = 0.5 * dt
-    return half * flows - work - measured, half * basis, half * moved + abs(work)
+    return half * flows - work - measured, half * basis, half * basis_in, half * moved + abs(work)
 
 
 class LeakMonitor:
     """The leak check of one run: fed each fresh reading and the command in force since the one
-    before (:meth:`update`); :meth:`update` returns a sentence when a chamber leaks.
+    before (:meth:`update`); :meth:`update` returns ``(reason, sentence)`` when a chamber leaks
+    (``"leak"``) or fills from the supply beyond what its valve was told (``"valve_fault"``: a valve
+    stuck open to the supply).
 
     ``plant``: the nominal :class:`~cepam_gym.plant.params.PlantParams`; ``action_mode`` what the
     commands drive; ``setpoint_max`` the gauge pressure of +1 in pressure mode [Pa]; ``dt`` the
     control period [s]. A chamber leaks when, over the last ``window_s`` of readings, the residual
     beyond ``tolerance`` times the energy moved exceeds the basis times ``max_fraction`` of the
     valve's conductance, and the chamber held more than ``min_pressure`` [Pa gauge] (a vented
-    chamber cannot leak)."""
+    chamber cannot leak); its valve is at fault when the same holds of the energy gained beyond
+    the model's, against the energy a unit conductance from the supply would bring in."""
 
     def __init__(
         self,
@@ -108,11 +115,12 @@ class LeakMonitor:
         self.min_pressure = float(min_pressure)
         self.spool = [0.0, 0.0]  # the valves' estimated opening at the last reading
         self._last = None
-        self._window: deque = deque()  # (dt, residual c/e, basis c/e, throughput c/e, min pressure c/e)
+        self._window: deque = deque()  # dt, then residual, basis, basis in, throughput, min pressure: c, e
         self.estimate = [0.0, 0.0]  # the latest leak conductance estimates [m^3/(s Pa)]
+        self.inflow = [0.0, 0.0]  # the latest estimates of an unexplained opening to the supply
 
     def reset(self) -> None:
-        self._last, self.spool, self.estimate = None, [0.0, 0.0], [0.0, 0.0]
+        self._last, self.spool, self.estimate, self.inflow = None, [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
         self._window.clear()
 
     def _openings(self, i: int, command: float, dt: float, pg0: float, pg1: float) -> tuple[float, float]:
@@ -154,7 +162,8 @@ class LeakMonitor:
                     self.row, i, dt, last.length, reading.length, p0, p1, s0, s1, self.conductance, p_sup
                 )
             )
-        entry += [sums[0][0], sums[1][0], sums[0][1], sums[1][1], sums[0][2], sums[1][2]]
+        for j in range(4):  # residual, basis, basis in, throughput: each chamber's
+            entry += [sums[0][j], sums[1][j]]
         entry += [min(last.pressure_c, reading.pressure_c), min(last.pressure_e, reading.pressure_e)]
         self._window.append(entry)
         span = sum(e[0] for e in self._window)
@@ -163,17 +172,24 @@ class LeakMonitor:
         if span < self.window_s - 0.5 * self.dt:
             return None
         w = np.asarray(self._window)
+        limit = self.max_fraction * self.conductance
         for i, name in enumerate(("CPAM", "EPAM")):
-            residual, basis, moved = w[:, 1 + i].sum(), w[:, 3 + i].sum(), w[:, 5 + i].sum()
-            if basis <= 0 or w[:, 7 + i].min() < self.min_pressure:
-                self.estimate[i] = 0.0
-                continue
-            self.estimate[i] = max(0.0, (residual - self.tolerance * moved) / basis)
-            if self.estimate[i] > self.max_fraction * self.conductance:
-                lost = residual / (span * 1.0)
-                return (
-                    f"{name} chamber loses {lost:.2f} W of air energy the valves do not explain over "
-                    f"{span * 1e3:.0f} ms: a leak of about {self.estimate[i] / self.conductance:.2f} "
+            residual, basis, basis_in, moved = (w[:, 1 + 2 * j + i].sum() for j in range(4))
+            held = w[:, 9 + i].min() >= self.min_pressure
+            self.estimate[i] = max(0.0, (residual - self.tolerance * moved) / basis) if held else 0.0
+            self.inflow[i] = (
+                max(0.0, (-residual - self.tolerance * moved) / basis_in) if basis_in > 0 else 0.0
+            )
+            if self.estimate[i] > limit:
+                return "leak", (
+                    f"{name} chamber loses {residual / span:.2f} W of air energy the valves do not explain "
+                    f"over {span * 1e3:.0f} ms: a leak of about {self.estimate[i] / self.conductance:.2f} "
                     f"of the valve's conductance (limit {self.max_fraction:g})"
+                )
+            if self.inflow[i] > limit:
+                return "valve_fault", (
+                    f"{name} chamber gains {-residual / span:.2f} W of air energy its valve was not told to "
+                    f"let in over {span * 1e3:.0f} ms: a valve open to the supply by about "
+                    f"{self.inflow[i] / self.conductance:.2f} of its conductance beyond its command"
                 )
         return None

@@ -15,7 +15,9 @@ wants; it returns the command to send. Checks, in this order:
 * **leak**: a chamber loses air the valves do not explain, judged by an energy balance of its air
   on the plant's model over ``leak_window_s`` (:mod:`cepam_gym.rig.leak`): a leak larger than
   ``leak_max_fraction`` of the valve's conductance trips, also one a controller compensates by
-  holding its supply valve open (needs the env's model: ``Supervisor(..., model=...)``);
+  holding its supply valve open (needs the env's model: ``Supervisor(..., model=...)``); the same
+  balance calls a valve faulty when a chamber gains air its valve was not told to let in (a valve
+  stuck open to the supply);
 * **valve fault**: a chamber commanded to exhaust (command <= -0.9) for ``valve_check_s`` still
   holds more than half its pressure and more than :data:`VENTED` (a valve stuck open to the
   supply, a blocked exhaust);
@@ -247,9 +249,9 @@ class Supervisor:
             )
         if self.leak is not None:
             # the command sent last step was in force since the last reading if that was fresh too
-            leaking = self.leak.update(reading, self._last_command, self._fresh_before)
-            if leaking is not None:
-                return "leak", leaking
+            found = self.leak.update(reading, self._last_command, self._fresh_before)
+            if found is not None:
+                return found
         return self._check_exhaust(reading, now)
 
     def _check_exhaust(self, reading: Reading, now: float) -> tuple[str, str] | None:
