@@ -166,6 +166,26 @@ def _fault(text: str) -> tuple[str, float, float | None]:
     return name, t, s
 
 
+def env_setpoint_max(env_id: str, plant: str | None = None) -> float:
+    """The gauge pressure [Pa] an action of +1 asks for in pressure mode in the env ``env_id``
+    (built on the nominal plant YAML ``plant`` if given): the env's own
+    :attr:`~cepam_gym.envs.model.EnvModel.setpoint_max`, so an emulated rig maps the commands as
+    the env the controller was made for, whatever plant the rig itself runs."""
+    import gymnasium as gym
+
+    from ..envs.model import model_of
+    from ..plant.params import PlantParams
+
+    kwargs = {"action_mode": "pressure"}
+    if plant:
+        kwargs["plant"] = PlantParams.from_yaml(plant)
+    env = gym.make(env_id, **kwargs)
+    try:
+        return float(model_of(env).setpoint_max)
+    finally:
+        env.close()
+
+
 def emulator_main(argv: list[str] | None = None) -> int:
     from ..plant import MODES
     from ..plant.params import PlantParams, preset
@@ -179,6 +199,12 @@ def emulator_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--preset", default="balloon_v2")
     ap.add_argument("--port", type=int, default=9870)
     ap.add_argument("--mode", default="valve", choices=sorted(MODES))
+    ap.add_argument(
+        "--env",
+        default=DEFAULT_ENV,
+        help="pressure mode: the env whose action map the rig follows (+1 asks for its setpoint_max)",
+    )
+    ap.add_argument("--env-plant", help="pressure mode: the nominal plant YAML that env is built on")
     ap.add_argument("--load-g", type=float, default=100.0, help="the hanging load [g]")
     ap.add_argument("--rate-hz", type=float, default=500.0, help="plant ticks and sensor packets per second")
     ap.add_argument("--latency-ms", type=float, default=1.0, help="one-way latency of each packet")
@@ -220,7 +246,10 @@ def emulator_main(argv: list[str] | None = None) -> int:
         quant_length=args.quant_mm * 1e-3,
         drop=args.drop,
     )
-    plant = EmulatedPlant(params, mode=args.mode, load=args.load_g * 1e-3, rate_hz=args.rate_hz)
+    setpoint_max = env_setpoint_max(args.env, args.env_plant) if args.mode == "pressure" else None
+    plant = EmulatedPlant(
+        params, mode=args.mode, load=args.load_g * 1e-3, rate_hz=args.rate_hz, setpoint_max=setpoint_max
+    )
     events = open(args.events, "a") if args.events else None  # noqa: SIM115 (held for the process)
     try:
         return serve(plant, args.port, imp, args.seed, faults, args.seconds, events)

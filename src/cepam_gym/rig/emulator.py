@@ -87,7 +87,9 @@ class EmulatedPlant:
     load: float = 0.1  # the hanging mass [kg]
     rate_hz: float = 500.0
     sub_dt: float = 5e-4
-    setpoint_max: float | None = None  # pressure mode: the gauge set-point of +1 [Pa]
+    # pressure mode: the gauge set-point of +1 [Pa]: the env's (``EnvModel.setpoint_max``; the
+    # command line's --env), as the controller expects; None: this plant's own pressure cap
+    setpoint_max: float | None = None
     faults: dict = field(default_factory=dict)
 
     def __post_init__(self):
