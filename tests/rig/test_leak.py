@@ -18,12 +18,14 @@ from cepam_gym.rig.supervisor import SafetyLimits, Supervisor
 DT = 0.02
 
 
-def _rig(scale: float) -> EmulatedPlant:
-    """A rig off the nominal preset by ``scale`` in valve, dead volume, spool and damping."""
+def _rig(scale: float, mode: str = "valve") -> EmulatedPlant:
+    """A rig off the nominal preset by ``scale`` in valves, dead volume, spool and damping."""
     base = preset("balloon_v2")
     factors = {"valve_conductance": 1.15, "dead_volume_cpam": 1.3, "damping": 1.5, "spool_time_constant": 0.8}
+    factors["onoff_conductance"] = 1.15
     rig = base.replace(**{k: getattr(base, k) * f**scale for k, f in factors.items()})
-    return EmulatedPlant(rig, load=0.1)
+    setpoint_max = base.pressure_cap  # the env's (built on the preset)
+    return EmulatedPlant(rig, mode=mode, load=0.1, setpoint_max=setpoint_max)
 
 
 def _drive(
@@ -32,7 +34,7 @@ def _drive(
     """The baseline on ``plant`` under the supervisor (no sockets, the plant stepped in place),
     ``fault`` injected at ``leak_at``: ``(trip, its time after the fault, largest estimate of a
     leak or of an unexplained opening to the supply before it [fraction of C])``."""
-    env, model, tl, tk = _episode(DEFAULT_ENV, {}, seed, 0, 1)
+    env, model, tl, tk = _episode(DEFAULT_ENV, {"action_mode": plant.mode}, seed, 0, 1)
     observer, controller = RigObserver(model, tl, tk), make_controller("baseline", env)
     sup = Supervisor(SafetyLimits.from_plant(model.nominal), DT, model=model)
     rng = np.random.default_rng(seed)
@@ -48,7 +50,7 @@ def _drive(
             return trip, k * DT - (leak_at or 0.0), largest
         if leak_at is None or k * DT < leak_at:
             worst = max(*sup.leak.estimate, *sup.leak.inflow)
-            largest = max(largest, worst / model.nominal.valve_conductance)
+            largest = max(largest, worst / sup.leak.conductance)
         plant.command, prev = command, np.asarray(command)
         for _ in range(ticks):
             plant.tick()
@@ -71,6 +73,16 @@ def test_a_leak_the_baseline_compensates_trips_within_a_window():
     print(f"leak: {trip and trip.detail}, {after and after * 1e3:.0f} ms after it began")
     assert trip is not None and trip.reason == "leak" and "CPAM" in trip.detail
     assert 0 < after <= SafetyLimits.leak_window_s + 2 * DT
+
+
+@pytest.mark.parametrize("mode", ["pressure", "pwm"])
+def test_in_the_other_action_modes_too_a_healthy_rig_passes_and_a_leak_trips(mode):
+    trip, _t, largest = _drive(_rig(1.0, mode), 1000, 4.0)
+    print(f"{mode}: largest estimate on a healthy rig {largest:.3f} of the valve's conductance")
+    assert trip is None and largest < 0.5 * SafetyLimits.leak_max_fraction
+    trip, after, _ = _drive(_rig(1.0, mode), 1000, 4.0, leak_at=2.0)
+    print(f"{mode} leak: {trip and trip.detail}, {after and after * 1e3:.0f} ms after it began")
+    assert trip is not None and trip.reason == "leak" and 0 < after <= SafetyLimits.leak_window_s + 2 * DT
 
 
 def test_a_valve_stuck_open_to_the_supply_is_a_valve_fault_within_a_window():

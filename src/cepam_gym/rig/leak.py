@@ -132,6 +132,11 @@ class LeakMonitor:
                 valve_command(PRESSURE, u, pg0, 0.0, self.row),
                 valve_command(PRESSURE, u, pg1, 0.0, self.row),
             )
+        if self.mode == ONOFF and abs(command) < 1.0:
+            # the fraction of a PWM period the valve is open: from its opening dead time after the
+            # rising edge to its closing dead time after the falling one (plant.substep.valve_command)
+            shift = (self.row[ix.D_OFF] - self.row[ix.D_ON]) / self.row[ix.PWM_PERIOD]
+            command = math.copysign(min(1.0, max(0.0, abs(command) + shift)), command)
         # a spool (or the mean opening of a PWM valve) following the command with its time constant:
         # both ends carry the interval's mean opening, as the flow is linear in it
         s0 = self.spool[i]
