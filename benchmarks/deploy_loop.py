@@ -98,7 +98,7 @@ def main() -> None:
                     rig,
                     controller,
                     RigObserver(model, tl, tk),
-                    Supervisor(SafetyLimits.from_plant(model.nominal), model.control_dt),
+                    Supervisor(SafetyLimits.from_plant(model.nominal), model.control_dt, model=model),
                     0.1,
                     n_steps=n,
                 )

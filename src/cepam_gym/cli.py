@@ -103,7 +103,7 @@ def _dispatch(argv: list[str]) -> int:
         "video": "cepam_gym.video",
         "calibrate": "cepam_gym.validation.cli:calibrate_main",
         "identify": "cepam_gym.identify.cli:identify_main",
-        "excite": "cepam_gym.identify.cli:excite_main",
+        "excite": "cepam_gym.rig.cli:excite_main",
         "deploy": "cepam_gym.rig.cli:deploy_main",
         "rig-emulator": "cepam_gym.rig.cli:emulator_main",
     }

@@ -102,6 +102,17 @@ def test_resampling_holds_commands_and_interpolates_measurements(tmp_path):
     assert rec.measured[:, 0] == pytest.approx(np.arange(2 * n - 1) * 2e3)  # interpolated
 
 
+def test_a_command_stamped_a_little_after_its_step_holds_at_that_step(tmp_path):
+    # a deploy loop stamps each step when it wakes, microseconds after the step's release
+    n = 10
+    cols = {c: np.zeros(n) for c in REQUIRED}
+    cols["time_s"] = np.arange(n) * 0.02 + np.random.default_rng(0).uniform(2e-6, 3e-3, n)
+    cols["command_c"] = np.arange(n) / n
+    cols["length_cm"] = np.full(n, 17.0)
+    rec = resample(read_log(write_log(tmp_path / "r.csv", cols)), 0.02)
+    assert rec.commands[:, 0].tolist() == pytest.approx(cols["command_c"][: len(rec.time)])
+
+
 def test_the_sensor_model_delays_scales_and_offsets():
     y = np.zeros((100, 3))
     y[:, 0] = np.arange(100.0)

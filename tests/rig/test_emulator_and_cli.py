@@ -67,6 +67,14 @@ def test_faults_change_what_the_rig_does_and_a_stop_vents_and_shuts_the_supply()
         (["deploy", "--controller", "baseline", "--suite", "nope"], "unknown suite 'nope'"),
         (["deploy", "--controller", "baseline", "--limits", "/no/such.yaml"], "does not exist"),
         (["deploy", "--controller", "baseline", "--realtime", "0"], "priority must lie in [1, 99]"),
+        (["excite", "--out", "x.csv", "--rig", "127.0.0.1:1", "--simulate"], "exclude each other"),
+        (["excite", "--out", "x.csv", "--rig", "127.0.0.1:1", "--loads-g", "0,100"], "one load"),
+        (["excite", "--out", "x.csv", "--rig", "127.0.0.1:1"], "--rig needs --loads-g"),
+        (
+            ["excite", "--out", "x.csv", "--rig", "127.0.0.1:1", "--loads-g", "1", "--rate", "20"],
+            "--rate must",
+        ),
+        (["excite", "--out", "x.csv", "--rig", "nohost", "--loads-g", "100"], "host:port"),
     ],
 )
 def test_usage_errors_are_one_line(argv, match, capsys):
@@ -95,3 +103,21 @@ def test_deploy_without_a_rig_answering_is_one_line(capsys):
         s.close()
     err = capsys.readouterr().err
     assert "no reading from the rig" in err and "Traceback" not in err
+
+
+def test_the_emulated_rig_maps_a_pressure_command_as_the_env_does_not_by_its_own_supply():
+    import gymnasium as gym
+
+    from cepam_gym.envs.model import model_of
+    from cepam_gym.rig.cli import DEFAULT_ENV, env_setpoint_max
+
+    setpoint_max = env_setpoint_max(DEFAULT_ENV)
+    assert setpoint_max == model_of(gym.make(DEFAULT_ENV, action_mode="pressure")).setpoint_max
+    rig = PLANT.replace(supply_pressure=0.7 * PLANT.supply_pressure)  # a supply regulated lower
+    assert rig.pressure_cap < setpoint_max
+    e = EmulatedPlant(rig, mode="pressure", load=0.1, setpoint_max=setpoint_max)
+    e.command = (-0.2, -0.6)  # set-points of 40 % and 20 % of the env's setpoint_max
+    for _ in range(1000):
+        e.tick()
+    assert e.aux[0, pl.A_PC] == pytest.approx(0.4 * setpoint_max, rel=0.05)
+    assert e.aux[0, pl.A_PE] == pytest.approx(0.2 * setpoint_max, rel=0.05)

@@ -48,6 +48,13 @@ def identify_main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--free", action="append", default=[], help="also fit this parameter (repeatable; e.g. end_mass)"
     )
+    ap.add_argument(
+        "--only",
+        action="append",
+        default=[],
+        help="fit only this plant parameter (repeatable; with the sensors) instead of the mode's "
+        "default set: a short fit of what the rig may differ in; --free still adds",
+    )
     ap.add_argument("--bounds", default="", help="override bounds: name=lo:hi,... (edge units)")
     ap.add_argument("--warmup", type=float, default=1.0, help="seconds at the start of each log not scored")
     ap.add_argument("--starts", type=int, default=4, help="starting points (1: the preset alone)")
@@ -67,6 +74,7 @@ def identify_main(argv: list[str] | None = None) -> int:
     preset(args.preset)  # an unknown preset: one line before any work
     kw = dict(
         free=tuple(args.free),
+        only=tuple(args.only),
         warmup_s=args.warmup,
         starts=args.starts,
         seed=args.seed,
@@ -99,8 +107,8 @@ def identify_main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def excite_main(argv: list[str] | None = None) -> int:
-    """``cepam-gym excite``: an excitation schedule to play on a rig, or the log a plant writes."""
+def excite_parser() -> argparse.ArgumentParser:
+    """The options of ``cepam-gym excite`` (:mod:`cepam_gym.rig.cli` adds ``--rig``)."""
     ap = argparse.ArgumentParser(
         prog="cepam-gym excite",
         description="write an excitation command schedule (steps, chirps, PRBS on both valves, a few "
@@ -108,9 +116,15 @@ def excite_main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--out", required=True, help="CSV to write")
     ap.add_argument("--seconds", type=float, default=60.0)
-    ap.add_argument("--rate", type=float, default=500.0, help="sample rate [Hz], 50-2000")
+    ap.add_argument(
+        "--rate",
+        type=float,
+        help="sample rate [Hz], 50-2000 (default 500; on a rig, 50: the envs' control rate)",
+    )
     ap.add_argument("--mode", default="valve", choices=sorted(MODES))
-    ap.add_argument("--loads-g", default="0,100,200", help="hanging loads to cycle through [g]")
+    ap.add_argument(
+        "--loads-g", help="hanging loads to cycle through [g] (default 0,100,200; on a rig: its one load)"
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument(
         "--simulate", action="store_true", help="also write the measured columns of a simulated rig"
@@ -119,14 +133,26 @@ def excite_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--params", help="with --simulate: a plant parameter YAML (overrides --preset)")
     ap.add_argument("--noise-kpa", type=float, default=0.2, help="with --simulate: pressure noise sd [kPa]")
     ap.add_argument("--noise-mm", type=float, default=0.03, help="with --simulate: length noise sd [mm]")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def excite_loads(text: str) -> tuple[float, ...]:
+    """The loads [g] of ``--loads-g``."""
+    try:
+        return tuple(float(s) for s in text.split(",") if s.strip())
+    except ValueError:
+        raise InputError(f"--loads-g: expected comma-separated grams, got {text!r}") from None
+
+
+def excite_main(argv: list[str] | None = None, args=None) -> int:
+    """``cepam-gym excite``: an excitation schedule to play on a rig, or the log a plant writes
+    (``args``: options already parsed by :func:`excite_parser`)."""
+    args = args if args is not None else excite_parser().parse_args(argv)
     from .excite import schedule, simulate_log
     from .logs import write_log
 
-    try:
-        loads = tuple(float(s) for s in args.loads_g.split(",") if s.strip())
-    except ValueError:
-        raise InputError(f"--loads-g: expected comma-separated grams, got {args.loads_g!r}") from None
+    args.rate = args.rate or 500.0
+    loads = excite_loads(args.loads_g or "0,100,200")
     cols = schedule(args.seconds, args.rate, args.mode, loads, args.seed)
     if args.simulate:
         if min(args.noise_kpa, args.noise_mm) < 0:

@@ -145,6 +145,9 @@ def read_log(path: str | Path) -> Recording:
     )
 
 
+STAMP_JITTER = 0.25  # of a grid step: how late a sample's time stamp may be and still hold at that step
+
+
 def grid_steps(rec: Recording, sub_dt: float) -> int:
     """Sub-steps per control step of the grid a recording is resampled onto: the multiple of
     ``sub_dt`` nearest its median sample period (at least one)."""
@@ -153,9 +156,11 @@ def grid_steps(rec: Recording, sub_dt: float) -> int:
 
 def resample(rec: Recording, h: float) -> Recording:
     """``rec`` on the even grid ``0, h, 2h, ...``: commands and load held (zero-order hold),
-    measured channels interpolated."""
+    measured channels interpolated. A sample stamped up to :data:`STAMP_JITTER` of ``h`` after a
+    grid point counts as at it: a host stamps each control step when it wakes, a little after
+    the step's release, and the command it sent belongs to that step, not to the one before."""
     t = np.arange(0.0, rec.time[-1] + 1e-12, h)
-    held = np.clip(np.searchsorted(rec.time, t, side="right") - 1, 0, len(rec.time) - 1)
+    held = np.clip(np.searchsorted(rec.time, t + STAMP_JITTER * h, side="right") - 1, 0, len(rec.time) - 1)
     measured = np.column_stack([np.interp(t, rec.time, rec.measured[:, c]) for c in range(3)])
     return replace(rec, time=t, commands=rec.commands[held], loads=rec.loads[held], measured=measured)
 

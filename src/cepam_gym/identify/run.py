@@ -119,12 +119,14 @@ def identify(
     seed: int = 0,
     sub_dt: float = 5e-4,
     bounds: dict | None = None,
+    only: tuple[str, ...] = (),
 ) -> Identification:
-    """Fit the dynamic parameters of ``mode`` (plus ``free`` ones) and the sensors to ``data``."""
+    """Fit the dynamic parameters of ``mode`` (plus ``free`` ones) and the sensors to ``data``;
+    ``only``: these plant parameters instead of the mode's (a short fit of what a rig may differ in)."""
     t0 = time.perf_counter()
     if mode not in DEFAULT_FREE:
         raise InputError(f"mode must be one of {sorted(DEFAULT_FREE)}, got {mode!r}")
-    names = tuple(dict.fromkeys(DEFAULT_FREE[mode] + tuple(free)))
+    names = tuple(dict.fromkeys((tuple(only) or DEFAULT_FREE[mode]) + tuple(free)))
     scaling(names, bounds)  # bad options: refused before any file is read
     recs = [r if isinstance(r, Recording) else read_log(r) for r in data]
     held = [r if isinstance(r, Recording) else read_log(r) for r in holdout]

@@ -132,7 +132,7 @@ def deploy_main(argv: list[str] | None = None) -> int:
             rig,
             controller,
             observer,
-            Supervisor(limits, model.control_dt),
+            Supervisor(limits, model.control_dt, model=model),
             args.load_g * 1e-3,
             n_steps=n_steps,
             should_stop=lambda: stop["signal"] is not None,
@@ -166,6 +166,26 @@ def _fault(text: str) -> tuple[str, float, float | None]:
     return name, t, s
 
 
+def env_setpoint_max(env_id: str, plant: str | None = None) -> float:
+    """The gauge pressure [Pa] an action of +1 asks for in pressure mode in the env ``env_id``
+    (built on the nominal plant YAML ``plant`` if given): the env's own
+    :attr:`~cepam_gym.envs.model.EnvModel.setpoint_max`, so an emulated rig maps the commands as
+    the env the controller was made for, whatever plant the rig itself runs."""
+    import gymnasium as gym
+
+    from ..envs.model import model_of
+    from ..plant.params import PlantParams
+
+    kwargs = {"action_mode": "pressure"}
+    if plant:
+        kwargs["plant"] = PlantParams.from_yaml(plant)
+    env = gym.make(env_id, **kwargs)
+    try:
+        return float(model_of(env).setpoint_max)
+    finally:
+        env.close()
+
+
 def emulator_main(argv: list[str] | None = None) -> int:
     from ..plant import MODES
     from ..plant.params import PlantParams, preset
@@ -179,6 +199,12 @@ def emulator_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--preset", default="balloon_v2")
     ap.add_argument("--port", type=int, default=9870)
     ap.add_argument("--mode", default="valve", choices=sorted(MODES))
+    ap.add_argument(
+        "--env",
+        default=DEFAULT_ENV,
+        help="pressure mode: the env whose action map the rig follows (+1 asks for its setpoint_max)",
+    )
+    ap.add_argument("--env-plant", help="pressure mode: the nominal plant YAML that env is built on")
     ap.add_argument("--load-g", type=float, default=100.0, help="the hanging load [g]")
     ap.add_argument("--rate-hz", type=float, default=500.0, help="plant ticks and sensor packets per second")
     ap.add_argument("--latency-ms", type=float, default=1.0, help="one-way latency of each packet")
@@ -220,10 +246,62 @@ def emulator_main(argv: list[str] | None = None) -> int:
         quant_length=args.quant_mm * 1e-3,
         drop=args.drop,
     )
-    plant = EmulatedPlant(params, mode=args.mode, load=args.load_g * 1e-3, rate_hz=args.rate_hz)
+    setpoint_max = env_setpoint_max(args.env, args.env_plant) if args.mode == "pressure" else None
+    plant = EmulatedPlant(
+        params, mode=args.mode, load=args.load_g * 1e-3, rate_hz=args.rate_hz, setpoint_max=setpoint_max
+    )
     events = open(args.events, "a") if args.events else None  # noqa: SIM115 (held for the process)
     try:
         return serve(plant, args.port, imp, args.seed, faults, args.seconds, events)
     finally:
         if events is not None:
             events.close()
+
+
+def excite_main(argv: list[str] | None = None) -> int:
+    """``cepam-gym excite``: identify's excitation schedule (:func:`cepam_gym.identify.cli.excite_main`),
+    or with ``--rig`` that schedule played on a rig through the deploy loop."""
+    from ..identify.cli import excite_loads, excite_parser
+    from ..identify.cli import excite_main as schedule_main
+
+    ap = excite_parser()
+    ap.add_argument(
+        "--rig",
+        help="play the schedule on the rig at HOST:PORT through the deploy loop (under the safety "
+        "supervisor, at --rate) and write what it measured to --out; --loads-g: the rig's one hanging load",
+    )
+    ap.add_argument("--env", default=DEFAULT_ENV, help="with --rig: the env whose plant and limits apply")
+    ap.add_argument("--limits", help="with --rig: a YAML file that tightens the supervisor's limits")
+    args = ap.parse_args(argv)
+    if args.rig is None:
+        return schedule_main(args=args)
+    from .excitation import excite
+    from .supervisor import SafetyLimits
+    from .udp import UdpRig, parse_address
+
+    if args.simulate:
+        raise InputError("--simulate and --rig exclude each other: the rig measures")
+    if args.loads_g is None:
+        raise InputError("--rig needs --loads-g: the load hanging on the rig [g], written in the log")
+    loads = excite_loads(args.loads_g)
+    if len(loads) != 1:
+        raise InputError(f"--loads-g: a rig hangs one load during an excitation, got {len(loads)}")
+    address = parse_address(args.rig)
+    kwargs = {"action_mode": args.mode}
+    if args.rate is not None:
+        if not 50 <= args.rate <= 2000:
+            raise InputError(f"--rate must lie in [50, 2000] Hz, got {args.rate:g}")
+        kwargs["control_dt"] = 1.0 / args.rate
+    _env, model, _tl, _tk = _episode(args.env, kwargs, 0, 0, 1)
+    limits = SafetyLimits.from_plant(model.nominal)
+    if args.limits:
+        limits = limits.tightened(args.limits)
+    rig = UdpRig(address)
+    try:
+        print(f"exciting the rig at {args.rig}: {args.seconds:g} s at {1 / model.control_dt:g} Hz")
+        result = excite(rig, model, args.seconds, loads[0] * 1e-3, args.out, args.seed, limits)
+    finally:
+        rig.close()
+    print(result.summary())
+    print(f"wrote {args.out}: the rig's log, for cepam-gym identify --data")
+    return 0 if result.trip is None else 1

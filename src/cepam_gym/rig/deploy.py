@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .protocol import SAFE_COMMANDS
+from .protocol import SAFE_COMMANDS, Reading
 from .supervisor import Supervisor, Trip
 
 SPIN_S = 0.0015  # the last stretch before a release is busy-waited: sleep() overshoots by ~0.1-1 ms
@@ -140,12 +140,15 @@ def run(
     is called once per step after the command is sent (tests inject faults there)."""
     dt = observer.dt
     n = observer.n_steps if n_steps is None else int(n_steps)
-    latest = connect(rig)
-    # a first call compiles or loads what the controller needs: outside the timed loop
+    # a first call compiles or loads what the controller needs: outside the timed loop, and before
+    # the rig is armed, so its first step comes one period after the rig answers, not seconds
+    nominal = observer.model.nominal
+    at_rest = Reading(0.0, 0.0, 0.0, nominal.min_length, nominal.supply_pressure)
     for _ in range(3):
-        controller.act(observer.observe(latest, 0, np.zeros(2)))
+        controller.act(observer.observe(at_rest, 0, np.zeros(2)))
     observer.reset()
     controller.reset()
+    latest = connect(rig)
     prev = np.zeros(2)
     lateness, compute = np.full(n, np.nan), np.full(n, np.nan)
     rows = np.full((n, 8), np.nan)  # time, command c/e, pressure c/e, length, supply, target length

@@ -87,7 +87,9 @@ class EmulatedPlant:
     load: float = 0.1  # the hanging mass [kg]
     rate_hz: float = 500.0
     sub_dt: float = 5e-4
-    setpoint_max: float | None = None  # pressure mode: the gauge set-point of +1 [Pa]
+    # pressure mode: the gauge set-point of +1 [Pa]: the env's (``EnvModel.setpoint_max``; the
+    # command line's --env), as the controller expects; None: this plant's own pressure cap
+    setpoint_max: float | None = None
     faults: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -259,6 +261,7 @@ def serve(
                     continue
                 plant.restart()
                 armed_at, fault_time, safe_reported = plant.time, None, False
+                ack = pseq  # a new host numbers its packets from 1: its commands follow its arm
                 pending = sorted(scheduled, key=lambda f: f[1])
                 emit(event="armed")
             elif kind == KIND_STOP:

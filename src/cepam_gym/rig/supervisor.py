@@ -12,6 +12,12 @@ wants; it returns the command to send. Checks, in this order:
 * **length limit**: the length outside ``[length_min, length_max]`` (the end stops with a margin:
   beyond them the sensor or the mechanism has failed);
 * **stopped**: the rig says it is in its safe state (its own emergency stop);
+* **leak**: a chamber loses air the valves do not explain, judged by an energy balance of its air
+  on the plant's model over ``leak_window_s`` (:mod:`cepam_gym.rig.leak`): a leak larger than
+  ``leak_max_fraction`` of the valve's conductance trips, also one a controller compensates by
+  holding its supply valve open (needs the env's model: ``Supervisor(..., model=...)``); the same
+  balance calls a valve faulty when a chamber gains air its valve was not told to let in (a valve
+  stuck open to the supply);
 * **valve fault**: a chamber commanded to exhaust (command <= -0.9) for ``valve_check_s`` still
   holds more than half its pressure and more than :data:`VENTED` (a valve stuck open to the
   supply, a blocked exhaust);
@@ -40,6 +46,8 @@ units with the unit in the key::
     frozen_after_s: 0.05         # <=
     valve_check_s: 0.1           # <=
     command_rate_per_s: 20       # <=
+    leak_max_fraction: 0.05      # <=
+    leak_window_s: 0.1           # <=
 """
 
 from __future__ import annotations
@@ -51,6 +59,7 @@ from pathlib import Path
 import yaml
 
 from ..errors import InputError
+from .leak import LeakMonitor
 from .protocol import SAFE_COMMANDS, Reading
 
 BURST_MARGIN = 0.9  # default pressure limit: this fraction of the burst pressure
@@ -73,6 +82,8 @@ class SafetyLimits:
     frozen_after_s: float = 0.1
     valve_check_s: float = 0.2
     command_rate_per_s: float = math.inf
+    leak_max_fraction: float = 0.1
+    leak_window_s: float = 0.2
 
     @classmethod
     def from_plant(cls, plant) -> SafetyLimits:
@@ -137,6 +148,8 @@ _KEYS = {
     "frozen_after_s": ("frozen_after_s", 1.0, True),
     "valve_check_s": ("valve_check_s", 1.0, True),
     "command_rate_per_s": ("command_rate_per_s", 1.0, True),
+    "leak_max_fraction": ("leak_max_fraction", 1.0, True),
+    "leak_window_s": ("leak_window_s", 1.0, True),
 }
 assert set(n for n, _s, _u in _KEYS.values()) == {f.name for f in fields(SafetyLimits)}
 
@@ -159,17 +172,31 @@ REASONS = (
     "pressure_limit",
     "length_limit",
     "valve_fault",
+    "leak",
     "stopped",
     "bad_command",
 )
 
 
 class Supervisor:
-    """The checks of the module docstring over the readings of one run, at control period ``dt``."""
+    """The checks of the module docstring over the readings of one run, at control period ``dt``;
+    ``model`` (the env's :class:`~cepam_gym.envs.model.EnvModel`: its nominal plant, action mode
+    and pressure set-point scale) enables the leak check."""
 
-    def __init__(self, limits: SafetyLimits, dt: float):
+    def __init__(self, limits: SafetyLimits, dt: float, model=None):
         self.limits = limits
         self.dt = float(dt)
+        self.leak = None
+        if model is not None:
+            self.leak = LeakMonitor(
+                model.nominal,
+                model.action_mode,
+                model.setpoint_max,
+                self.dt,
+                limits.leak_max_fraction,
+                limits.leak_window_s,
+            )
+        self._fresh_before = False  # whether the last step had a new reading
         self.trip: Trip | None = None
         self._last_fresh: float | None = None  # host time of the last new reading
         self._last_values: tuple | None = None
@@ -220,6 +247,11 @@ class Supervisor:
                 f"length {reading.length * 100:.2f} cm outside "
                 f"[{lim.length_min * 100:.2f}, {lim.length_max * 100:.2f}] cm"
             )
+        if self.leak is not None:
+            # the command sent last step was in force since the last reading if that was fresh too
+            found = self.leak.update(reading, self._last_command, self._fresh_before)
+            if found is not None:
+                return found
         return self._check_exhaust(reading, now)
 
     def _check_exhaust(self, reading: Reading, now: float) -> tuple[str, str] | None:
@@ -245,6 +277,7 @@ class Supervisor:
         of this step (None if none happened now). ``now``: host time [s]."""
         if self.trip is None:
             found = self._check(reading, now)
+            self._fresh_before = reading is not None
             if found is None and not all(math.isfinite(x) for x in command):
                 found = "bad_command", f"the policy sent a non-finite command {tuple(command)}"
             if found is not None:
