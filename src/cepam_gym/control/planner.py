@@ -30,6 +30,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from .. import plant as pl
 from ..errors import InputError
@@ -84,19 +85,24 @@ class CEMConfig:
         return dataclasses.replace(self, iterations=max(1, int(round(self.iterations * effort))))
 
 
-def coloured_noise(rng: np.random.Generator, shape: tuple, beta: float) -> np.ndarray:
+def coloured_noise(rng: np.random.Generator, shape: tuple, beta: float, draws: int = 1) -> np.ndarray:
     """Unit-variance Gaussian noise along the last axis with power spectrum ``1/f^beta``
-    (Timmer and Koenig 1995, as iCEM samples it); ``beta = 0`` is white noise."""
+    (Timmer and Koenig 1995, as iCEM samples it); ``beta = 0`` is white noise. ``draws > 1``
+    returns ``(draws,) + shape``: the same numbers as ``draws`` calls in a row, from one call to
+    the generator and one transform (the planner draws all its iterations' noise at once)."""
     h = shape[-1]
+    lead = (draws,) if draws > 1 else ()
     if beta == 0.0 or h < 2:
-        return rng.standard_normal(shape)
+        return rng.standard_normal(lead + tuple(shape))
     f = np.fft.rfftfreq(h)
     f[0] = f[1]  # no infinite power at zero frequency
     s = f ** (-beta / 2.0)
     w = s[1:].copy()
     w[-1] *= (1 + (h % 2)) / 2.0
     sigma = 2.0 * np.sqrt(np.sum(w**2)) / h
-    spec = rng.standard_normal(shape[:-1] + (f.size,)) + 1j * rng.standard_normal(shape[:-1] + (f.size,))
+    # each draw takes its real parts, then its imaginary parts, from the stream
+    z = rng.standard_normal(lead + (2,) + tuple(shape[:-1]) + (f.size,))
+    spec = np.take(z, 0, axis=len(lead)) + 1j * np.take(z, 1, axis=len(lead))
     spec.imag[..., 0] = 0.0
     if h % 2 == 0:
         spec.imag[..., -1] = 0.0
@@ -188,7 +194,7 @@ class CEMPlanner:
         n, h, p = state.shape[0], cfg.horizon_steps, cfg.population
         if self.mean is None or self.mean.shape[0] != n:
             self.mean, self.kept = np.zeros((n, h, 2)), None
-        mean, kept = self.mean, self.kept
+        mean, kept = self.mean.copy(), self.kept
         std = np.full((n, h, 2), cfg.init_std)
         n_keep = min(int(round(cfg.keep_elites * cfg.elites)), max(p - 2, 0))
         rep = lambda a: np.repeat(a, p, axis=0)  # noqa: E731  (each env's rows, once per sample)
@@ -196,32 +202,96 @@ class CEMPlanner:
         ws = None if weight is None else rep(weight)
         prow = params if params.shape[0] == 1 else rep(params)
         best, best_cost = mean.copy(), np.full(n, np.inf)
-        rows = np.arange(n)
-        for _ in range(cfg.iterations):
-            noise = coloured_noise(self.rng, (n, p, 2, h), cfg.noise_beta).transpose(0, 1, 3, 2)
-            samples = np.clip(mean[:, None] + std[:, None] * noise, -1.0, 1.0)
+        elites = np.empty((n, max(n_keep, 1), h, 2))
+        # every iteration's noise at once (the same numbers as one draw per iteration)
+        noise = coloured_noise(self.rng, (n, p, 2, h), cfg.noise_beta, draws=cfg.iterations)
+        noise = noise.reshape((cfg.iterations, n, p, 2, h)).transpose(0, 1, 2, 4, 3)
+        rollout = self._rollout(xs, prow, tl, tkk, ld, ws)
+        for it in range(cfg.iterations):
+            samples = np.clip(mean[:, None] + std[:, None] * noise[it], -1.0, 1.0)
             samples[:, 0] = np.clip(mean, -1.0, 1.0)  # the mean itself is always a candidate ...
             if p > 1:
                 # ... and so are closed valves (hold the air; in pressure mode: mid set-points) ...
                 samples[:, 1] = 0.0
             if kept is not None and n_keep:
                 samples[:, 2 : 2 + n_keep] = kept[:, :n_keep]  # ... and the best plans found so far
-            cost = self.rollout_cost(xs, prow, samples.reshape(n * p, h, 2), tl, tkk, ld, ws).reshape(n, p)
-            order = np.argsort(cost, axis=1)
-            chosen = np.take_along_axis(samples, order[:, : cfg.elites, None, None], axis=1)  # (N, E, H, 2)
-            c0 = cost[rows, order[:, 0]]
-            better = c0 < best_cost
-            best[better], best_cost[better] = chosen[better, 0], c0[better]
-            a = cfg.momentum
-            mean = a * mean + (1 - a) * chosen.mean(axis=1)
-            std = np.maximum(a * std + (1 - a) * chosen.std(axis=1), cfg.min_std)
-            kept = chosen[:, :n_keep]
+            cost = rollout(samples.reshape(n * p, h, 2)).reshape(n, p)
+            _refit(
+                samples,
+                cost,
+                cfg.elites,
+                n_keep,
+                cfg.momentum,
+                cfg.min_std,
+                mean,
+                std,
+                best,
+                best_cost,
+                elites,
+            )
+            kept = elites[:, :n_keep]
         # the best simulated plan, not the elite mean (an average of samples that was never
         # simulated); it and the elites warm-start the next step, one step on
         self.mean = _shift(best)
         self.kept = _shift(kept) if n_keep else None
         self.last_cost = best_cost  # (N,) the cost of the plans just chosen
         return best[:, 0].copy()
+
+    def _rollout(self, state, params, target_l, target_k, load, weight):
+        """``cost = f(actions)`` for fixed start states, parameters, targets, loads and weights:
+        :meth:`rollout_cost` with its arguments converted once for all iterations."""
+        m = state.shape[0]
+        h = self.cfg.horizon_steps
+        params = np.ascontiguousarray(np.broadcast_to(params, (m, params.shape[1])))
+        weight = np.ones((m, h)) if weight is None else np.ascontiguousarray(weight, dtype=float)
+        state, target_l, target_k, load = (
+            np.ascontiguousarray(a, dtype=float) for a in (state, target_l, target_k, load)
+        )
+        cost = np.empty(m)
+
+        def f(actions):
+            rollout_cost(
+                state, params, self.hinge, self.mech, self.mode, self.sub_dt, self.n_sub,
+                self.setpoint_max, np.ascontiguousarray(actions, dtype=float), target_l, target_k,
+                load, weight, self.track_stiffness, self.length_norm, STIFFNESS_NORM, BURST_COST,
+                self.cfg.effort_weight, cost,
+            )  # fmt: skip
+            return cost
+
+        return f
+
+
+@njit(cache=True, error_model="numpy")
+def _refit(samples, cost, n_elites, n_keep, momentum, min_std, mean, std, best, best_cost, elites):
+    """One iteration's refit, per env, in place: rank the samples (N, P, H, 2) by ``cost``
+    (N, P); keep the best ever simulated (``best``, ``best_cost``); blend the elites' mean and
+    spread into ``mean`` and ``std`` with ``momentum``; write the first ``n_keep`` elites, best
+    first, to ``elites``. Sums run over the elites in rank order, as numpy's reductions do, so
+    the plans are bit-identical to the array version's."""
+    n, _, h, _ = samples.shape
+    a = momentum
+    for i in range(n):
+        order = np.argsort(cost[i])
+        c0 = cost[i, order[0]]
+        if c0 < best_cost[i]:
+            best[i] = samples[i, order[0]]
+            best_cost[i] = c0
+        for t in range(h):
+            for k in range(2):
+                s = samples[i, order[0], t, k]
+                for e in range(1, n_elites):
+                    s += samples[i, order[e], t, k]
+                m = s / n_elites
+                d = samples[i, order[0], t, k] - m
+                v = d * d
+                for e in range(1, n_elites):
+                    d = samples[i, order[e], t, k] - m
+                    v += d * d
+                sd = np.sqrt(v / n_elites)
+                mean[i, t, k] = a * mean[i, t, k] + (1 - a) * m
+                std[i, t, k] = max(a * std[i, t, k] + (1 - a) * sd, min_std)
+        for e in range(n_keep):
+            elites[i, e] = samples[i, order[e]]
 
 
 def planner_for(
