@@ -450,3 +450,25 @@ def test_a_layout_change_drops_the_numba_caches(tmp_path, monkeypatch):
     (pkg / "physics" / "muscle.py").write_text("# an edit of an inlined physics kernel\n")
     _jit._drop_stale_caches()
     assert not cached.exists()  # inlined physics changed: dropped too
+
+
+@pytest.mark.parametrize("name", ["balloon_v0", "balloon", "balloon_v2"])
+def test_the_pwm_open_fraction_is_the_period_average_of_the_valve_opening(name):
+    """``pwm_open_fraction`` (what the rig's leak check credits a PWM valve with) is the average of
+    ``valve_command`` over a PWM period, dead times included: short pulses that never open the
+    valve, and long ones that overlap the next period."""
+    from cepam_gym.plant.layout import ONOFF
+    from cepam_gym.plant.params import preset
+    from cepam_gym.plant.substep import pwm_open_fraction, valve_command
+
+    p = preset(name).to_array()
+    period = p[ix.PWM_PERIOD]
+    ts = (np.arange(20000) + 0.5) * period / 20000 + 3 * period  # one period, away from t = 0
+    dead = (p[ix.D_ON] - p[ix.D_OFF]) / period
+    for duty in (0.0, 0.5 * max(dead, 0.0), 0.05, 0.3, 0.5, 0.97, 0.999, 1.0):
+        mean = np.mean([valve_command(ONOFF, duty, 0.0, t, p) for t in ts])
+        assert pwm_open_fraction(duty, p) == pytest.approx(mean, abs=2e-4), (name, duty)
+        # a negative command opens the exhaust valve for the same share of the period
+        assert np.mean([valve_command(ONOFF, -duty, 0.0, t, p) for t in ts]) == pytest.approx(
+            -mean, abs=1e-12
+        )

@@ -98,6 +98,18 @@ def valve_command(mode, u, pressure_gauge, t, p):
 
 
 @jit_inline
+def pwm_open_fraction(duty, p):
+    """The share of a PWM period an on/off valve is open at ``duty`` in [0, 1]: the period
+    average of :func:`valve_command`'s opening. With dead times the valve is open from ``d_on``
+    after the rising edge to ``d_off`` after the falling one, so the share is
+    ``duty + (d_off - d_on) / period`` within [0, 1] (a pulse shorter than ``d_on - d_off``: 0);
+    without them (plant v0) it is the duty."""
+    if duty >= 1.0:
+        return 1.0
+    return fmax(0.0, fmin(1.0, duty + (p[ix.D_OFF] - p[ix.D_ON]) / p[ix.PWM_PERIOD]))
+
+
+@jit_inline
 def _isentropic_factor(r):
     """``r^(gamma - 1)`` for a volume ratio ``r = V_old / V_new`` close to 1: how the internal
     energy of air scales when its volume changes with no heat and no flow (``U V^(gamma-1)``

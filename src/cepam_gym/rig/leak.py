@@ -35,7 +35,7 @@ from ..physics.layout import GAMMA
 from ..physics.muscle import chamber_volumes
 from ..plant.actions import check_action_mode
 from ..plant.layout import ONOFF, PRESSURE
-from ..plant.substep import valve_command
+from ..plant.substep import pwm_open_fraction, valve_command
 
 
 @jit
@@ -132,11 +132,8 @@ class LeakMonitor:
                 valve_command(PRESSURE, u, pg0, 0.0, self.row),
                 valve_command(PRESSURE, u, pg1, 0.0, self.row),
             )
-        if self.mode == ONOFF and abs(command) < 1.0:
-            # the fraction of a PWM period the valve is open: from its opening dead time after the
-            # rising edge to its closing dead time after the falling one (plant.substep.valve_command)
-            shift = (self.row[ix.D_OFF] - self.row[ix.D_ON]) / self.row[ix.PWM_PERIOD]
-            command = math.copysign(min(1.0, max(0.0, abs(command) + shift)), command)
+        if self.mode == ONOFF:  # a PWM valve's mean opening over its period
+            command = math.copysign(pwm_open_fraction(abs(command), self.row), command)
         # a spool (or the mean opening of a PWM valve) following the command with its time constant:
         # both ends carry the interval's mean opening, as the flow is linear in it
         s0 = self.spool[i]
