@@ -415,6 +415,25 @@ def test_spool_first_order_exact():
     assert s == pytest.approx(-0.6, abs=1e-4)
 
 
+def test_first_order_interval_is_the_spool_law_averaged():
+    """``first_order_interval`` (the rig's leak check credits the valves with it) is the order-1
+    spool of ``spool_step`` over an interval: its end equals stepping the law, its mean equals the
+    average of finely stepped openings."""
+    tau, dt, n = 0.005, 0.02, 20000
+    for s0, cmd in ((0.0, 0.8), (0.6, -0.3), (-0.2, -0.2)):
+        mean, end = valve.first_order_interval(s0, cmd, dt, tau)
+        h = dt / n
+        decay = math.exp(-h / tau)
+        s, r, acc = s0, 0.0, 0.0
+        for _ in range(n):
+            s_next, r = valve.spool_step(s, r, cmd, h, tau, 1, 0.7, decay)
+            acc += 0.5 * (s + s_next) * h  # trapezoid: second order in h
+            s = s_next
+        assert end == pytest.approx(s, abs=1e-12)
+        assert mean == pytest.approx(acc / dt, abs=1e-8)
+    assert valve.first_order_interval(0.3, 0.3, dt, tau) == (0.3, 0.3)
+
+
 # --------------------------------------------------------------------------- 12
 @pytest.mark.parametrize("model,form", ALL_LEVELS)
 def test_static_pressures_round_trip(model, form):

@@ -100,3 +100,12 @@ def spool_step(s, s_rate, cmd, dt, tau, order, zeta, decay):
         s = -1.0
         s_rate = 0.0
     return s, s_rate
+
+
+def first_order_interval(s0: float, cmd: float, dt: float, tau: float) -> tuple[float, float]:
+    """``(mean, end)`` of a first-order spool (:func:`spool_step`'s order 1, ``tau ds/dt = cmd -
+    s``) that starts at ``s0`` and follows ``cmd`` for ``dt``: its exact average opening over
+    the interval and its opening at the end (end stops not reached). What a detector that sees
+    only the command can credit the valve with: the flow is linear in the opening."""
+    decay = math.exp(-dt / tau)
+    return cmd + (s0 - cmd) * tau / dt * (1.0 - decay), cmd + (s0 - cmd) * decay

@@ -33,6 +33,7 @@ from ..physics import layout as ix
 from ..physics.air import chamber_rates
 from ..physics.layout import GAMMA
 from ..physics.muscle import chamber_volumes
+from ..physics.valve import first_order_interval
 from ..plant.actions import check_action_mode
 from ..plant.layout import ONOFF, PRESSURE
 from ..plant.substep import pwm_open_fraction, valve_command
@@ -136,10 +137,7 @@ class LeakMonitor:
             command = math.copysign(pwm_open_fraction(abs(command), self.row), command)
         # a spool (or the mean opening of a PWM valve) following the command with its time constant:
         # both ends carry the interval's mean opening, as the flow is linear in it
-        s0 = self.spool[i]
-        decay = math.exp(-dt / self.tau)
-        mean = command + (s0 - command) * self.tau / dt * (1.0 - decay)
-        self.spool[i] = command + (s0 - command) * decay
+        mean, self.spool[i] = first_order_interval(self.spool[i], command, dt, self.tau)
         return mean, mean
 
     def update(self, reading, command, contiguous: bool) -> str | None:
