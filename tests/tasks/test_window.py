@@ -52,7 +52,7 @@ def test_the_scored_part_is_the_episode_without_the_window_on_the_same_plant():
     assert all(flag.all() for *_, flag, _ in in_window)
     # unscored: no tracking, effort or air reward in the window (random commands cost effort)
     assert all((r == 0).all() for _, _, r, _, _ in in_window)
-    assert any(not np.array_equal(l, in_window[0][0]) for l, *_ in in_window)  # the plant moved
+    assert any(not np.array_equal(length, in_window[0][0]) for length, *_ in in_window)  # the plant moved
     assert windowed[-1][-1].all() and not any(d.any() for *_, d in windowed[:-1])
 
 
