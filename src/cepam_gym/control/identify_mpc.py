@@ -42,14 +42,16 @@ VENT = -0.5  # the venting command
 class IdentifyMPC(ModelPredictiveController):
     """``reset(indices=None)`` / ``act(obs, info=None)`` on batched (or single) observations.
     ``budget_s``: seconds each env's fit may take; ``max_nfev``: its evaluations of the log;
-    ``free``: the parameters fitted (:data:`cepam_gym.identify.window_fit.FREE`)."""
+    ``starts``: its starting points (the nominal plant, then random ones); ``free``: the
+    parameters fitted (:data:`cepam_gym.identify.window_fit.FREE`)."""
 
     def __init__(
         self,
         env,
         config=None,
         budget_s: float = 10.0,
-        max_nfev: int = 40,
+        max_nfev: int = 60,
+        starts: int = 1,
         free: tuple[str, ...] = FREE,
         seed: int = 0,
         **overrides,
@@ -67,6 +69,7 @@ class IdentifyMPC(ModelPredictiveController):
         cols = schedule(duration_s=seconds + self.dt, rate_hz=1.0 / self.dt, mode=self.action_mode, seed=seed)
         self.excitation = np.column_stack([cols["command_c"], cols["command_e"]])[: self.window]
         self.budget_s, self.max_nfev, self.free = float(budget_s), int(max_nfev), tuple(free)
+        self.starts = int(starts)
         self.p_guard = GUARD * self.nominal.burst_pressure
         self.fits: list = []  # every fit of the controller's life (WindowFit), for reports
         self._k = None
@@ -105,9 +108,16 @@ class IdentifyMPC(ModelPredictiveController):
     def _fit(self, i: int) -> None:
         """Env ``i``'s plant from its window's log: the fitted row, the nominal end cap (the
         fitted moving mass carried the window's load, which the MPC estimates on its own)."""
-        rec = window_recording(self._cmd[i], self._meas[i], float(np.mean(self._supply[i])), self.dt)
+        rec = window_recording(self._cmd[i], self._meas[i], self._supply[i], self.dt)
         fit = fit_window(
-            rec, self.nominal, self.action_mode, self.sub_dt, self.free, self.budget_s, self.max_nfev
+            rec,
+            self.nominal,
+            self.action_mode,
+            self.sub_dt,
+            self.free,
+            budget_s=self.budget_s,
+            max_nfev=self.max_nfev,
+            starts=self.starts,
         )
         row = fit.params.to_array()
         row[ix.M_END] = self.params[ix.M_END]
