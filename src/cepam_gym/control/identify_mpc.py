@@ -29,7 +29,7 @@ import time
 
 import numpy as np
 
-from ..identify.excite import schedule
+from ..identify.excite import EXHAUST_S, schedule
 from ..identify.window_fit import FREE, fit_window, window_recording
 from ..physics import layout as ix
 from .baseline import UnsupportedEnvError, rig_model_of
@@ -66,7 +66,9 @@ class IdentifyMPC(ModelPredictiveController):
             )
         self.action_mode, self.sub_dt = model.action_mode, model.sub_dt
         seconds = self.window * self.dt
-        cols = schedule(duration_s=seconds + self.dt, rate_hz=1.0 / self.dt, mode=self.action_mode, seed=seed)
+        # the schedule's shortest is its exhaust and a second more; a shorter window plays its start
+        seconds = max(seconds, EXHAUST_S + 1.0) + self.dt
+        cols = schedule(duration_s=seconds, rate_hz=1.0 / self.dt, mode=self.action_mode, seed=seed)
         self.excitation = np.column_stack([cols["command_c"], cols["command_e"]])[: self.window]
         self.budget_s, self.max_nfev, self.free = float(budget_s), int(max_nfev), tuple(free)
         self.starts = int(starts)
