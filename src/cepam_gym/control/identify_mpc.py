@@ -31,6 +31,7 @@ import numpy as np
 
 from ..identify.excite import EXHAUST_S, schedule
 from ..identify.window_fit import FREE, fit_window, window_recording
+from ..physics import api
 from ..physics import layout as ix
 from .baseline import UnsupportedEnvError, rig_model_of
 from .mpc import ModelPredictiveController
@@ -50,7 +51,7 @@ class IdentifyMPC(ModelPredictiveController):
         env,
         config=None,
         budget_s: float = 10.0,
-        max_nfev: int = 60,
+        max_nfev: int = 100,
         starts: int = 1,
         free: tuple[str, ...] = FREE,
         seed: int = 0,
@@ -111,9 +112,14 @@ class IdentifyMPC(ModelPredictiveController):
         """Env ``i``'s plant from its window's log: the fitted row, the nominal end cap (the
         fitted moving mass carried the window's load, which the MPC estimates on its own)."""
         rec = window_recording(self._cmd[i], self._meas[i], self._supply[i], self.dt)
+        # the fit starts from the nominal plant holding the weight its static balance reads at the
+        # window's first sample (at rest): the load, unannounced, is most of the moving mass
+        pc, pe, L = self._meas[i, 0]
+        hanging = -float(api.force(np.array([L]), np.array([pc]), np.array([pe]), self.params)[0])
+        start = self.nominal.replace(end_mass=float(np.clip(hanging / self.params[ix.GRAV], 0.005, 0.4)))
         fit = fit_window(
             rec,
-            self.nominal,
+            start,
             self.action_mode,
             self.sub_dt,
             self.free,
