@@ -81,7 +81,7 @@ def test_randomized_v2_spreads_the_friction_plant_v2_uses():
 
 def test_v2_references_are_stored_for_each_suite_on_its_episodes():
     table = references.load()
-    for name in V2_SUITES:
+    for name in V2_SUITES + ID_SUITES:
         entry = table[name]
         suite = SUITES[name]
         assert (entry["seed"], entry["episodes"]) == (suite.seed, suite.episodes) == (suite.seed, 20)
