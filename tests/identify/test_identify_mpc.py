@@ -1,5 +1,5 @@
 """``identify_mpc``: sensor-only, it fits each episode's plant to its identification window and
-plans through the fit (:mod:`cepam_gym.control.identify_mpc`)."""
+plans through the fit (:mod:`cepam_gym.identify.identify_mpc`)."""
 
 from __future__ import annotations
 

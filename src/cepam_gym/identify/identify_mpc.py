@@ -20,7 +20,8 @@ env and from the sensors only:
 
 It reads only what a rig's engineer knows of the env (:class:`~cepam_gym.envs.model.EnvModel`'s
 fixed facts: the nominal plant, the timing, the window's length, the observation layout), never
-its privileged rows, states or schedules.
+its privileged rows, states or schedules. It lives with the identification it runs (the
+controller registry names it lazily, ``identify_mpc``).
 """
 
 from __future__ import annotations
@@ -29,12 +30,12 @@ import time
 
 import numpy as np
 
-from ..identify.excite import EXHAUST_S, schedule
-from ..identify.window_fit import FREE, fit_window, window_recording
+from ..control.baseline import UnsupportedEnvError, rig_model_of
+from ..control.mpc import ModelPredictiveController
 from ..physics import api
 from ..physics import layout as ix
-from .baseline import UnsupportedEnvError, rig_model_of
-from .mpc import ModelPredictiveController
+from .excite import EXHAUST_S, schedule
+from .window_fit import FREE, fit_window, window_recording
 
 GUARD = 0.75  # vent a chamber measured above this fraction of the nominal burst pressure
 VENT = -0.5  # the venting command
