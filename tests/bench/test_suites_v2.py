@@ -3,6 +3,8 @@ the randomization of what plant v2 actually uses."""
 
 from __future__ import annotations
 
+import copy
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -12,19 +14,22 @@ from cepam_gym.bench import references
 from cepam_gym.bench.cli import expand_version
 from cepam_gym.bench.harness import run_suite
 from cepam_gym.bench.metrics import JOINT_V1, RIG_V1
-from cepam_gym.bench.suites import RANDOMIZE_V2, SUITES, available, trace_spec_for
+from cepam_gym.bench.suites import ID_WINDOW_S, RANDOMIZE_V2, SUITES, available, trace_spec_for
 from cepam_gym.physics import layout as ix
 from cepam_gym.plant.params import preset
 from cepam_gym.registration import ENV_IDS, JOINT_ENV_IDS
 
-V2_SUITES = [s for s in SUITES if s.endswith("-v2")]
+# the v2 suites that mirror a v1 suite; the identification-window variants (``-id-v2``) run one
+# of them with a window in front, on its seed (the same episodes, scored after the window)
+V2_SUITES = [s for s in SUITES if s.endswith("-v2") and "-id-" not in s]
+ID_SUITES = [s for s in SUITES if s.endswith("-id-v2")]
 V2_IDS = [i for i in (*ENV_IDS, *JOINT_ENV_IDS) if i.endswith("-v2")]
 
 
 def test_every_v2_id_has_suites_mirroring_v1():
     assert set(V2_IDS) == {s.env_id for s in map(SUITES.get, V2_SUITES)}
-    assert expand_version("v2") == V2_SUITES
-    seeds = [s.seed for s in SUITES.values()]
+    assert expand_version("v2") == V2_SUITES + ID_SUITES
+    seeds = [s.seed for name, s in SUITES.items() if name not in ID_SUITES]
     assert len(seeds) == len(set(seeds)), "two suites share a seed"
     for name in V2_SUITES:
         v1, v2 = SUITES[name.replace("-v2", "-v1")], SUITES[name]
@@ -76,9 +81,25 @@ def test_randomized_v2_spreads_the_friction_plant_v2_uses():
 
 def test_v2_references_are_stored_for_each_suite_on_its_episodes():
     table = references.load()
-    for name in V2_SUITES:
+    for name in V2_SUITES + ID_SUITES:
         entry = table[name]
         suite = SUITES[name]
         assert (entry["seed"], entry["episodes"]) == (suite.seed, suite.episodes) == (suite.seed, 20)
         assert 0.0 < entry["oracle"] < 0.1 * entry["zero"], name
         assert suite.reference == (entry["zero"], entry["oracle"])
+
+
+def test_the_window_suite_is_randomized_v2_with_a_window_in_front():
+    """Its scored episodes are randomized-v2's (the same seed, plants, noise and drift), each
+    after an unscored identification window; its references are stored on them."""
+    assert ID_SUITES == ["randomized-id-v2"]
+    base, suite = SUITES["randomized-v2"], SUITES["randomized-id-v2"]
+    assert (suite.env_id, suite.seed, suite.episodes, suite.traces) == (
+        base.env_id,
+        base.seed,
+        base.episodes,
+        base.traces,
+    )
+    kwargs = copy.deepcopy(suite.env_kwargs)
+    window = kwargs["task_options"].pop("id_window_s")
+    assert window == ID_WINDOW_S > 0 and kwargs == {**base.env_kwargs, "task_options": {}}

@@ -7,24 +7,34 @@ import numpy as np
 from ..control import make_controller
 from ..control.trivial import RandomController, ZeroController  # noqa: F401  (their old home)
 from ..envs.model import NoModelError, model_of
+from ..tasks.window import INFO_KEY as WINDOW_KEY
 from .metrics import RIG, TraceSpec, score_traces
 from .suites import SUITES, Suite
 
 TRACE_KEYS = tuple(RIG.info_keys)  # the trace columns (a suite's TraceSpec maps them to info keys)
 
 
-def _env_facts(venv) -> tuple[int, float, bool]:
-    """``(n_steps, control_dt, tracks_stiffness)`` of an env on the batched kernel (its plant
-    model, :func:`~cepam_gym.envs.model.model_of`) or of a gymnasium vector env of single envs
-    (``get_attr``: ``n_steps``, ``control_dt``, ``task``; the MuJoCo joint)."""
+def _env_facts(venv) -> tuple[int, float, bool, int]:
+    """``(n_steps, control_dt, tracks_stiffness, window_steps)`` of an env on the batched kernel
+    (its plant model, :func:`~cepam_gym.envs.model.model_of`) or of a gymnasium vector env of
+    single envs (``get_attr``: ``n_steps``, ``control_dt``, ``task``; the MuJoCo joint)."""
     try:
         model = model_of(venv)
     except NoModelError:
         pass
     else:
-        return model.n_steps, model.control_dt, model.track_stiffness
+        return model.n_steps, model.control_dt, model.track_stiffness, model.window_steps
     n_steps, dt, task = (venv.get_attr(k)[0] for k in ("n_steps", "control_dt", "task"))
-    return int(n_steps), float(dt), bool(getattr(task, "track_stiffness", True))
+    return int(n_steps), float(dt), bool(getattr(task, "track_stiffness", True)), 0
+
+
+def drop_window(traces: dict, window: np.ndarray) -> dict:
+    """The traces of :func:`record` without the identification window's steps (``window`` (T, N)
+    bool, ``info["window"]``: :mod:`cepam_gym.tasks.window`): the leading rows in which every
+    episode is in its window. An episode that failed in its window stays failed (a later window
+    of the env, after its autoreset, is not scored: the episode is no longer alive)."""
+    lead = int(np.argmin(window.all(axis=1))) if not window.all() else len(window)
+    return {k: v[lead:] if isinstance(v, np.ndarray) and v.ndim == 2 else v for k, v in traces.items()}
 
 
 def record(
@@ -43,12 +53,14 @@ def record(
     ``info`` key fills each trace column. The one rollout loop of the harness, of the agents'
     periodic evaluation and of the offline datasets: ``observer`` (optional) is told
     ``start(obs, info)`` after the reset and ``step(actions, obs, rewards, terminated, truncated,
-    info)`` after every step (:mod:`cepam_gym.offline.episodes` keeps the transitions)."""
+    info)`` after every step (:mod:`cepam_gym.offline.episodes` keeps the transitions). An
+    identification window (:mod:`cepam_gym.tasks.window`) is run and left out of the traces
+    (:func:`drop_window`); ``max_steps`` counts the steps after it."""
     import gymnasium as gym
 
     venv = gym.make_vec(env_id, num_envs=episodes, **env_kwargs)
-    n_steps, control_dt, track_k = _env_facts(venv)
-    steps = max_steps or n_steps
+    n_steps, control_dt, track_k, n_window = _env_facts(venv)
+    steps = n_window + max_steps if max_steps else n_steps
     policy = make_policy(venv)
     obs, info = venv.reset(seed=seed)
     policy.reset()
@@ -57,6 +69,7 @@ def record(
     tr = {k: np.zeros((steps, episodes)) for k in TRACE_KEYS}
     tr["reward"] = np.zeros((steps, episodes))
     tr["alive"] = np.ones((steps, episodes), dtype=bool)
+    window = np.zeros((steps, episodes), dtype=bool)
     alive = np.ones(episodes, dtype=bool)
     for t in range(steps):
         actions = policy.act(obs, info)
@@ -66,6 +79,8 @@ def record(
         src = info.get("final_info", info) if (term | trunc).any() else info
         for k in TRACE_KEYS:
             tr[k][t] = src[spec.info_keys[k]]
+        if n_window:
+            window[t] = src[WINDOW_KEY]
         tr["reward"][t] = reward
         tr["alive"][t] = alive
         alive &= ~term
@@ -74,7 +89,7 @@ def record(
     tr["failed"] = ~alive
     tr["dt"] = control_dt
     venv.close()
-    return tr, track_k
+    return (drop_window(tr, window) if n_window else tr), track_k
 
 
 def run_suite(

@@ -235,7 +235,29 @@ _SUITES_V2 = tuple(
         "joint",
     )
 )
-SUITES: dict[str, Suite] = {s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2)}
+
+# The identification window's default length [s] (tasks.window): the measured trade-off of
+# docs/identify_then_control.md (the fitted braid angles' error against the window's length).
+ID_WINDOW_S = 10.0
+
+
+def with_id_window(suite: Suite, seconds: float = ID_WINDOW_S) -> Suite:
+    """``suite`` with an unscored identification window of ``seconds`` before each episode's
+    tracking (:mod:`cepam_gym.tasks.window`), named ``<name without -vN>-id-vN``. The same seed:
+    its scored episodes are the suite's own plants, references and loads."""
+    kwargs = copy.deepcopy(suite.env_kwargs)
+    kwargs["task_options"] = {**kwargs.get("task_options", {}), "id_window_s": float(seconds)}
+    stem, _, version = suite.name.rpartition("-")
+    return replace(
+        suite,
+        name=f"{stem}-id-{version}",
+        env_kwargs=kwargs,
+        doc=f"{suite.doc}; each episode starts with an unscored {seconds:g} s identification window",
+    )
+
+
+_SUITES_ID = (with_id_window(_SUITES_V2[1]),)
+SUITES: dict[str, Suite] = {s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2, *_SUITES_ID)}
 
 
 def headline_suites(env_id: str) -> list[str]:

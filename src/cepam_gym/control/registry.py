@@ -49,6 +49,8 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     # the same observer in the baseline's load estimate; mpc_friction given the true parameters
     "baseline_friction": "cepam_gym.control.baseline:FrictionAwareBaseline",
     "mpc_friction_known_params": "cepam_gym.control.mpc:KnownParamsFrictionMPC",
+    # sensor-only: the MPC on the plant it fits to the episode's identification window
+    "identify_mpc": "cepam_gym.identify.identify_mpc:IdentifyMPC",
 }
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}

@@ -76,7 +76,10 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._mujoco = None
 
     def _info(self, scored: bool) -> dict[str, Any]:
-        return self.core.task.info_single(self.core.s, scored)
+        info = self.core.task.info_single(self.core.s, scored)
+        if self.core.n_window:
+            info.update((k, bool(v[0])) for k, v in self.core.window_info(scored).items())
+        return info
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickles and deep copies carry the episode: the constructor's arguments (EzPickle), then

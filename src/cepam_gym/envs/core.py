@@ -20,6 +20,7 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
 from ..tasks import kernel as tk
+from ..tasks import window as win
 from ..tasks.planner import PARALLEL_MIN_ENVS
 from ..tasks.randomization import MAX_REDRAWS
 from ..tasks.records import allocate, build
@@ -73,8 +74,11 @@ class CEPAMBatch:
         self.mech = self.task.mech
         self.mode = check_action_mode(action_mode)
         self.action_mode = action_mode
-        self.n_sub, self.n_steps = check_timing(control_dt, sub_dt, episode_seconds)
+        self.n_sub, n_tracked = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
+        # the identification window's steps come first (tasks.window); n_steps counts both
+        self.n_window = win.window_steps(self.task.spec, self.control_dt)
+        self.n_tracked, self.n_steps = n_tracked, self.n_window + n_tracked
         self.nominal = resolve_params(plant)
         self.task.bind(self.nominal, self.sub_dt)
         if self.nominal.supply_pressure > self.nominal.burst_pressure:
@@ -107,7 +111,7 @@ class CEPAMBatch:
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call
         # (tasks.single.env_step_single) on slabs its state's arrays are views of
-        self.fast_single = n == 1 and not self.latency and not self.supply_drift
+        self.fast_single = n == 1 and not self.latency and not self.supply_drift and not self.n_window
         if n == 1:
             self.slabs, self.s, extras = single_slabs(
                 self.n_steps, self.obs_dim, self.settings, self.task_params
@@ -254,8 +258,9 @@ class CEPAMBatch:
             self.needs_reset = False
 
     def _plan(self, rngs, rows: np.ndarray) -> tuple:
-        """``(target_l, target_k, load, initial)`` of the task (:meth:`Task.plan`)."""
-        return self.task.plan(rngs, rows, self.n_steps, self.control_dt)
+        """``(target_l, target_k, load, initial)`` of the task (:meth:`Task.plan`), the
+        identification window's steps in front (:func:`~cepam_gym.tasks.window.prepend`)."""
+        return win.prepend(self.task.plan(rngs, rows, self.n_tracked, self.control_dt), self.n_window)
 
     def _schedules(self, idx: np.ndarray) -> tuple:
         """:meth:`_plan` of the envs ``idx``. A plant for which the task finds no
@@ -347,7 +352,29 @@ class CEPAMBatch:
                 bound(tk._env_step_serial, self._step_args),
                 bound(tk._env_step_parallel, self._step_args) if parallel else tk._env_step_parallel,
             )
+        windowed = self.s.t_idx < self.n_window if self.n_window else None
         self.threads.run(*self._kernels, self._step_args)
+        if windowed is not None:
+            self._window_step(windowed)
+
+    def _window_step(self, windowed: np.ndarray) -> None:
+        """After a step: the window's steps unscored; the envs whose window just ended (and that
+        did not fail in it) restarted at rest at their starting point, as the reset started them."""
+        win.unscore(self.s, windowed)
+        ended = np.flatnonzero(windowed & (self.s.t_idx == self.n_window) & (self.s.reasons == 0))
+        if ended.size:
+            self.task.start(self.s, ended, self.s.initial[ended].copy())
+            self.s.t_idx[ended] = self.n_window
+            self.s.prev_action[ended] = 0.0
+            self.queue[:, ended] = 0.0
+            self._observe()
+
+    def window_info(self, scored: bool) -> dict[str, np.ndarray]:
+        """``{"window": per-env bool}`` when the task has an identification window (else empty):
+        the step just taken (``scored``; after a reset: the next one) is in it."""
+        if not self.n_window:
+            return {}
+        return {win.INFO_KEY: win.in_window(self.s.t_idx, self.n_window, scored)}
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""

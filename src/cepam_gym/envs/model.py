@@ -64,7 +64,9 @@ class EnvModel:
       :data:`cepam_gym.plant.HINGE` (the joint);
     * ``action_mode`` (``"valve"``, ``"pwm"``, ``"pressure"``) and ``mode``, its kernel code;
     * ``control_dt`` [s], ``sub_dt`` [s] the integration step, ``n_sub`` sub-steps per control
-      step, ``n_steps`` control steps per episode;
+      step, ``n_steps`` control steps per episode (the identification window's included),
+      ``window_steps`` the unscored identification window's control steps at the episode's
+      start (0 without one: :mod:`cepam_gym.tasks.window`);
     * ``nominal``: the nominal :class:`~cepam_gym.plant.params.PlantParams` (never randomized);
     * ``setpoint_max`` [Pa]: the gauge pressure a command of +1 asks for in ``pressure`` mode;
     * ``track_stiffness``: whether the task scores stiffness; ``task_spec``: its
@@ -90,6 +92,7 @@ class EnvModel:
     sub_dt: float
     n_sub: int
     n_steps: int
+    window_steps: int
     nominal: PlantParams = field(repr=False)
     setpoint_max: float
     track_stiffness: bool
@@ -115,6 +118,7 @@ class EnvModel:
             sub_dt=core.sub_dt,
             n_sub=core.n_sub,
             n_steps=core.n_steps,
+            window_steps=int(core.n_window),
             nominal=core.nominal,
             setpoint_max=float(core.task_params.setpoint_max),
             track_stiffness=bool(core.task.track_stiffness),

@@ -147,7 +147,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
     default_task = "cepam"
 
     def _infos(self, scored: bool) -> dict[str, np.ndarray]:
-        return self.core.task.info_arrays(self.core.s, scored)
+        return {**self.core.task.info_arrays(self.core.s, scored), **self.core.window_info(scored)}
 
     def __getstate__(self) -> dict[str, Any]:
         """As the single env's: the episode (and the autoreset bookkeeping) travels along."""
@@ -189,7 +189,8 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             self._elapsed += 1
         terminated = core.reasons != 0
         if self.max_episode_steps:
-            truncated = (self._elapsed >= self.max_episode_steps) & ~terminated
+            # the identification window (tasks.window) does not count towards the episode's length
+            truncated = (self._elapsed >= self.max_episode_steps + core.n_window) & ~terminated
         else:
             truncated = np.zeros(self.num_envs, dtype=bool)
         done = terminated | truncated

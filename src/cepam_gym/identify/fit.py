@@ -106,7 +106,8 @@ class Problem:
         cmds = plant_commands(rec.commands, pl.MODES[self.mode], self.base.pressure_cap)
         p0 = rows[0]
         start = (float(np.clip(rec.measured[0, 2], p0.min_length, p0.max_length)), *rec.measured[0, :2])
-        return replay(arr, cmds, rec.loads, pl.MODES[self.mode], self.sub_dt / n_ref, n_sub, start)
+        mode = pl.MODES[self.mode]
+        return replay(arr, cmds, rec.loads, mode, self.sub_dt / n_ref, n_sub, start, rec.supply_trace)
 
     def predict(self, z: np.ndarray, rec_i: int, y: np.ndarray | None = None) -> np.ndarray:
         """What the sensors report (T, 3) for parameters ``z``; ``y`` the plant channels if known."""

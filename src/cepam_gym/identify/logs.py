@@ -55,6 +55,8 @@ class Recording:
     loads: np.ndarray
     measured: np.ndarray
     supply: float | None = None
+    # the supply [Pa gauge] over each sample, where it drifts and was measured (else None: constant)
+    supply_trace: np.ndarray | None = None
 
     @property
     def duration(self) -> float:
@@ -74,6 +76,7 @@ class Recording:
                     commands=self.commands[sl],
                     loads=self.loads[sl],
                     measured=self.measured[sl],
+                    supply_trace=None if self.supply_trace is None else self.supply_trace[sl],
                 )
             )
         return parts[0], parts[1]
@@ -162,7 +165,10 @@ def resample(rec: Recording, h: float) -> Recording:
     t = np.arange(0.0, rec.time[-1] + 1e-12, h)
     held = np.clip(np.searchsorted(rec.time, t + STAMP_JITTER * h, side="right") - 1, 0, len(rec.time) - 1)
     measured = np.column_stack([np.interp(t, rec.time, rec.measured[:, c]) for c in range(3)])
-    return replace(rec, time=t, commands=rec.commands[held], loads=rec.loads[held], measured=measured)
+    trace = None if rec.supply_trace is None else rec.supply_trace[held]
+    return replace(
+        rec, time=t, commands=rec.commands[held], loads=rec.loads[held], measured=measured, supply_trace=trace
+    )
 
 
 def write_log(path: str | Path, columns: dict[str, np.ndarray]) -> Path:

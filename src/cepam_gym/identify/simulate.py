@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from .. import plant as pl
+from ..physics.layout import P_ATM, P_SUP
 from ..plant.actions import valve_commands
 
 CHANNELS = ("pressure_c", "pressure_e", "length")  # what a rig measures, SI (Pa gauge, Pa gauge, m)
@@ -25,10 +26,11 @@ N_CHANNELS = 3
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
-def _replay(state0, commands, loads, params, mode, dt, n_sub, splits, out):
+def _replay(state0, commands, loads, params, mode, dt, n_sub, splits, out, supply):
     """Plants ``splits[b] .. splits[b + 1] - 1`` form block ``b``; each block runs the whole
     recording on its own (scratch and state of its own), blocks in parallel. ``out`` (N, T, 3):
-    the channels at the start of every sample (``out[:, 0]`` is the initial state)."""
+    the channels at the start of every sample (``out[:, 0]`` is the initial state). ``supply``
+    (T,) [Pa abs] the supply of each sample (written into ``params``), or empty: the rows' own."""
     n_t = commands.shape[0]
     for b in prange(splits.shape[0] - 1):
         lo = splits[b]
@@ -44,6 +46,8 @@ def _replay(state0, commands, loads, params, mode, dt, n_sub, splits, out):
             out[i, 0, 2] = state[i, pl.S_L]
         for k in range(n_t - 1):
             for i in range(lo, lo + n):
+                if supply.shape[0] > 0:
+                    params[i, P_SUP] = supply[k]
                 inputs[i, pl.I_CMD_C] = commands[k, 0]
                 inputs[i, pl.I_CMD_E] = commands[k, 1]
                 inputs[i, pl.I_LOAD] = loads[k]
@@ -61,14 +65,21 @@ def _splits(n: int, threads: int) -> np.ndarray:
     return np.linspace(0, n, blocks + 1).round().astype(np.int64)
 
 
-def replay(params: np.ndarray, commands, loads, mode: int, dt: float, n_sub: int, start) -> np.ndarray:
+def replay(
+    params: np.ndarray, commands, loads, mode: int, dt: float, n_sub: int, start, supply=None
+) -> np.ndarray:
     """The channels (N, T, 3) [Pa, Pa, m] of ``N`` plants (parameter rows ``params``, (N, N_PARAMS))
     driven by ``commands`` (T, 2, plant inputs: spool set-points, duties or set-points [Pa]) and
     ``loads`` (T,) [kg], each held for ``n_sub`` sub-steps of ``dt``. ``start``: ``(length [m],
-    pressure_c [Pa], pressure_e [Pa])`` at rest at the first sample."""
+    pressure_c [Pa], pressure_e [Pa])`` at rest at the first sample. ``supply`` (T,) [Pa gauge]:
+    the supply over each sample, for a supply that drifts (default: the rows' own, constant)."""
     import numba
 
-    params = np.ascontiguousarray(np.atleast_2d(params), dtype=float)
+    params = np.array(np.atleast_2d(params), dtype=float, order="C")  # a copy: the supply writes it
+    if supply is None:
+        supply_abs = np.empty(0)
+    else:
+        supply_abs = np.ascontiguousarray(supply, dtype=float) + params[0, P_ATM]
     n = params.shape[0]
     state0 = pl.initial_state(params, start[0], start[1], start[2])
     out = np.empty((n, len(commands), N_CHANNELS))
@@ -83,6 +94,7 @@ def replay(params: np.ndarray, commands, loads, mode: int, dt: float, n_sub: int
         int(n_sub),
         splits,
         out,
+        supply_abs,
     )
     return out
 

@@ -94,6 +94,8 @@ class TaskSpec:
     # schedule: set-points held per segment, changing at once
     references: tuple[str, ...] = ("step",)
     move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s] (lengthened if needed)
+    # an unscored identification window before the scored tracking [s] (tasks.window; 0: none)
+    id_window_s: float = 0.0
 
     def __post_init__(self):
         lo, hi = self.length_range
@@ -123,6 +125,9 @@ class TaskSpec:
             )
         if not (np.isfinite(self.move_s) and self.move_s > 0):
             raise InputError(f"move_s must be finite and > 0, got {self.move_s!r}")
+        w = self.id_window_s
+        if isinstance(w, bool) or not isinstance(w, (int, float)) or not (np.isfinite(w) and 0 <= w <= 600):
+            raise InputError(f"id_window_s is in seconds and must lie in [0, 600], got {w!r}")
 
 
 TASKS = {
