@@ -119,3 +119,19 @@ def test_mpc_reference_is_the_preview_then_held():
     np.testing.assert_allclose(ref_l[:, :5], core.target_l[:, :5], rtol=1e-6)  # target, then 4 previews
     np.testing.assert_allclose(ref_k[:, :5], core.target_k[:, :5], rtol=1e-6)
     np.testing.assert_array_equal(ref_l[:, 5:], ref_l[:, 4:5].repeat(2, axis=1))  # the last one held
+
+
+@pytest.mark.parametrize("beta", [2.0, 1.3, 0.0])
+@pytest.mark.parametrize("shape", [(2, 48, 2, 8), (3, 16, 2, 5), (1, 4, 2, 1)])
+def test_drawing_every_iterations_noise_at_once_gives_the_same_numbers(beta, shape):
+    """The planner draws all its iterations' noise in one call (``draws=K``): the same numbers as
+    K calls in a row, and the generator left where those calls leave it (the plans depend on it)."""
+    from cepam_gym.control.planner import coloured_noise
+
+    r1, r2 = np.random.default_rng(5), np.random.default_rng(5)
+    one_by_one = np.stack([coloured_noise(r1, shape, beta) for _ in range(7)])
+    at_once = coloured_noise(r2, shape, beta, draws=7)
+    np.testing.assert_array_equal(at_once, one_by_one)
+    assert r1.standard_normal() == r2.standard_normal()
+    if beta > 0 and shape[-1] > 1:  # coloured: unit variance over the samples
+        assert abs(at_once.std() - 1.0) < 0.15
