@@ -159,32 +159,7 @@ class CEMPlanner:
     def rollout_cost(self, state, params, actions, target_l, target_k, load, weight=None) -> np.ndarray:
         """Cost (M,) of action sequences ``actions`` (M, H, 2) from states (M, N_STATE) with
         parameter rows (M or 1, N_PARAMS), targets, loads and step weights (M, H; default 1)."""
-        m, h = actions.shape[:2]
-        params = np.ascontiguousarray(np.broadcast_to(params, (m, params.shape[1])))
-        weight = np.ones((m, h)) if weight is None else np.ascontiguousarray(weight, dtype=float)
-        cost = np.empty(m)
-        rollout_cost(
-            np.ascontiguousarray(state, dtype=float),
-            params,
-            self.hinge,
-            self.mech,
-            self.mode,
-            self.sub_dt,
-            self.n_sub,
-            self.setpoint_max,
-            np.ascontiguousarray(actions, dtype=float),
-            np.ascontiguousarray(target_l, dtype=float),
-            np.ascontiguousarray(target_k, dtype=float),
-            np.ascontiguousarray(load, dtype=float),
-            weight,
-            self.track_stiffness,
-            self.length_norm,
-            STIFFNESS_NORM,
-            BURST_COST,
-            self.cfg.effort_weight,
-            cost,
-        )
-        return cost
+        return self._rollout(state, params, target_l, target_k, load, weight)(actions).copy()
 
     def plan(self, state, params, target_l, target_k, load, weight=None) -> np.ndarray:
         """First actions (N, 2) of the plans for N plants: ``state`` (N, N_STATE), ``params``
@@ -238,10 +213,10 @@ class CEMPlanner:
         return best[:, 0].copy()
 
     def _rollout(self, state, params, target_l, target_k, load, weight):
-        """``cost = f(actions)`` for fixed start states, parameters, targets, loads and weights:
-        :meth:`rollout_cost` with its arguments converted once for all iterations."""
-        m = state.shape[0]
-        h = self.cfg.horizon_steps
+        """``cost = f(actions)`` for fixed start states, parameters, targets, loads and weights
+        (the compiled rollout with its arguments converted once, for all of a step's iterations;
+        ``f`` reuses its output array)."""
+        m, h = np.shape(target_l)
         params = np.ascontiguousarray(np.broadcast_to(params, (m, params.shape[1])))
         weight = np.ones((m, h)) if weight is None else np.ascontiguousarray(weight, dtype=float)
         state, target_l, target_k, load = (
