@@ -147,7 +147,10 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
     default_task = "cepam"
 
     def _infos(self, scored: bool) -> dict[str, np.ndarray]:
-        return {**self.core.task.info_arrays(self.core.s, scored), **self.core.window_info(scored)}
+        info = self.core.task.info_arrays(self.core.s, scored)
+        if self.core.n_window:  # (no second dict per step without a window)
+            info.update(self.core.window_info(scored))
+        return info
 
     def __getstate__(self) -> dict[str, Any]:
         """As the single env's: the episode (and the autoreset bookkeeping) travels along."""
