@@ -97,9 +97,17 @@ def make_callback_class():
             # the keys: position, its target, stiffness, its target, then the reward terms
             # (envs.info_keys, by the task's contract)
             keys = self.t.info_keys
-            if not infos or keys[0] not in infos[0]:
+            if isinstance(infos, dict):  # the native learner's dict of arrays (last-step entries)
+                if not all(k in infos for k in keys):
+                    return
+                scored = np.logical_and.reduce([infos.get("_" + k, True) for k in keys]) & np.ones(
+                    len(infos[keys[0]]), bool
+                )
+                vals = np.column_stack([np.asarray(infos[k], dtype=float)[scored] for k in keys])
+            elif not infos or keys[0] not in infos[0]:
                 return
-            vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
+            else:
+                vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
             row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
             trade = self.t.contract.trade  # e.g. length_error_mm, angle_error_deg
             row[f"{self.t.contract.position}_error_{trade.unit}"] = (
@@ -110,7 +118,7 @@ def make_callback_class():
                 row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
             for k, v in row.items():
                 self._sums[k] = self._sums.get(k, 0.0) + float(v)
-            self._count += len(infos)
+            self._count += len(vals)
 
         def _log(self) -> None:
             if self._count:

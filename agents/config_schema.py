@@ -332,6 +332,30 @@ class StudentConfig:
         )
 
 
+LEARNERS = ("sb3", "native")
+
+
+def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -> str:
+    """The checked ``learner``: ``native`` (:mod:`agents.native_ppo`) runs PPO on the env's own
+    observations and actions (its rollouts skip the SB3 wrappers the agent features live in)."""
+    if name not in LEARNERS:
+        raise ConfigError(f"learner must be one of {list(LEARNERS)}, got {name!r}")
+    if name == "sb3":
+        return name
+    why = None
+    if algo != "PPO":
+        why = f"algorithm {algo} (the native learner runs PPO)"
+    elif student is not None:
+        why = "a student section (a student is distilled, not trained by PPO)"
+    elif agent != AgentConfig():
+        why = "an agent section (the native learner drives the valves from the env's own observations)"
+    elif hp.get("use_sde"):
+        why = "hyperparameters.use_sde (the native learner samples plain Gaussian actions)"
+    if why:
+        raise ConfigError(f"learner: native does not take {why}; use learner: sb3")
+    return name
+
+
 # --------------------------------------------------------------------------- the config
 @dataclass(frozen=True)
 class TrainConfig:
@@ -349,6 +373,7 @@ class TrainConfig:
     log_every_steps: int = 5000
     time_limit_minutes: float | None = None
     student: StudentConfig | None = None
+    learner: str = "sb3"  # "native": PPO's rollouts from the vector env as arrays (agents.native_ppo)
 
     @classmethod
     def from_dict(cls, data: Any) -> TrainConfig:
@@ -374,8 +399,10 @@ class TrainConfig:
             )
         if d.get("student") is not None and algo != "PPO":
             raise ConfigError(f"a student is saved as a PPO policy: algorithm must be PPO, not {algo}")
+        learner = _learner(d.get("learner", cls.learner), algo, hp, agent, d.get("student"))
         return cls(
             algorithm=algo,
+            learner=learner,
             total_timesteps=as_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
             seed=as_int(d.get("seed", cls.seed), "seed", 0),
             torch_threads=as_int(d.get("torch_threads", cls.torch_threads), "torch_threads", 1),

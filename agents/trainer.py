@@ -67,6 +67,10 @@ class Trainer:
         self.run.mkdir(parents=True, exist_ok=True)
         self.checkpoints.dir.mkdir(exist_ok=True)
         algo = algorithm_class(cfg.algorithm)
+        if cfg.learner == "native":
+            from .native_ppo import NativePPO
+
+            algo = NativePPO
         candidates = self.checkpoints.resumable() if self.resume else []
         if self.resume and not candidates:
             self._say(

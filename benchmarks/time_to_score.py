@@ -1,0 +1,203 @@
+"""How long PPO on the native learner takes to beat the inverse-model baseline and to reach the MPC.
+
+For each recommended-version id and its headline suite, trains ``configs/fast_ppo.yaml`` (the
+native learner, ``learner: native``) on that id and suite for each seed, under a wall-time budget,
+evaluating on the suite's own episodes (its seed and count: the score ``cepam-gym bench`` gives) at a
+fixed step interval; a run stops at the budget or once it scores below the MPC. Printed per id: the
+baseline's and the MPC's score on the suite (the MPC measured
+here, the baseline's stored reference re-measured), then the median and range over seeds of the
+training time (evaluations excluded) at the first evaluation that beat each, the best score reached,
+and the learner's env-steps per second beside the bare env's, stepped with random actions at the
+same batch size in the same process right after training. A seed that never beats a yardstick
+within the budget counts as the budget (shown as ``>budget``).
+
+The load average is printed: another busy process slows both the learner and the env.
+
+Run: ``.venv/bin/python benchmarks/time_to_score.py`` (options: ``--ids``, ``--seeds``,
+``--budget-s``, ``--eval-every``, ``--out`` for the run directories, ``--json`` for the raw rows).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # the agents package when run from a checkout
+
+IDS = ("CEPAM-v2", "CEPAMLength-v2", "CEPAMStiffness-v2", "CEPAMJoint-v2")
+# the wall-time budget per run: the goals are 30 s and 10 s on the nominal and length suites,
+# 3 minutes on the stiffness and joint suites
+BUDGET_S = {"CEPAM-v2": 60.0, "CEPAMLength-v2": 60.0, "CEPAMStiffness-v2": 180.0, "CEPAMJoint-v2": 180.0}
+
+
+def suite_of(env_id: str):
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.versions import VERSIONS
+
+    return SUITES[VERSIONS[f"cepam_gym/{env_id}"].suites[0]]
+
+
+def yardsticks(suite) -> dict[str, float]:
+    """The baseline's and the MPC's scores on the suite's own episodes (the joint has no MPC: it
+    plans through the rig's kernel only)."""
+    from cepam_gym.bench.harness import run_suite
+
+    out = {}
+    for name in ("baseline",) if suite.name.startswith("joint") else ("baseline", "mpc"):
+        t = time.perf_counter()
+        out[name] = float(run_suite(name, suite)[0]["score"])
+        print(f"  {name:8s} {out[name]:.4f}  ({time.perf_counter() - t:.0f} s)", flush=True)
+    return out
+
+
+def train_one(
+    env_id: str, suite, seed: int, budget_s: float, every: int, out: Path, stop_below: float
+) -> list[dict]:
+    """One run of the fast config on ``env_id``, stopped at the budget or at the first evaluation
+    scoring below ``stop_below`` (nothing is left to measure); its evaluations."""
+    import shutil
+
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
+    from cepam_gym_agents.train import train
+
+    cfg = load_config("fast_ppo")
+    env = EnvConfig.parse({"id": f"cepam_gym/{env_id}", "num_envs": cfg.env.num_envs, "suite": suite.name})
+    cfg = cfg.replace(
+        env=env,
+        eval=EvalConfig(every, suite.episodes, suite.name, suite.seed),
+        seed=seed,
+        time_limit_minutes=budget_s / 60.0,
+    )
+    run = out / env_id / f"seed{seed}"
+    if run.exists():
+        shutil.rmtree(run)
+    log = run / "evaluations.json"
+
+    class StopAtTarget(BaseCallback):
+        """Ends the session once an evaluation scored below the target (read from the run's log)."""
+
+        seen = 0.0
+
+        def _on_step(self) -> bool:
+            if not log.is_file() or log.stat().st_mtime == self.seen:
+                return True
+            self.seen = log.stat().st_mtime
+            return min(e["score"] for e in json.loads(log.read_text())) >= stop_below
+
+    train(cfg, run, callbacks=[StopAtTarget()], quiet=True)
+    return json.loads(log.read_text())
+
+
+def training_times(evals: list[dict]) -> list[tuple[float, float, int]]:
+    """(training seconds, score, step) per evaluation: the wall time less every evaluation's own."""
+    spent, rows = 0.0, []
+    for e in evals:
+        spent += e["eval_s"]
+        rows.append((e["wall_s"] - spent, e["score"], e["step"]))
+    return rows
+
+
+def first_below(rows, target: float) -> float | None:
+    return next((t for t, s, _ in rows if s < target), None)
+
+
+def env_rate(env_id: str, num_envs: int, seconds: float = 3.0) -> float:
+    """Env-steps per second of the bare vector env (random actions) at this batch size."""
+    import gymnasium as gym
+
+    venv = gym.make_vec(
+        f"cepam_gym/{env_id}",
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
+        autoreset_mode="same_step",
+    )
+    venv.reset(seed=0)
+    rng = np.random.default_rng(0)
+    a = rng.uniform(-1, 1, (num_envs, *venv.single_action_space.shape))
+    for _ in range(20):
+        venv.step(a)
+    rates = []
+    for _ in range(5):
+        n, t = 0, time.perf_counter()
+        while time.perf_counter() - t < seconds / 5:
+            venv.step(a)
+            n += num_envs
+        rates.append(n / (time.perf_counter() - t))
+    return float(np.median(rates))
+
+
+def fmt(ts: list[float | None], budget: float) -> str:
+    vals = [budget if t is None else t for t in ts]
+    missed = sum(t is None for t in ts)
+    med = np.median(vals)
+    text = f">{budget:.0f}" if med >= budget and missed else f"{med:.0f}"
+    return f"{text} s ({min(vals):.0f}-{max(vals):.0f}{', ' + str(missed) + ' missed' if missed else ''})"
+
+
+def main(argv=None) -> None:
+    import cepam_gym  # noqa: F401
+    from cepam_gym_agents.config import load_config
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--ids", nargs="+", default=list(IDS))
+    p.add_argument("--seeds", type=int, default=5)
+    p.add_argument("--budget-s", type=float, default=None, help="seconds per run (default: per id)")
+    p.add_argument("--eval-every", type=int, default=200_000, help="env steps between evaluations")
+    p.add_argument("--out", type=Path, default=None, help="run directories (default: a temporary one)")
+    p.add_argument("--json", type=Path, default=None, help="write every run's evaluations here")
+    a = p.parse_args(argv)
+    out = a.out or Path(tempfile.mkdtemp(prefix="time_to_score_"))
+    num_envs = load_config("fast_ppo").env.num_envs
+    print(f"load average at start: {os.getloadavg()[0]:.2f}; runs in {out}", flush=True)
+    table, raw = [], {}
+    for env_id in a.ids:
+        suite = suite_of(env_id)
+        print(f"{env_id} on {suite.name}:", flush=True)
+        ys = yardsticks(suite)
+        beat, reach, best, rates = [], [], [], []
+        budget = a.budget_s or BUDGET_S[env_id]
+        for seed in range(a.seeds):
+            evals = train_one(env_id, suite, seed, budget, a.eval_every, out, ys.get("mpc", ys["baseline"]))
+            rows = training_times(evals)
+            raw[f"{env_id}/seed{seed}"] = evals
+            beat.append(first_below(rows, ys["baseline"]))
+            reach.append(first_below(rows, ys["mpc"]) if "mpc" in ys else None)
+            best.append(min(s for _, s, _ in rows))
+            rates.append(rows[-1][2] / rows[-1][0])
+            print(
+                f"  seed {seed}: beats baseline at {beat[-1]} s, MPC at {reach[-1]} s, best {best[-1]:.4f}, "
+                f"{rates[-1] / 1e3:.0f} k steps/s",
+                flush=True,
+            )
+        env_sps = env_rate(env_id, num_envs)
+        table.append(
+            f"| {env_id} | {suite.name} | {budget:.0f} s | {ys['baseline']:.4f} | "
+            f"{ys.get('mpc', float('nan')):.4f} | {fmt(beat, budget)} | "
+            f"{fmt(reach, budget) if 'mpc' in ys else '-'} | "
+            f"{np.median(best):.4f} ({min(best):.4f}-{max(best):.4f}) | "
+            f"{np.median(rates) / 1e3:.0f} k | {env_sps / 1e3:.0f} k |"
+        )
+    print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
+    print(f"\n{a.seeds} seeds, evaluation every {a.eval_every} steps on the suite's episodes\n")
+    print(
+        "| id | suite | budget | baseline | MPC | time to beat the baseline | time to reach the MPC | "
+        "best score | learner steps/s | env steps/s |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("\n".join(table))
+    if a.json:
+        a.json.write_text(json.dumps(raw, indent=1))
+
+
+if __name__ == "__main__":
+    main()
