@@ -100,9 +100,9 @@ def make_callback_class():
             if isinstance(infos, dict):  # the native learner's dict of arrays (last-step entries)
                 if not all(k in infos for k in keys):
                     return
-                scored = np.logical_and.reduce([infos.get("_" + k, True) for k in keys]) & np.ones(
-                    len(infos[keys[0]]), bool
-                )
+                scored = np.ones(len(infos[keys[0]]), bool)
+                for k in keys:  # Gymnasium's masks: the envs whose info holds the entry
+                    scored &= np.asarray(infos.get("_" + k, True), dtype=bool)
                 vals = np.column_stack([np.asarray(infos[k], dtype=float)[scored] for k in keys])
             elif not infos or keys[0] not in infos[0]:
                 return

@@ -72,13 +72,21 @@ def last_step_infos(infos: dict, dones: np.ndarray) -> dict:
 class NativePPO(PPO):
     """SB3's PPO whose rollouts come from the native vector env as arrays (module docstring)."""
 
+    # the session's handles on the env and its episode counters are not part of the model
+    _SESSION = ("_venv", "_norm", "_ep_return", "_ep_length", "_t_start")
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), *self._SESSION]
+
     def _setup_learn(self, *args, **kwargs):
+        before = self._last_obs
         out = super()._setup_learn(*args, **kwargs)
         self._venv, self._norm = _unwrap(self.env)
-        n = self._venv.num_envs
-        self._ep_return = np.zeros(n)
-        self._ep_length = np.zeros(n, dtype=np.int64)
-        self._t_start = time.time()
+        if self._last_obs is not before or not hasattr(self, "_ep_return"):  # the envs were reset
+            n = self._venv.num_envs
+            self._ep_return = np.zeros(n)
+            self._ep_length = np.zeros(n, dtype=np.int64)
+            self._t_start = time.time()
         return out
 
     def _normalize_obs(self, obs: np.ndarray) -> np.ndarray:

@@ -3,7 +3,8 @@
 For each batch size N, in the same process and interleaved in rounds: the bare vector env stepped
 with random actions, SB3's PPO (``learner: sb3``: the SB3 ``VecEnv`` adapter, ``VecMonitor``,
 ``VecNormalize``) and the native learner (``learner: native``, :mod:`agents.native_ppo`) on the same
-hyperparameters, each timed over whole collect-and-train iterations after one warm-up iteration.
+hyperparameters and the network of ``configs/fast_ppo.yaml``, each timed over whole
+collect-and-train iterations after one warm-up iteration.
 Printed: medians over the rounds and the native/SB3 ratio. The share of a training iteration
 spent in the gradient steps grows with ``--epochs``: at the default 1 epoch the collection's cost
 shows; the load average is printed (another busy process slows all three).
@@ -27,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the agents packa
 
 def make_model(learner: str, env_id: str, n: int, n_steps: int, epochs: int, minibatches: int):
     from cepam_gym_agents.algorithm import hyperparameters
-    from cepam_gym_agents.config import TrainConfig
+    from cepam_gym_agents.config import TrainConfig, load_config
     from cepam_gym_agents.envs import make_train_env, normalize
 
     cfg = TrainConfig.from_dict(
@@ -42,24 +43,18 @@ def make_model(learner: str, env_id: str, n: int, n_steps: int, epochs: int, min
                 "n_epochs": epochs,
                 "gamma": 0.98,
             },
-            "policy_kwargs": {"net_arch": [64, 64], "activation_fn": "relu"},
+            "policy_kwargs": dict(load_config("fast_ppo").policy_kwargs),  # the fast config's network
         }
     )
     if learner == "native":
         from cepam_gym_agents.native_ppo import NativePPO as cls
     else:
         from stable_baselines3 import PPO as cls
-    env = normalize(make_train_env(cfg, 0), cfg)
-    from cepam_gym_agents.algorithm import _policy_kwargs
+    from cepam_gym_agents.algorithm import policy
 
-    return cls(
-        "MlpPolicy",
-        env,
-        seed=0,
-        device="cpu",
-        policy_kwargs=_policy_kwargs(cfg.policy_kwargs),
-        **hyperparameters(cfg.hyperparameters),
-    )
+    env = normalize(make_train_env(cfg, 0), cfg)
+    name, pk = policy("PPO", cfg.policy_kwargs, False, env)
+    return cls(name, env, seed=0, device="cpu", policy_kwargs=pk, **hyperparameters(cfg.hyperparameters))
 
 
 def learner_rate(model, iterations: int) -> float:

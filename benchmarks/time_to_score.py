@@ -14,7 +14,8 @@ within the budget counts as the budget (shown as ``>budget``).
 The load average is printed: another busy process slows both the learner and the env.
 
 Run: ``.venv/bin/python benchmarks/time_to_score.py`` (options: ``--ids``, ``--seeds``,
-``--budget-s``, ``--eval-every``, ``--out`` for the run directories, ``--json`` for the raw rows).
+``--budget-s``, ``--eval-every``, ``--out`` for the run directories, ``--json`` to keep every
+evaluation, ``--report`` to re-read kept files, ``--plot`` for the curves).
 """
 
 from __future__ import annotations
@@ -46,12 +47,14 @@ def suite_of(env_id: str):
 
 
 def yardsticks(suite) -> dict[str, float]:
-    """The baseline's and the MPC's scores on the suite's own episodes (the joint has no MPC: it
+    """The baseline's and the MPC's scores on the suite's own episodes (a hinge id has no MPC: it
     plans through the rig's kernel only)."""
     from cepam_gym.bench.harness import run_suite
+    from cepam_gym.versions import VERSIONS
 
     out = {}
-    for name in ("baseline",) if suite.name.startswith("joint") else ("baseline", "mpc"):
+    hinge = VERSIONS[suite.env_id].mechanism == "hinge"
+    for name in ("baseline",) if hinge else ("baseline", "mpc"):
         t = time.perf_counter()
         out[name] = float(run_suite(name, suite)[0]["score"])
         print(f"  {name:8s} {out[name]:.4f}  ({time.perf_counter() - t:.0f} s)", flush=True)
@@ -144,6 +147,61 @@ def fmt(ts: list[float | None], budget: float) -> str:
     return f"{text} s ({min(vals):.0f}-{max(vals):.0f}{', ' + str(missed) + ' missed' if missed else ''})"
 
 
+def report(results: dict) -> str:
+    """The markdown table of ``results`` (``{env id: {"suite", "budget_s", "yardsticks",
+    "env_steps_per_s", "runs": [evaluations of each seed]}}``)."""
+    lines = [
+        "| id | suite | budget | baseline | MPC | time to beat the baseline | time to reach the MPC | "
+        "best score, IQM (median, range) | learner steps/s | env steps/s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for env_id, r in results.items():
+        ys, budget = r["yardsticks"], r["budget_s"]
+        rows = [training_times(evals) for evals in r["runs"]]
+        beat = [first_below(x, ys["baseline"]) for x in rows]
+        reach = [first_below(x, ys["mpc"]) if "mpc" in ys else None for x in rows]
+        best = [min(sc for _, sc, _ in x) for x in rows]
+        rates = [x[-1][2] / x[-1][0] for x in rows]
+        iqm = "-"
+        mpc_cell = f"{ys['mpc']:.4f}" if "mpc" in ys else "-"
+        if len(best) >= 5:
+            from cepam_gym.bench.stats import iqm_interval
+
+            iqm = f"{iqm_interval({env_id: best})[env_id][0]:.4f}"
+        lines.append(
+            f"| {env_id} | {r['suite']} | {budget:.0f} s | {ys['baseline']:.4f} | {mpc_cell} | "
+            f"{fmt(beat, budget)} | "
+            f"{fmt(reach, budget) if 'mpc' in ys else '-'} | "
+            f"{iqm} ({np.median(best):.4f}, {min(best):.4f}-{max(best):.4f}) | "
+            f"{np.median(rates) / 1e3:.0f} k | {r['env_steps_per_s'] / 1e3:.0f} k |"
+        )
+    return "\n".join(lines)
+
+
+def plot(results: dict, path: Path) -> None:
+    """Score against training seconds, each seed a line, the baseline and the MPC dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.4), squeeze=False)
+    for ax, (env_id, r) in zip(axes[0], results.items()):
+        for evals in r["runs"]:
+            rows = training_times(evals)
+            ax.plot([t for t, _, _ in rows], [sc for _, sc, _ in rows], color="C0", alpha=0.6, lw=1)
+        for name, style in (("baseline", "--"), ("mpc", ":")):
+            if name in r["yardsticks"]:
+                ax.axhline(r["yardsticks"][name], color="k", ls=style, lw=1, label=name)
+        ax.set_yscale("log")
+        ax.set_title(f"{env_id} ({r['suite']})", fontsize=9)
+        ax.set_xlabel("training time [s] (evaluations excluded)")
+        ax.legend(fontsize=8)
+    axes[0][0].set_ylabel("score (lower is better)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main(argv=None) -> None:
     import cepam_gym  # noqa: F401
     from cepam_gym_agents.config import load_config
@@ -154,49 +212,53 @@ def main(argv=None) -> None:
     p.add_argument("--budget-s", type=float, default=None, help="seconds per run (default: per id)")
     p.add_argument("--eval-every", type=int, default=200_000, help="env steps between evaluations")
     p.add_argument("--out", type=Path, default=None, help="run directories (default: a temporary one)")
-    p.add_argument("--json", type=Path, default=None, help="write every run's evaluations here")
+    p.add_argument("--json", type=Path, default=None, help="write the results (every evaluation) here")
+    p.add_argument("--report", type=Path, nargs="+", default=None, help="re-read --json files, train nothing")
+    p.add_argument("--plot", type=Path, default=None, help="draw the curves into this image")
     a = p.parse_args(argv)
+    if a.report:
+        results = {}
+        for f in a.report:
+            results.update(json.loads(f.read_text()))
+    else:
+        results = measure(a, load_config("fast_ppo").env.num_envs)
+    print(f"\nevaluation every {a.eval_every} steps on the suite's episodes\n" if not a.report else "")
+    print(report(results))
+    if a.plot:
+        plot(results, a.plot)
+
+
+def measure(a, num_envs: int) -> dict:
     out = a.out or Path(tempfile.mkdtemp(prefix="time_to_score_"))
-    num_envs = load_config("fast_ppo").env.num_envs
     print(f"load average at start: {os.getloadavg()[0]:.2f}; runs in {out}", flush=True)
-    table, raw = [], {}
+    results = {}
     for env_id in a.ids:
         suite = suite_of(env_id)
         print(f"{env_id} on {suite.name}:", flush=True)
         ys = yardsticks(suite)
-        beat, reach, best, rates = [], [], [], []
         budget = a.budget_s or BUDGET_S[env_id]
+        runs = []
         for seed in range(a.seeds):
-            evals = train_one(env_id, suite, seed, budget, a.eval_every, out, ys.get("mpc", ys["baseline"]))
-            rows = training_times(evals)
-            raw[f"{env_id}/seed{seed}"] = evals
-            beat.append(first_below(rows, ys["baseline"]))
-            reach.append(first_below(rows, ys["mpc"]) if "mpc" in ys else None)
-            best.append(min(s for _, s, _ in rows))
-            rates.append(rows[-1][2] / rows[-1][0])
+            runs.append(
+                train_one(env_id, suite, seed, budget, a.eval_every, out, ys.get("mpc", ys["baseline"]))
+            )
+            rows = training_times(runs[-1])
             print(
-                f"  seed {seed}: beats baseline at {beat[-1]} s, MPC at {reach[-1]} s, best {best[-1]:.4f}, "
-                f"{rates[-1] / 1e3:.0f} k steps/s",
+                f"  seed {seed}: beats the baseline at {first_below(rows, ys['baseline'])} s, "
+                f"best {min(sc for _, sc, _ in rows):.4f}, {rows[-1][2] / rows[-1][0] / 1e3:.0f} k steps/s",
                 flush=True,
             )
-        env_sps = env_rate(env_id, num_envs)
-        table.append(
-            f"| {env_id} | {suite.name} | {budget:.0f} s | {ys['baseline']:.4f} | "
-            f"{ys.get('mpc', float('nan')):.4f} | {fmt(beat, budget)} | "
-            f"{fmt(reach, budget) if 'mpc' in ys else '-'} | "
-            f"{np.median(best):.4f} ({min(best):.4f}-{max(best):.4f}) | "
-            f"{np.median(rates) / 1e3:.0f} k | {env_sps / 1e3:.0f} k |"
-        )
-    print(f"\nload average at end: {os.getloadavg()[0]:.2f}")
-    print(f"\n{a.seeds} seeds, evaluation every {a.eval_every} steps on the suite's episodes\n")
-    print(
-        "| id | suite | budget | baseline | MPC | time to beat the baseline | time to reach the MPC | "
-        "best score | learner steps/s | env steps/s |"
-    )
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    print("\n".join(table))
-    if a.json:
-        a.json.write_text(json.dumps(raw, indent=1))
+        results[env_id] = {
+            "suite": suite.name,
+            "budget_s": budget,
+            "yardsticks": ys,
+            "env_steps_per_s": env_rate(env_id, num_envs),
+            "runs": runs,
+        }
+        if a.json:
+            a.json.write_text(json.dumps(results, indent=1))
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
+    return results
 
 
 if __name__ == "__main__":
