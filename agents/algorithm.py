@@ -53,6 +53,17 @@ def algorithm_class(name: str):
     return getattr(sb3, name)
 
 
+def training_class(algorithm: str, learner: str = "sb3"):
+    """The class a session trains with: :func:`algorithm_class`, or for ``learner: native`` the
+    PPO that collects from the vector env as arrays (:mod:`agents.native_ppo`; its models load
+    as SB3's PPO)."""
+    if learner == "native":
+        from .native_ppo import NativePPO
+
+        return NativePPO
+    return algorithm_class(algorithm)
+
+
 def policy_name(algorithm: str) -> str:
     """The policy alias the trainer asks the algorithm for: an LSTM policy for RecurrentPPO."""
     return "MlpLstmPolicy" if algorithm == "RecurrentPPO" else "MlpPolicy"

@@ -90,38 +90,20 @@ class NativePPO(PPO):
         return out
 
     def _normalize_obs(self, obs: np.ndarray) -> np.ndarray:
-        norm = self._norm
-        if norm is None or not norm.norm_obs:
+        if self._norm is None:
             return obs.astype(np.float32)
-        return np.clip(
-            (obs - norm.obs_rms.mean) / np.sqrt(norm.obs_rms.var + norm.epsilon),
-            -norm.clip_obs,
-            norm.clip_obs,
-        ).astype(np.float32)
+        return self._norm.normalize_obs(obs)
 
     def _step(self, actions: np.ndarray):
-        """One step of the vector env, normalised as ``VecNormalize.step_wait`` does, with the
-        episode log kept as ``VecMonitor`` keeps it."""
+        """One step of the vector env, normalised by ``VecNormalize``'s own methods in the order
+        of its ``step_wait``, with the episode log kept as ``VecMonitor`` keeps it."""
         obs, rewards, terminated, truncated, infos = self._venv.step(actions)
         rewards = rewards.astype(np.float32)  # as the SB3 adapter hands them to VecNormalize
         dones = terminated | truncated
-        norm = self._norm
-        raw_rewards = rewards
-        if norm is not None:
-            norm.old_obs, norm.old_reward = obs, rewards.astype(np.float32)
-            if norm.training and norm.norm_obs:
-                norm.obs_rms.update(obs)
-            if norm.training:
-                norm.returns = norm.returns * norm.gamma + rewards
-                norm.ret_rms.update(norm.returns)
-            if norm.norm_reward:
-                rewards = np.clip(
-                    rewards / np.sqrt(norm.ret_rms.var + norm.epsilon), -norm.clip_reward, norm.clip_reward
-                )
-            norm.returns[dones] = 0
-        self._ep_return += raw_rewards
+        self._ep_return += rewards
         self._ep_length += 1
-        for i in np.flatnonzero(dones):
+        # the log keeps the last maxlen episodes: the ones older than that are not written
+        for i in np.flatnonzero(dones)[-self.ep_info_buffer.maxlen :]:
             self.ep_info_buffer.append(
                 {
                     "r": float(self._ep_return[i]),
@@ -131,7 +113,16 @@ class NativePPO(PPO):
             )
         self._ep_return[dones] = 0.0
         self._ep_length[dones] = 0
-        return self._normalize_obs(obs), rewards.astype(np.float32), terminated, truncated, dones, infos
+        norm = self._norm
+        if norm is not None:
+            norm.old_obs, norm.old_reward = obs, rewards
+            if norm.training and norm.norm_obs:
+                norm.obs_rms.update(obs)
+            if norm.training:
+                norm._update_reward(rewards)
+            rewards = norm.normalize_reward(rewards)
+            norm.returns[dones] = 0
+        return self._normalize_obs(obs), rewards, terminated, truncated, dones, infos
 
     def collect_rollouts(self, env, callback, rollout_buffer, n_rollout_steps: int) -> bool:
         assert self._last_obs is not None, "No previous observation was provided"
@@ -155,7 +146,7 @@ class NativePPO(PPO):
             # a time limit is not a failure: bootstrap with the critic's value of the last observation
             cut = np.flatnonzero(truncated & ~terminated)
             if cut.size:
-                last = self._normalize_obs(np.asarray(step_infos["final_obs"][cut], dtype=np.float64))
+                last = self._normalize_obs(step_infos["final_obs"][cut])
                 with th.no_grad():
                     v = self.policy.predict_values(th.as_tensor(last, device=self.device)).cpu().numpy()[:, 0]
                 rewards[cut] += self.gamma * v

@@ -14,10 +14,10 @@ from pathlib import Path
 from cepam_gym._cli_errors import guarded_load
 from cepam_gym.envs.model import model_of
 
-from .algorithm import collection_why, hyperparameters, policy, steps_per_collection
+from .algorithm import collection_why, hyperparameters, policy, steps_per_collection, training_class
 from .callbacks import make_callback_class
 from .checkpoints import Checkpoints, save_model
-from .config import ConfigError, TrainConfig, algorithm_class, dump_config
+from .config import ConfigError, TrainConfig, dump_config
 from .envs import eval_env_spec, info_keys, make_train_env, normalize
 from .lock import RunLock
 from .progress import ProgressBar
@@ -66,11 +66,7 @@ class Trainer:
         torch.set_num_threads(cfg.torch_threads)
         self.run.mkdir(parents=True, exist_ok=True)
         self.checkpoints.dir.mkdir(exist_ok=True)
-        algo = algorithm_class(cfg.algorithm)
-        if cfg.learner == "native":
-            from .native_ppo import NativePPO
-
-            algo = NativePPO
+        algo = training_class(cfg.algorithm, cfg.learner)
         candidates = self.checkpoints.resumable() if self.resume else []
         if self.resume and not candidates:
             self._say(

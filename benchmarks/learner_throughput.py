@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the agents packa
 
 
 def make_model(learner: str, env_id: str, n: int, n_steps: int, epochs: int, minibatches: int):
-    from cepam_gym_agents.algorithm import hyperparameters
+    from cepam_gym_agents.algorithm import hyperparameters, policy, training_class
     from cepam_gym_agents.config import TrainConfig, load_config
     from cepam_gym_agents.envs import make_train_env, normalize
 
@@ -46,12 +46,7 @@ def make_model(learner: str, env_id: str, n: int, n_steps: int, epochs: int, min
             "policy_kwargs": dict(load_config("fast_ppo").policy_kwargs),  # the fast config's network
         }
     )
-    if learner == "native":
-        from cepam_gym_agents.native_ppo import NativePPO as cls
-    else:
-        from stable_baselines3 import PPO as cls
-    from cepam_gym_agents.algorithm import policy
-
+    cls = training_class("PPO", learner)
     env = normalize(make_train_env(cfg, 0), cfg)
     name, pk = policy("PPO", cfg.policy_kwargs, False, env)
     return cls(name, env, seed=0, device="cpu", policy_kwargs=pk, **hyperparameters(cfg.hyperparameters))
