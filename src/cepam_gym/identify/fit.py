@@ -30,8 +30,10 @@ from .simulate import plant_commands, refinement, replay, sensed
 
 SENSOR_NAMES = tuple(SENSOR_PARAMS)
 _FD_STEP = 2e-3  # forward-difference step in z (0.2 % of the log-span: about 1 % of a conductance)
-# the on/off valves' dead times move a valve edge only by whole sub-steps (the PWM phase is read
-# once per sub-step): a step smaller than two sub-steps sees a staircase, a zero or a huge slope
+# with the sampled PWM timing (a plant's ``pwm_timing: substep``) the on/off valves' dead times move
+# a valve edge only by whole sub-steps: a step smaller than two sub-steps sees a staircase, a zero
+# or a huge slope. ``identify`` fits pwm logs with exact timing (``run.model_plant``), where the
+# ordinary step serves.
 _QUANTIZED_MS = ("onoff_open_delay", "onoff_close_delay")
 
 
@@ -72,7 +74,7 @@ class Problem:
         self.k = len(self.names)
         self.fd = np.full(self.scale.lo.size, _FD_STEP)
         for j, n in enumerate(self.names):
-            if n in _QUANTIZED_MS:
+            if n in _QUANTIZED_MS and self.base.pwm_timing == "substep":
                 self.fd[j] = max(_FD_STEP, 2.0 * self.sub_dt * 1e3 / (self.scale.hi[j] - self.scale.lo[j]))
         self.spread = np.std(np.concatenate([r.measured[self._scored(r)] for r in self.recordings]), axis=0)
         self.spread = np.maximum(self.spread, [1e3, 1e3, 1e-4])  # a channel that never moves: 1 kPa, 0.1 mm

@@ -94,6 +94,8 @@ class Identification:
     def fields(self) -> list[str]:
         """The PlantParams fields the identification sets (the supply when the logs measured it)."""
         out = [f for n in self.names[: self.k] for f in ALL_PARAMS[n].fields]
+        if self.params.pwm_timing != preset(self.preset).pwm_timing:
+            out.append("pwm_timing")
         measured = self.params.supply_pressure != preset(self.preset).supply_pressure
         return out + (["supply_pressure"] if measured and "supply_pressure" not in out else [])
 
@@ -101,6 +103,15 @@ class Identification:
         """The largest NRMSE per channel over the recordings of ``role``."""
         rs = [r.fit for r in self.records if r.role == role]
         return {c: max(r[c]["nrmse"] for r in rs) for c in CHANNELS} if rs else {}
+
+
+def model_plant(base: PlantParams, mode: str) -> PlantParams:
+    """The plant a fit in ``mode`` simulates: in ``pwm`` mode the on/off valves switch at their
+    exact PWM edges and dead times (``pwm_timing: exact``). A rig's solenoids do; and read once
+    per sub-step instead, the error is a staircase in the dead times that the fit cannot descend
+    (docs/identify.md, "pwm mode"). The identified plant keeps the option, so what trains on it
+    sees the same valves."""
+    return base.replace(pwm_timing="exact") if mode == "pwm" else base
 
 
 def _grid(recs: list[Recording], sub_dt: float) -> tuple[list[Recording], list[int]]:
@@ -139,7 +150,7 @@ def identify(
             raise InputError(
                 f"{r.name}: {r.duration:.3g} s; needs more than the {warmup_s:g} s warm-up + 1 s"
             )
-    base_params = preset(base)
+    base_params = model_plant(preset(base), mode)
     fit_recs, n_fit = _grid(recs, sub_dt)
     problem = Problem(fit_recs, n_fit, sub_dt, base_params, mode, names, warmup_s, bounds)
     sol = solve(problem, starts=starts, seed=seed)

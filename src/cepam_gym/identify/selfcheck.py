@@ -15,7 +15,7 @@ from ..plant.params import PlantParams, preset
 from .dynamic_params import ALL_PARAMS, DEFAULT_FREE
 from .excite import schedule, simulate_log
 from .logs import write_log
-from .run import Identification, identify
+from .run import Identification, identify, model_plant
 
 # factor on the preset's value (edge units); a value the presets leave at 0 gets an absolute one
 TRUTH_FACTORS = {
@@ -65,7 +65,7 @@ def simulate_pair(
     seed: int = 0,
 ) -> tuple[Path, Path, dict[str, float]]:
     """Write a fitting log and a held-out log of the truth plant; their paths and the truth."""
-    truth, values = truth_plant(preset(base), mode)
+    truth, values = truth_plant(model_plant(preset(base), mode), mode)
     out = Path(out_dir)
     paths = []
     for name, seconds, s in (("fit", fit_s, seed), ("holdout", holdout_s, seed + 1)):

@@ -84,6 +84,7 @@ def coupled_substep(x, inp, p, mode, dt, length, velocity, acc):
     ``acc`` accumulates supply air used [kg] and the peak gauge pressure [Pa] of the control step
     (:func:`cepam_gym.plant.substep_account`).
     """
+    mode = sub.kernel_mode(mode, p)
     vol_c, vol_e, dvc, dvac, dvae = sub.volumes_at(length, p)
     _settle(x, dt, vol_c, vol_e, acc)
     _slip(x, p, length)

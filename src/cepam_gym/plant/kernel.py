@@ -24,6 +24,7 @@ from .layout import (
     N_INPUT,
     N_STATE,
     ONOFF,
+    ONOFF_EXACT,
     PRESSURE,
     PROPORTIONAL,
     RIG,
@@ -168,11 +169,23 @@ def _substeps_mode(W, n, mode, dt, n_sub, mech):
             lane_substep(W, i, mode, dt, mech)
 
 
+@jit_inline
+def _any_exact_pwm(W, n):
+    """Whether a plant of the block switches its on/off valves at their exact PWM edges
+    (``kernel_mode``): the block then runs the ``ONOFF_EXACT`` loop, each plant by its own timing."""
+    for i in range(n):
+        if W[_w(_W_P + ix.PWM_EXACT, i)] > 0.0:
+            return True
+    return False
+
+
 @jit
 def _substeps(W, n, mode, dt, n_sub):
     """``n_sub`` sub-steps of the first ``n`` plants of a rig block (the mode is made a
     compile-time constant of each loop, so its branches vanish)."""
-    if mode == ONOFF:
+    if mode == ONOFF and _any_exact_pwm(W, n):
+        _substeps_mode(W, n, ONOFF_EXACT, dt, n_sub, RIG)
+    elif mode == ONOFF:
         _substeps_mode(W, n, ONOFF, dt, n_sub, RIG)
     elif mode == PRESSURE:
         _substeps_mode(W, n, PRESSURE, dt, n_sub, RIG)
@@ -183,7 +196,9 @@ def _substeps(W, n, mode, dt, n_sub):
 @jit
 def _substeps_hinge(W, n, mode, dt, n_sub):
     """:func:`_substeps` of a hinge block (a function of its own, compiled only when used)."""
-    if mode == ONOFF:
+    if mode == ONOFF and _any_exact_pwm(W, n):
+        _substeps_mode(W, n, ONOFF_EXACT, dt, n_sub, HINGE)
+    elif mode == ONOFF:
         _substeps_mode(W, n, ONOFF, dt, n_sub, HINGE)
     elif mode == PRESSURE:
         _substeps_mode(W, n, PRESSURE, dt, n_sub, HINGE)

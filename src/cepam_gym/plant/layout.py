@@ -82,6 +82,10 @@ N_AUX = 16
 
 PROPORTIONAL, ONOFF, PRESSURE = 0, 1, 2
 MODES = {"valve": PROPORTIONAL, "pwm": ONOFF, "pressure": PRESSURE}
+# the kernels' own variant of ONOFF for a block holding a plant with ``pwm_timing: exact``
+# (:func:`cepam_gym.plant.substep.kernel_mode`); never a user's mode. A variant of its own, so the
+# sampled ONOFF loop keeps no trace of the exact law's branch and stays vectorised across plants.
+ONOFF_EXACT = 3
 # the mechanics a block of plants drives: the rig's free end (physics.load), or a hinge through a
 # rack and pinion (physics.hinge, the rig's load step in muscle coordinates plus the link's weight)
 RIG, HINGE = 0, 1
@@ -114,6 +118,7 @@ __all__ = [
     "N_AUX",
     "PROPORTIONAL",
     "ONOFF",
+    "ONOFF_EXACT",
     "PRESSURE",
     "MODES",
     "RIG",

@@ -33,6 +33,7 @@ FORCE_FORMS = ("paper", "virtual_work")
 BRAID_TENSIONS = ("bidirectional", "tension_only")  # v0 | v1 (docs/physics.md, plant v1)
 BLADDER_MODELS = ("spring", "neo_hookean")  # v0 | v1
 FRICTION_LAWS = ("pressure_sum", "contact_area")  # v1 | v2
+PWM_TIMINGS = ("substep", "exact")  # on/off valve edges: once per sub-step (released presets) | at their times
 
 
 def _f(default, unit: str, doc: str, calibrate: bool = False):
@@ -195,6 +196,13 @@ class PlantParams:
         "shorter than open - close delay passes no air. 0 = v0",
     )
     pwm_frequency: float = _f(50.0, "hz", "PWM frequency of the on/off valves")
+    pwm_timing: str = _f(
+        "substep",
+        "",
+        "substep (every released preset: the PWM phase and the dead times are read once per sub-step, "
+        "so a pulse lasts whole sub-steps) | exact (each sub-step integrates the spool through the "
+        "edges that fall inside it: duty and dead times act continuously; docs/physics.md, 'PWM timing')",
+    )
     dead_volume_cpam: float = _f(2e-6, "cm3", "port and tubing volume of the CPAM chamber")
     dead_volume_epam: float = _f(2e-6, "cm3", "port and tubing volume of the annulus")
     heat_transfer: float = _f(
@@ -237,6 +245,8 @@ class PlantParams:
             raise InputError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
         if self.friction_law not in FRICTION_LAWS:
             raise InputError(f"friction_law must be one of {FRICTION_LAWS}, got {self.friction_law!r}")
+        if self.pwm_timing not in PWM_TIMINGS:
+            raise InputError(f"pwm_timing must be one of {PWM_TIMINGS}, got {self.pwm_timing!r}")
         if not 0.0 <= self.collapse_seal_diameter <= self.cpam_bladder_diameter:
             raise InputError(
                 "collapse_seal_diameter must lie between 0 and the CPAM bladder's diameter "
@@ -424,6 +434,7 @@ class PlantParams:
         p[ix.FR_MU] = self.friction_mu if self.friction_law == "contact_area" else 0.0
         p[ix.THR_E] = self.epam_thread_compliance
         p[ix.THR_C] = self.cpam_thread_compliance
+        p[ix.PWM_EXACT] = 1.0 if self.pwm_timing == "exact" else 0.0
         fill_derived(p)
         return p
 

@@ -40,6 +40,7 @@ from .layout import (
     I_CMD_C,
     I_CMD_E,
     ONOFF,
+    ONOFF_EXACT,
     PRESSURE,
     S_L,
     S_MC,
@@ -98,6 +99,13 @@ def valve_command(mode, u, pressure_gauge, t, p):
 
 
 @jit_inline
+def kernel_mode(mode, p):
+    """The mode a sub-step of plant row ``p`` runs in: ``ONOFF_EXACT`` for the on/off valves of a
+    plant with ``pwm_timing: exact``, else ``mode``."""
+    return ONOFF_EXACT if mode == ONOFF and p[ix.PWM_EXACT] > 0.0 else mode
+
+
+@jit_inline
 def pwm_open_fraction(duty, p):
     """The share of a PWM period an on/off valve is open at ``duty`` in [0, 1]: the period
     average of :func:`valve_command`'s opening. With dead times the valve is open from ``d_on``
@@ -107,6 +115,43 @@ def pwm_open_fraction(duty, p):
     if duty >= 1.0:
         return 1.0
     return fmax(0.0, fmin(1.0, duty + (p[ix.D_OFF] - p[ix.D_ON]) / p[ix.PWM_PERIOD]))
+
+
+@jit_inline
+def pwm_spool_interval(s0, u, t, dt, tau, decay, p):
+    """``(end, mean)`` opening of an on/off valve's first-order spool (``tau ds/dt = cmd - s``)
+    over the sub-step ``[t, t + dt)`` with the PWM edges and dead times at their exact times
+    (plant option ``pwm_timing: exact``; ``decay = exp(-dt / tau)``).
+
+    The valve is open on the windows ``[k P + d_on, k P + duty P + d_off)`` of every period ``k``
+    (:func:`valve_command`'s law, read continuously instead of at ``t``); the spool's response is
+    linear in its command, so each open stretch ``[lo, hi)`` of the sub-step adds its exact
+    exponential share to the end value and to the interval mean. ``mean`` is what the flow sees
+    over the sub-step; ``end`` is the spool's state after it. Both are continuous in the duty and
+    the dead times, which a sampled phase (2.5 % of duty per 0.5 ms sub-step at 50 Hz) is not."""
+    duty = abs(u)
+    sign = 1.0 if u > 0.0 else -1.0
+    period = p[ix.PWM_PERIOD]
+    a = p[ix.D_ON]
+    b = duty * period + p[ix.D_OFF]
+    ratio = tau / dt * (1.0 - decay)  # interval mean of exp(-(s - t) / tau) over the sub-step
+    if duty >= 1.0 or b - period >= a:  # open throughout (full duty, or windows that overlap)
+        return sign + (s0 - sign) * decay, sign + (s0 - sign) * ratio
+    end = s0 * decay
+    mean = s0 * ratio
+    if b > a:  # a pulse shorter than d_on - d_off never opens the valve
+        t1 = t + dt
+        k_first = math.floor((t - b) / period) + 1  # the first window that ends after t
+        k_last = math.floor((t1 - a) / period)  # the last one that starts before t1
+        for k in range(k_first, k_last + 1):
+            lo = fmax(t, k * period + a)
+            hi = fmin(t1, k * period + b)
+            if hi > lo:
+                e_lo = math.exp(-(t1 - lo) / tau)  # the response to a unit step at lo, at t1
+                e_hi = math.exp(-(t1 - hi) / tau)
+                end += sign * (e_hi - e_lo)
+                mean += sign * ((hi - lo) - tau * (e_hi - e_lo)) / dt
+    return end, mean
 
 
 @jit_inline
@@ -125,7 +170,7 @@ def _isentropic_factor(r):
 @jit_inline
 def valve_setup(mode, p, dt):
     """``(tau, conductance, order, zeta, decay)`` of the valves of this action mode."""
-    if mode == ONOFF:
+    if mode == ONOFF or mode == ONOFF_EXACT:
         tau = p[ix.TAU_SWITCH]
         return tau, p[ix.C_ONOFF], 1, p[ix.ZETA], math.exp(-dt / tau)
     tau = p[ix.TAU_SPOOL]
@@ -155,8 +200,14 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
     te = temperature(me, ue)
     pc = pca - patm  # gauge
     pe = pea - patm
-    sc, src = spool_step(sc, src, valve_command(mode, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
-    se, sre = spool_step(se, sre, valve_command(mode, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
+    if mode == ONOFF_EXACT and p[ix.PWM_EXACT] > 0.0:  # a block may mix both timings
+        sc, open_c = pwm_spool_interval(sc, inp[I_CMD_C], t, dt, tau, decay, p)
+        se, open_e = pwm_spool_interval(se, inp[I_CMD_E], t, dt, tau, decay, p)
+    else:  # the command read at t, held for the sub-step; the flow sees the spool's end value
+        law = ONOFF if mode == ONOFF_EXACT else mode
+        sc, src = spool_step(sc, src, valve_command(law, inp[I_CMD_C], pc, t, p), dt, tau, order, zeta, decay)
+        se, sre = spool_step(se, sre, valve_command(law, inp[I_CMD_E], pe, t, p), dt, tau, order, zeta, decay)
+        open_c, open_e = sc, se
     vk = (p[ix.B_CRIT], p[ix.INV_1MB], p[ix.R_LAM], p[ix.LAM_K])
     cleak = p[ix.C_LEAK]
     dmc, duc, supc = chamber_rates(
@@ -164,8 +215,8 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
         tc,
         sqrt(ix.T0 / tc),
         0.0,
-        cvalve * fmax(sc, 0.0),
-        cvalve * fmax(-sc, 0.0) + cleak,
+        cvalve * fmax(open_c, 0.0),
+        cvalve * fmax(-open_c, 0.0) + cleak,
         p[ix.P_SUP],
         p[ix.T_SUP],
         p[ix.K_SUP],
@@ -180,8 +231,8 @@ def substep_rates(mode, inp, p, t, dt, mc, uc, me, ue, inv_vol_c, inv_vol_e, sc,
         te,
         sqrt(ix.T0 / te),
         0.0,
-        cvalve * fmax(se, 0.0),
-        cvalve * fmax(-se, 0.0) + cleak,
+        cvalve * fmax(open_e, 0.0),
+        cvalve * fmax(-open_e, 0.0) + cleak,
         p[ix.P_SUP],
         p[ix.T_SUP],
         p[ix.K_SUP],

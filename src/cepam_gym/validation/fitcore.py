@@ -254,5 +254,6 @@ def fitted_yaml(params: PlantParams, fields: Sequence[str], base_preset: str, he
     lines.append(f"preset: {base_preset}")
     for key, name in PlantParams.edge_keys().items():
         if name in fields:
-            lines.append(f"{key}: {edge[key]:.6g}")
+            value = edge[key]
+            lines.append(f"{key}: {value}" if isinstance(value, str) else f"{key}: {value:.6g}")
     return "\n".join(lines) + "\n"
