@@ -27,7 +27,9 @@ def _sampled_interval(s0, u, t, dt, p, n=4000):
     s, total = s0, 0.0
     for j in range(n):
         s_prev = s
-        s, _ = spool_step(s, 0.0, valve_command(plant.ONOFF, u, 0.0, t + (j + 0.5) * h, p), h, tau, 1, 0.0, decay)
+        s, _ = spool_step(
+            s, 0.0, valve_command(plant.ONOFF, u, 0.0, t + (j + 0.5) * h, p), h, tau, 1, 0.0, decay
+        )
         total += 0.5 * (s_prev + s)
     return s, total / n
 
@@ -71,7 +73,9 @@ def test_a_pulse_is_resolved_below_the_substep():
 def _mass_after(params: PlantParams, duty: float, dt: float, seconds: float = 0.1) -> float:
     P = params.replace(leak_conductance=0.0).to_array()[None]
     x = plant.initial_state(P, 0.17, 50e3, 50e3)
-    x, _ = plant.step(x, np.array([[duty, 0.0, 0.1, 0.0]]), P, mode=plant.ONOFF, dt=dt, n_sub=int(round(seconds / dt)))
+    x, _ = plant.step(
+        x, np.array([[duty, 0.0, 0.1, 0.0]]), P, mode=plant.ONOFF, dt=dt, n_sub=int(round(seconds / dt))
+    )
     return float(x[0, plant.S_MC])
 
 

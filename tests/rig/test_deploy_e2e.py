@@ -35,13 +35,12 @@ EXCITE_S = 20.0  # the excitation's length (real time), at 500 Hz: the spool's l
 IDENTIFIED = ("valve_conductance", "dead_volume_cpam", "damping", "spool_time_constant")
 SCORED_STEPS = 400  # the deployment (real time: 8 s), scored after its first second (the approach)
 SEEDS = 20  # simulations on the identified plant
+AGENT_STEPS = 500_000  # PPO's training on the identified plant (fast_ppo: about 15 s on 2 cores)
+# trained without sensor noise, a policy fell apart on the rig's 0.2 kPa of pressure noise (length
+# errors of 6 mm where the env gave 0.4): it trains with about twice the rig's noise
+TRAIN_NOISE = {"pressure_kpa": 0.5, "length_mm": 0.05, "velocity_mm_s": 2.0}
+AGENT_VS_BASELINE = 3.0  # the brief agent's deployed score within this factor of the baseline's
 RIG = RigImperfections(drop=0.02)  # the emulator's (its command line's defaults and --drop)
-# repeated deployments of the baseline on the emulated rig scored 0.057-0.074 (0.069-0.074 with
-# this test alone, 0.057-0.065 after the file's other tests) where 20 seeds of the simulation on
-# the identified plant span 0.068-0.072: the rig's dry friction (Maxwell-slip) holds the muscle
-# wherever each approach left it, which the seeds' small timing differences do not reproduce. The
-# deployed score must lie within the simulated interval widened by this much.
-RIG_SPREAD = 0.25
 # the rig's plant: the deploy side builds its env on the nominal preset and never sees these
 # (a supply regulated below the preset's: an excitation at the preset's 250 kPa squeezes the CPAM past
 # the supervisor's 270 kPa limit)
@@ -258,22 +257,16 @@ def test_deploy_stops_cleanly_on_sigterm_and_leaves_the_rig_safe(emulator, tmp_p
     emulator.wait_for("stop", after=start)
 
 
-def test_the_loop_closed_excite_identify_deploy_and_the_score_the_identified_plant_predicts(
-    emulator, episode, tmp_path
-):
-    """Excite the rig (its parameters hidden) through the deploy loop, identify the parameters it
-    may differ in on that log, deploy the baseline, and compare the score of its log with the same
-    controller simulated on the identified plant: over seeds of the sensors' noise, the lost
-    packets and the host's delay from each step's release to its command (drawn from the
-    deployment's median and p99 of its wake-up lateness and compute time)."""
-    from cepam_gym.control import make_controller
+@pytest.fixture(scope="module")
+def identified(emulator, tmp_path_factory):
+    """Excite the rig (its parameters hidden) through the deploy loop and identify the parameters
+    it may differ in on that log: ``(fitted plant YAML, excite seconds, identify seconds)``."""
     from cepam_gym.plant.params import PlantParams
-    from cepam_gym.rig.score import log_score, simulate
 
-    env, model, tl, tk = episode
-    t0 = time.perf_counter()
+    tmp = tmp_path_factory.mktemp("identified")
     cli = [sys.executable, "-m", "cepam_gym.cli"]
-    log = tmp_path / "excite.csv"
+    log, fit = tmp / "excite.csv", tmp / "fit.yaml"
+    t0 = time.perf_counter()
     excite = [*cli, "excite", "--rig", f"127.0.0.1:{emulator.address[1]}", "--out", str(log)]
     out = subprocess.run(
         [*excite, "--rate", "500", "--seconds", str(EXCITE_S), "--loads-g", "100"],
@@ -282,7 +275,6 @@ def test_the_loop_closed_excite_identify_deploy_and_the_score_the_identified_pla
     )
     assert out.returncode == 0, out.stdout + out.stderr
     t_excite = time.perf_counter() - t0
-    fit = tmp_path / "fit.yaml"
     identify = [
         *cli,
         "identify",
@@ -299,38 +291,123 @@ def test_the_loop_closed_excite_identify_deploy_and_the_score_the_identified_pla
         [*identify, *(a for name in IDENTIFIED for a in ("--only", name))], capture_output=True, text=True
     )
     assert out.returncode == 0, out.stdout + out.stderr
-    t_identify = time.perf_counter() - t0 - t_excite
     fitted, base = PlantParams.from_yaml(fit), preset("balloon_v2")
     for name in IDENTIFIED:
         hidden, found = getattr(base, name) * HIDDEN[name], getattr(fitted, name)
         print(f"{name}: hidden {hidden:.4g}, identified {found:.4g} ({100 * (found / hidden - 1):+.1f} %)")
         assert found == pytest.approx(hidden, rel=0.25)
+    return fit, t_excite, time.perf_counter() - t0 - t_excite
 
-    result = _deploy(
-        emulator, episode, make_controller("baseline", env), SCORED_STEPS, log=tmp_path / "dep.csv"
-    )
+
+def _deployed_against_simulated(emulator, episode, make, fit, log):
+    """Deploy ``make()`` (a fresh controller) for SCORED_STEPS steps, score its log, and simulate
+    it on the identified plant over SEEDS seeds of the sensors' noise, the lost packets, the phase
+    of the rig's ticks and the host's delay from each step's release to its command (drawn from
+    the deployment's median and p99 of its wake-up lateness and compute time):
+    ``(deployed metrics, simulated scores, the deployment's result)``."""
+    from cepam_gym.plant.params import PlantParams
+    from cepam_gym.rig.score import log_score, simulate
+
+    _env, model, tl, tk = episode
+    fitted = PlantParams.from_yaml(fit)
+    result = _deploy(emulator, episode, make(), SCORED_STEPS, log=log)
     print(result.summary(), f"missing readings {result.missing_readings}")
-    assert result.trip is None
-    rec = read_log(tmp_path / "dep.csv")
-    deployed = log_score(rec.measured, model, tl, tk, fitted, False, rec.time)
-    # the host's delay from a step's release to its command: the loop's own measurements
+    rec = read_log(log)
+    deployed = log_score(rec.measured, model, tl, tk, fitted, result.trip is not None, rec.time)
     compute = (result.lateness_p50 + result.compute_p50, result.lateness_p99 + result.compute_p99)
     sims = []
     for seed in range(SEEDS):
-        measured, tripped = simulate(
-            fitted, make_controller("baseline", env), model, tl, tk, 0.1, SCORED_STEPS, seed, RIG, compute
-        )
+        measured, tripped = simulate(fitted, make(), model, tl, tk, 0.1, SCORED_STEPS, seed, RIG, compute)
         sims.append(log_score(measured, model, tl, tk, fitted, tripped)["score"])
     lo, hi = np.percentile(sims, [2.5, 97.5])
     print(
         f"deployed score {deployed['score']:.4f} (length {deployed['length_rmse_mm']:.3f} mm, stiffness "
         f"{deployed['stiffness_rmse_pct']:.2f} %); simulated on the identified plant {np.mean(sims):.4f}, "
         f"95 % interval [{lo:.4f}, {hi:.4f}] over {SEEDS} seeds (host delay {compute[0] * 1e3:.2f}-"
-        f"{compute[1] * 1e3:.2f} ms); excite {t_excite:.1f} s, identify {t_identify:.1f} s, "
-        f"all {time.perf_counter() - t0:.1f} s"
+        f"{compute[1] * 1e3:.2f} ms)"
     )
-    inside = lo <= deployed["score"] <= hi
-    print(f"the deployed score is {'inside' if inside else 'outside'} the simulated 95 % interval")
-    # the rig's own run-to-run spread is wider than the seeds': its dry friction holds the muscle
-    # wherever the approach left it (RIG_SPREAD below)
-    assert (1 - RIG_SPREAD) * lo <= deployed["score"] <= (1 + RIG_SPREAD) * hi
+    return deployed, np.array(sims), result
+
+
+def test_the_loop_closed_excite_identify_deploy_and_the_score_the_identified_plant_predicts(
+    emulator, episode, identified, tmp_path
+):
+    """The baseline deployed on the rig scores within the 95 % interval of its simulations on
+    the identified plant."""
+    from cepam_gym.control import make_controller
+
+    fit, t_excite, t_identify = identified
+    deployed, sims, result = _deployed_against_simulated(
+        emulator, episode, lambda: make_controller("baseline", episode[0]), fit, tmp_path / "dep.csv"
+    )
+    print(f"excite {t_excite:.1f} s, identify {t_identify:.1f} s")
+    assert result.trip is None
+    lo, hi = np.percentile(sims, [2.5, 97.5])
+    assert lo <= deployed["score"] <= hi
+
+
+def test_an_agent_trained_on_the_identified_plant_scores_on_the_rig_what_its_simulation_predicts(
+    emulator, identified, tmp_path
+):
+    """The researcher's path from the fit to the rig: PPO trained briefly on the identified plant
+    (the shipped ``fast_ppo`` config, its env given the fitted YAML and sensor noise), exported to
+    ONNX, deployed through onnxruntime on the rig; its deployed score within the 95 % interval of
+    the exported policy simulated on the identified plant, and within a factor of the baseline's
+    simulated score on the same episode (it learnt to track, not merely to stay safe)."""
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("onnxruntime")
+    from cepam_gym.control import make_controller
+    from cepam_gym.plant.params import PlantParams
+    from cepam_gym.rig.onnx_policy import OnnxPolicy
+    from cepam_gym.rig.score import log_score, simulate
+    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
+    from cepam_gym_agents.export import export
+    from cepam_gym_agents.train import train
+
+    fit = identified[0]
+    cfg = load_config("fast_ppo")
+    cfg = cfg.replace(
+        env=EnvConfig.parse(
+            {
+                "id": DEFAULT_ENV,
+                "num_envs": cfg.env.num_envs,
+                "kwargs": {"plant": str(fit), "sensor_noise": TRAIN_NOISE},
+            }
+        ),
+        eval=EvalConfig(10**9, 8, None, 12345),  # one evaluation, at the end, on the fitted plant
+        total_timesteps=AGENT_STEPS,
+        time_limit_minutes=None,
+    )
+    t0 = time.perf_counter()
+    assert train(cfg, tmp_path / "run", quiet=True) == 0
+    export(tmp_path / "run", tmp_path / "policy.onnx")
+    t_train = time.perf_counter() - t0
+    episode = _episode(DEFAULT_ENV, {"plant": str(fit)}, 1000, 0, 1)
+    OnnxPolicy(tmp_path / "policy.onnx").check_env(episode[1].obs_dim, episode[1].action_mode)
+    deployed, sims, result = _deployed_against_simulated(
+        emulator, episode, lambda: OnnxPolicy(tmp_path / "policy.onnx"), fit, tmp_path / "agent.csv"
+    )
+    _env, model, tl, tk = episode
+    fitted = PlantParams.from_yaml(fit)
+    baseline = np.mean(
+        [
+            log_score(
+                *simulate(
+                    fitted, make_controller("baseline", _env), model, tl, tk, 0.1, SCORED_STEPS, seed, RIG
+                )[:1],
+                model,
+                tl,
+                tk,
+                fitted,
+                False,
+            )["score"]
+            for seed in range(3)
+        ]
+    )
+    print(
+        f"trained and exported in {t_train:.1f} s; the baseline simulated on the same episode {baseline:.4f}"
+    )
+    assert result.trip is None
+    lo, hi = np.percentile(sims, [2.5, 97.5])
+    assert lo <= deployed["score"] <= hi
+    assert deployed["score"] < AGENT_VS_BASELINE * baseline

@@ -100,8 +100,9 @@ THR_E = 78  # EPAM braid thread compliance [1/N]: strain per N of total thread t
 THR_AE = 79  # derived: THR_E b_e / (2 pi n_e^2) [1/(Pa m)]: the thread is b_e / (1 - THR_AE P_ae L)
 THR_C = 80  # CPAM braid thread compliance [1/N]; 0 = inextensible
 THR_AC = 81  # derived: THR_C b_c / (2 pi n_c^2): the CPAM's thread is b_c / (1 - THR_AC (P_ac - P_ae) L)
-# --- plant option (docs/physics.md "PWM timing"); zero in every released preset, which leaves them unchanged ---
-PWM_EXACT = 82  # 1.0: on/off valves switch at their exact PWM edges and dead times inside a sub-step; 0: once per sub-step
+# --- plant option (docs/physics.md "PWM timing"); zero in every released preset ---
+# 1.0: on/off valves switch at their exact PWM edges and dead times inside a sub-step; 0: once per sub-step
+PWM_EXACT = 82
 
 N_PARAMS = 83
 

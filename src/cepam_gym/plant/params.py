@@ -33,7 +33,7 @@ FORCE_FORMS = ("paper", "virtual_work")
 BRAID_TENSIONS = ("bidirectional", "tension_only")  # v0 | v1 (docs/physics.md, plant v1)
 BLADDER_MODELS = ("spring", "neo_hookean")  # v0 | v1
 FRICTION_LAWS = ("pressure_sum", "contact_area")  # v1 | v2
-PWM_TIMINGS = ("substep", "exact")  # on/off valve edges: once per sub-step (released presets) | at their times
+PWM_TIMINGS = ("substep", "exact")  # on/off valve edges read once per sub-step (released) | at their times
 
 
 def _f(default, unit: str, doc: str, calibrate: bool = False):

@@ -58,8 +58,11 @@ def log_score(
     of the episode's tracking."""
     m = np.asarray(measured, dtype=float).reshape(-1, 3)
     dt = model.control_dt
-    # a step's row is stamped when the loop woke for it, less than a period after its release
-    step = np.arange(len(m)) if times is None else np.floor(np.asarray(times) / dt + 1e-9).astype(int)
+    # a step's row is stamped when the loop woke for it, a little after its release; the log's
+    # times count from the first row's, which woke late by its own amount, so a row may read a
+    # few microseconds before its step's release: the nearest step, not the one below (rounding
+    # down put two rows on one step and scored neither of them or their neighbours)
+    step = np.arange(len(m)) if times is None else np.rint(np.asarray(times) / dt).astype(int)
     grid = np.full((int(step.max()) + 1, 3), np.nan)
     grid[step] = m
     first = int(round(approach_s / dt))
@@ -105,7 +108,8 @@ def simulate(
     ``n_steps`` control steps on ``plant`` (:class:`~cepam_gym.plant.params.PlantParams`) under
     the supervisor, as :func:`cepam_gym.rig.deploy.run` runs it on a rig: each step reads the
     sensors as they were one transport delay ago, and its command reaches the valves the
-    controller's time plus a transport delay later, or never (lost). The controller's time is
+    controller's time plus a transport delay later, or never (lost). Steps are released at a
+    phase of the rig's ticks drawn once per seed (uniform over a tick). The controller's time is
     drawn each step from ``compute_s = (median, p99)`` (e.g. a deployment's): the median plus an
     exponential tail that reaches the p99 once in a hundred steps."""
     rig = EmulatedPlant(plant, mode=model.action_mode, load=load_kg, setpoint_max=model.setpoint_max)
@@ -118,9 +122,12 @@ def simulate(
     controller.reset()
     imp = imperfections
     median, tail = compute_s[0], max(0.0, compute_s[1] - compute_s[0]) / math.log(100.0)
+    # the host's clock and the rig's ticks are not synchronised: each step is released this long
+    # after a tick of the rig, the same for a whole deployment, different from one to the next
+    phase = rig.tick_dt * rng.random()
 
     def delay_ticks(extra: float) -> int:  # a command is applied from the first tick after it arrives
-        return math.ceil((extra + imp.latency_s + imp.jitter_s * rng.random()) / rig.tick_dt)
+        return math.ceil((phase + extra + imp.latency_s + imp.jitter_s * rng.random()) / rig.tick_dt)
 
     history = [Reading(rig.time, *rig.sensed(imp, rng))] * (ticks + 1)  # the sensor packets of the last ticks
     pending: list[tuple[int, tuple]] = []  # (tick, command) on their way to the rig
@@ -130,7 +137,7 @@ def simulate(
     for k in range(n_steps):
         # the newest packet that has arrived: sent a whole number of ticks before, each tick's
         # packet telling the state at that tick's end
-        age = int((imp.latency_s + imp.jitter_s * rng.random()) / rig.tick_dt)
+        age = int(max(0.0, imp.latency_s + imp.jitter_s * rng.random() - phase) / rig.tick_dt)
         reading = history[-1 - min(age, ticks)]
         measured[k] = reading.pressure_c, reading.pressure_e, reading.length
         action = np.asarray(controller.act(observer.observe(reading, k, prev)), dtype=float).reshape(2)
