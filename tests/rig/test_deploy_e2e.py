@@ -411,3 +411,39 @@ def test_an_agent_trained_on_the_identified_plant_scores_on_the_rig_what_its_sim
     lo, hi = np.percentile(sims, [2.5, 97.5])
     assert lo <= deployed["score"] <= hi
     assert deployed["score"] < AGENT_VS_BASELINE * baseline
+
+
+@pytest.mark.parametrize("mode", ["pressure", "pwm"])
+def test_the_other_valve_modes_deploy_and_a_leak_ends_in_the_safe_state(mode, tmp_path):
+    """The emulated rig in pressure mode (set-points held by the rig's own regulator, following the
+    env's action map) and in PWM mode (on/off solenoid valves): the baseline of the env in that
+    mode tracks on it from a vented rest without a trip, and an injected leak trips the
+    supervisor's energy balance and leaves the rig in its safe state."""
+    from cepam_gym.control import make_controller
+
+    emu = Emulator(tmp_path, "--mode", mode, "--load-g", "100")
+    try:
+        episode = _episode(DEFAULT_ENV, {"action_mode": mode}, 1000, 0, 1)
+        start = len(emu.events)
+        result = _deploy(emu, episode, make_controller("baseline", episode[0]), 150, log=tmp_path / "run.csv")
+        print(mode, result.summary())
+        assert result.stopped_by == "end" and result.trip is None, result.trip
+        assert result.length_rmse_mm < 10.0
+        emu.wait_for("stop", after=start)
+        rec = read_log(tmp_path / "run.csv")
+        assert len(rec.time) == result.steps and np.all(np.abs(rec.commands) <= 1.0)
+
+        start = len(emu.events)
+
+        def inject(k, rig):
+            if k == 50:
+                rig.inject(FAULTS.index("leak"))
+
+        result = _deploy(emu, episode, make_controller("baseline", episode[0]), 90, on_step=inject)
+        print(mode, "leak:", result.trip)
+        assert result.trip is not None and result.trip["reason"] == "leak"
+        safe = emu.wait_for("safe", after=start)
+        lim = SafetyLimits.from_plant(episode[1].nominal)
+        assert safe["after_fault_s"] <= lim.leak_window_s + 2 * DT + 0.4
+    finally:
+        emu.close()

@@ -134,3 +134,32 @@ def test_a_limits_file_tightens_and_is_refused_when_it_loosens_or_misspells(tmp_
         LIM.tightened(f)
     with pytest.raises(InputError, match="does not exist"):
         LIM.tightened(tmp_path / "nope.yaml")
+
+
+def test_the_warm_up_before_arming_leaves_the_loops_state_untouched():
+    """``deploy.warm_up`` runs the controller and a copy of the supervisor on made-up readings
+    (so nothing compiles inside the timed loop); the supervisor itself keeps no trace of them,
+    and the controller and observer start afresh."""
+    import pickle
+
+    import gymnasium as gym
+
+    from cepam_gym.control import make_controller
+    from cepam_gym.envs.model import model_of
+    from cepam_gym.rig.deploy import warm_up
+    from cepam_gym.rig.observation import RigObserver
+
+    env = gym.make("cepam_gym/CEPAM-v2", action_mode="pwm")
+    env.reset(seed=0)
+    model = model_of(env)
+    sup = Supervisor(LIM, DT, model=model)
+    before = pickle.dumps(sup)
+    observer = RigObserver(model, model.target_l[0], model.target_k[0])
+    calls = []
+    controller = make_controller("baseline", env)
+    act = controller.act
+    controller.act = lambda obs, info=None: calls.append(obs) or act(obs)
+    warm_up(controller, observer, sup)
+    assert len(calls) >= 5 and not sup.tripped
+    assert pickle.dumps(sup) == before
+    assert observer._last is None

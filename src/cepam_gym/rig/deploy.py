@@ -26,6 +26,7 @@ deployment log feeds the next identification (the sensors' latency is one of the
 
 from __future__ import annotations
 
+import copy
 import gc
 import json
 import math
@@ -124,6 +125,29 @@ def connect(rig, timeout_s: float = 3.0):
     raise InputError(f"no reading from the rig at {getattr(rig, 'address', rig)} within {timeout_s:g} s")
 
 
+def warm_up(controller, observer, supervisor: Supervisor) -> None:
+    """Compile or load what a step needs before the rig is armed, so the first step comes one
+    period after the rig answers and no step of the timed loop stalls: the controller acts on
+    readings at rest and pressurised, over a few steps (a first call of a branch compiles it: on a
+    cold cache a controller's first pressurised steps stalled the loop by 0.1 s, long enough for
+    the supervisor's energy balance to read a leak), and a copy of the supervisor filters them."""
+    nominal = observer.model.nominal
+    mid = 0.5 * (nominal.min_length + nominal.max_length)
+    p = 0.5 * nominal.supply_pressure
+    readings = [Reading(0.0, 0.0, 0.0, nominal.min_length, nominal.supply_pressure)]
+    readings += [
+        Reading(0.002 * k, p * (1 + 0.01 * k), 0.5 * p, mid, nominal.supply_pressure) for k in range(1, 6)
+    ]
+    shadow = copy.deepcopy(supervisor)
+    prev = np.zeros(2)
+    for k, reading in enumerate(readings):
+        action = np.asarray(controller.act(observer.observe(reading, k, prev)), dtype=float).reshape(2)
+        prev = np.clip(action, -1.0, 1.0)
+        shadow.filter(reading, (float(prev[0]), float(prev[1])), now=k * observer.dt)
+    observer.reset()
+    controller.reset()
+
+
 def run(
     rig,
     controller,
@@ -140,14 +164,7 @@ def run(
     is called once per step after the command is sent (tests inject faults there)."""
     dt = observer.dt
     n = observer.n_steps if n_steps is None else int(n_steps)
-    # a first call compiles or loads what the controller needs: outside the timed loop, and before
-    # the rig is armed, so its first step comes one period after the rig answers, not seconds
-    nominal = observer.model.nominal
-    at_rest = Reading(0.0, 0.0, 0.0, nominal.min_length, nominal.supply_pressure)
-    for _ in range(3):
-        controller.act(observer.observe(at_rest, 0, np.zeros(2)))
-    observer.reset()
-    controller.reset()
+    warm_up(controller, observer, supervisor)
     latest = connect(rig)
     prev = np.zeros(2)
     lateness, compute = np.full(n, np.nan), np.full(n, np.nan)
