@@ -52,11 +52,14 @@ class Features:
         self.baseline = None
         self.n_shift = 0
         if cfg.uses_baseline:
+            from cepam_gym import plant as pl
             from cepam_gym.control import InverseStaticController, make_controller
+            from cepam_gym.envs.model import model_of
 
-            if cfg.base_controller == "baseline":
+            if cfg.base_controller == "baseline" and model_of(env).mech == pl.RIG:
                 self.baseline = InverseStaticController(env, friction_observer=cfg.friction_observer)
-            else:  # another registered controller under the residual (an InverseStaticController too)
+            else:  # another registered controller under the residual (an InverseStaticController
+                # too), or the joint's baseline (make_controller resolves ``baseline`` to it)
                 self.baseline = make_controller(cfg.base_controller, env)
             track_k = self.baseline.task.track_stiffness
             if cfg.target_shift:

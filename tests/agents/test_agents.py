@@ -422,6 +422,26 @@ def test_residual_features_terminal_obs_and_peek():
         pytest.fail("episodes of 5 steps did not end")
 
 
+def test_a_residual_on_the_joint_runs_on_the_joints_baseline():
+    """``agent.residual`` on the joint env: the base controller is the joint's baseline (the
+    registry's ``baseline`` resolved for the joint), found beneath stable-baselines3's wrappers;
+    a zero policy action sends exactly its commands."""
+    from cepam_gym.control import make_controller
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
+    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.features import make_agent_vec_env
+
+    cfg = AgentConfig(residual=True, residual_scale=0.3)
+    venv = make_sb3_vec_env("cepam_gym/CEPAMJoint-v2", num_envs=2, seed=0)
+    env = make_agent_vec_env(venv, cfg)
+    obs = env.reset()
+    feats = env.features
+    assert type(feats.baseline).__name__ == "JointInverseStaticController"
+    ref = make_controller("baseline", venv)
+    base = ref.act(obs)
+    np.testing.assert_allclose(feats.action(np.zeros((2, 2)), base), base)
+
+
 def test_agents_import_is_light():
     code = (
         "import sys, cepam_gym_agents, cepam_gym; "

@@ -69,6 +69,8 @@ def find_joint_env(env):
         nxt = getattr(e, "unwrapped", None)
         if nxt is e or nxt is None:
             nxt = getattr(e, "env", None)
+        if nxt is None:  # a stable-baselines3 VecEnv wrapper (VecMonitor, VecNormalize)
+            nxt = getattr(e, "venv", None)
         if nxt is None and getattr(e, "envs", None):  # a SyncVectorEnv: same nominal plant in each
             nxt = e.envs[0]
         if nxt is None:
