@@ -51,6 +51,20 @@ def test_it_reads_no_privileged_fact_of_the_env(monkeypatch):
     venv.close()
 
 
+def test_its_fit_has_no_time_budget_unless_given_one():
+    """By default a fit is bounded by its evaluations only (the score then does not depend on the
+    machine); a time budget of 0 s stops each fit at once, on its starting point."""
+    venv = _window_env(2, 1.5)
+    assert make_controller("identify_mpc", venv).budget_s is None
+    ctrl = make_controller("identify_mpc", venv, max_nfev=3, budget_s=0.0)
+    obs, info = venv.reset(seed=1)
+    for _ in range(ctrl.window + 1):
+        obs, *_ = venv.step(ctrl.act(obs, info))
+    assert len(ctrl.fits) == 2
+    assert all(f.evaluations == 0 and f.cost == f.start_cost for f in ctrl.fits)
+    venv.close()
+
+
 def test_it_needs_a_window():
     venv = gym.make_vec("cepam_gym/CEPAM-v2", num_envs=1)
     with pytest.raises(UnsupportedEnvError, match="id_window_s"):

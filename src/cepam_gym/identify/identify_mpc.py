@@ -43,7 +43,8 @@ VENT = -0.5  # the venting command
 
 class IdentifyMPC(ModelPredictiveController):
     """``reset(indices=None)`` / ``act(obs, info=None)`` on batched (or single) observations.
-    ``budget_s``: seconds each env's fit may take; ``max_nfev``: its evaluations of the log;
+    ``max_nfev``: the evaluations of the log each env's fit may take; ``budget_s``: optionally,
+    its seconds (None: no time budget, so the score does not depend on the machine);
     ``starts``: its starting points (the nominal plant, then random ones); ``free``: the
     parameters fitted (:data:`cepam_gym.identify.window_fit.FREE`)."""
 
@@ -51,7 +52,7 @@ class IdentifyMPC(ModelPredictiveController):
         self,
         env,
         config=None,
-        budget_s: float = 10.0,
+        budget_s: float | None = None,
         max_nfev: int = 100,
         starts: int = 1,
         free: tuple[str, ...] = FREE,
@@ -72,7 +73,8 @@ class IdentifyMPC(ModelPredictiveController):
         seconds = max(seconds, EXHAUST_S + 1.0) + self.dt
         cols = schedule(duration_s=seconds, rate_hz=1.0 / self.dt, mode=self.action_mode, seed=seed)
         self.excitation = np.column_stack([cols["command_c"], cols["command_e"]])[: self.window]
-        self.budget_s, self.max_nfev, self.free = float(budget_s), int(max_nfev), tuple(free)
+        self.budget_s = None if budget_s is None else float(budget_s)
+        self.max_nfev, self.free = int(max_nfev), tuple(free)
         self.starts = int(starts)
         self.p_guard = GUARD * self.nominal.burst_pressure
         self.fits: list = []  # every fit of the controller's life (WindowFit), for reports

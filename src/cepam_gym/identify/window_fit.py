@@ -9,8 +9,10 @@ trust-region least squares), cut to what a controller can afford at an episode's
   end cap plus the hanging load, which the window does not announce: the log's load is 0 and the
   fitted ``end_mass`` carries both), and the valve's conductance; the rest stays nominal;
 * **the sensors** are the env's: late by nothing, unit gain, no offset (bounds pin them);
-* **one start** (the nominal plant) and a **time budget**: the fit stops at ``budget_s`` seconds
-  with the best parameters it has evaluated (:func:`fit_window`).
+* **one start** (the nominal plant) and a **budget**: at most ``max_nfev`` evaluations, and
+  optionally ``budget_s`` seconds, with the best parameters it has evaluated
+  (:func:`fit_window`). No time budget by default: one would make the fit, and so a score, depend
+  on the machine's speed and load.
 
 Bounds (:data:`BOUNDS`) are a maker's tolerance around a nominal rig, wider than the benchmark's
 randomization, in the edge units of :data:`cepam_gym.identify.dynamic_params.ALL_PARAMS`.
@@ -137,7 +139,7 @@ def fit_window(
     mode: str = "valve",
     sub_dt: float = 5e-4,
     names=FREE,
-    budget_s: float = 10.0,
+    budget_s: float | None = None,
     max_nfev: int = 60,
     warmup_s: float = 0.1,
     starts: int = 1,
@@ -146,15 +148,15 @@ def fit_window(
 ) -> WindowFit:
     """Fit ``names`` of ``nominal`` to the window's recording ``rec``: from the nominal plant
     (``starts > 1``: and seeded random points of the bounds, ``short_nfev`` evaluations each, the
-    best then polished), ``max_nfev`` evaluations of the polish at most; stops at ``budget_s``
-    seconds whatever the stage, with the best parameters evaluated."""
+    best then polished), ``max_nfev`` evaluations of the polish at most; with a ``budget_s``, stops
+    at that many seconds whatever the stage, with the best parameters evaluated."""
     t0 = time.perf_counter()
     grid = resample(rec, grid_steps(rec, sub_dt) * sub_dt)
     bounds = bounds_around(nominal, names)
     problem = Problem(
         [grid], [grid_steps(rec, sub_dt)], sub_dt, nominal, mode, tuple(names), warmup_s, bounds
     )
-    deadline = t0 + budget_s
+    deadline = t0 + budget_s if budget_s is not None else np.inf
     best = {"cost": np.inf, "z": problem.start(), "n": 0}
 
     def residuals(z):
