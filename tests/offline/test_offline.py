@@ -140,6 +140,34 @@ def test_a_dataset_holds_the_episodes_the_benchmark_scores(minari_home, capsys):
     assert ds.spec.env_spec.max_episode_steps == 40
 
 
+def test_a_window_dataset_holds_the_windows_and_each_episodes_true_plant(minari_home, capsys):
+    """Offline identification: on the window suite the dataset keeps the unscored identification
+    window (``infos["window"]``) before the tracking, and each episode's metadata holds its
+    plant's parameter row (``plant_<NAME>``), the truth a fit of the window is scored against: the
+    row a single env of the episode's stream runs."""
+    from cepam_gym.envs.model import model_of
+    from cepam_gym.physics.layout import NAMES
+
+    suite = SUITES["randomized-id-v2"]
+    _out, ds = _dataset(
+        ["--suite", suite.name, "--controller", "baseline", "--episodes", "2", "--max-steps", "5"], capsys
+    )
+    n_window = int(suite.env_kwargs["task_options"]["id_window_s"] / 0.02)
+    rows = []
+    for i, ep in enumerate(ds.iterate_episodes()):
+        assert ep.actions.shape == (n_window + 5, 2)
+        window = np.asarray(ep.infos["window"][1:], dtype=bool)
+        assert window[:n_window].all() and not window[n_window:].any()
+        (meta,) = list(ds.storage.get_episode_metadata([i]))
+        row = np.array([meta[f"plant_{name}"] for name in NAMES])
+        env = gym.make(suite.env_id, stream=int(meta["stream"]), **suite.env_kwargs)
+        env.reset(seed=int(meta["seed"]))
+        np.testing.assert_array_equal(row, model_of(env).params[0])
+        env.close()
+        rows.append(row)
+    assert not np.array_equal(rows[0], rows[1])  # randomized: each episode its own plant
+
+
 def test_minaris_normalized_score_puts_a_baseline_episode_between_the_zero_controller_and_the_oracle(
     minari_home, capsys
 ):

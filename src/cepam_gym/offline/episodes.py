@@ -27,10 +27,15 @@ def _scalars(info: dict) -> dict[str, np.ndarray]:
 
 
 class EpisodeRecorder:
-    """Collects the transitions of ``num_envs`` parallel episodes (one per env of the batch)."""
+    """Collects the transitions of ``num_envs`` parallel episodes (one per env of the batch).
+    ``plants`` (optional): a callable giving the batch's parameter rows (num_envs, N_PARAMS) once
+    it is reset (the env's privileged ``EnvModel.params``); each episode then keeps its plant's
+    row (``plant``), the truth an offline identification is scored against."""
 
-    def __init__(self, num_envs: int):
+    def __init__(self, num_envs: int, plants=None):
         self.num_envs = int(num_envs)
+        self._plants_of = plants
+        self._plants: np.ndarray | None = None
         self._obs: list[np.ndarray] = []  # (N, obs_dim) per time index, reset first
         self._actions: list[np.ndarray] = []
         self._rewards: list[np.ndarray] = []
@@ -43,6 +48,8 @@ class EpisodeRecorder:
         self._infos = [_scalars(info)]
         self._actions, self._rewards, self._terms = [], [], []
         self._end[:] = -1
+        if self._plants_of is not None:
+            self._plants = np.array(self._plants_of(), dtype=float, copy=True)
 
     def step(self, actions, obs, rewards, terminated, truncated, info) -> None:
         t = len(self._actions)
@@ -64,7 +71,8 @@ class EpisodeRecorder:
 
     def episodes(self) -> list[dict]:
         """One dict per env: ``observations (T+1, obs_dim)``, ``actions (T, 2)``, ``rewards``,
-        ``terminations``, ``truncations`` (T,), ``infos`` ``{key: (T+1,)}``."""
+        ``terminations``, ``truncations`` (T,), ``infos`` ``{key: (T+1,)}``, and ``plant``
+        (N_PARAMS,) when the recorder was given the plants."""
         if not self._actions:
             raise ValueError("no step recorded")
         steps = len(self._actions)
@@ -92,6 +100,7 @@ class EpisodeRecorder:
                     "terminations": terminated,
                     "truncations": truncations,
                     "infos": infos,
+                    **({"plant": self._plants[n]} if self._plants is not None else {}),
                 }
             )
         return out

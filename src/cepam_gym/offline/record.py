@@ -13,6 +13,7 @@ from ..bench.references import stored_entry
 from ..bench.suites import SUITES, Suite
 from ..control import check_controller_spec, make_controller
 from ..control.baseline import UnsupportedEnvError
+from ..envs.model import model_of
 from ..errors import InputError
 from . import naming, store
 from .episodes import EpisodeRecorder
@@ -74,10 +75,17 @@ def record_dataset(
     store.check_free(dataset_id, overwrite)  # fail before the rollout, which can take minutes
     n = episodes or s.episodes
     seed = s.seed if seed is None else int(seed)
-    recorder = EpisodeRecorder(n)
+    make = _controller(controller, s)
+    built = []
+
+    def make_and_keep(venv):
+        built.append(venv)
+        return make(venv)
+
+    recorder = EpisodeRecorder(n, plants=lambda: model_of(built[0]).params)
     t0 = time.perf_counter()
     tr, track_k = record(
-        _controller(controller, s),
+        make_and_keep,
         s.env_id,
         s.env_kwargs,
         n,

@@ -141,8 +141,20 @@ def write(
             **refs,
         )
     dataset.storage.update_metadata({**extra, "cepam_gym_version": version})
-    dataset.storage.update_episode_metadata([{"stream": i} for i in range(len(episodes))])
+    dataset.storage.update_episode_metadata([_episode_metadata(i, ep) for i, ep in enumerate(episodes)])
     return dataset
+
+
+def _episode_metadata(i: int, episode: dict) -> dict:
+    """An episode's metadata: its ``stream`` of the dataset's seed (a single env replays it), and
+    its plant's parameter row as ``plant_<NAME>`` (SI, the columns of
+    :mod:`cepam_gym.physics.layout`) when it was recorded."""
+    from ..physics.layout import NAMES
+
+    meta = {"stream": i}
+    if "plant" in episode:
+        meta.update((f"plant_{name}", float(v)) for name, v in zip(NAMES, episode["plant"]))
+    return meta
 
 
 def _description(suite: Suite, controller: str, refs: dict) -> str:
