@@ -13,7 +13,8 @@ within the budget counts as the budget (shown as ``>budget``).
 
 The load average is printed: another busy process slows both the learner and the env.
 
-Run: ``.venv/bin/python benchmarks/time_to_score.py`` (options: ``--ids``, ``--seeds``,
+Run: ``.venv/bin/python benchmarks/time_to_score.py`` (options: ``--ids``, ``--seeds``, ``--config``
+(another shipped config than ``fast_ppo``),
 ``--budget-s``, ``--eval-every``, ``--out`` for the run directories, ``--json`` to keep every
 evaluation, ``--report`` to re-read kept files, ``--plot`` for the curves).
 """
@@ -62,10 +63,17 @@ def yardsticks(suite) -> dict[str, float]:
 
 
 def train_one(
-    env_id: str, suite, seed: int, budget_s: float, every: int, out: Path, stop_below: float
+    env_id: str,
+    suite,
+    seed: int,
+    budget_s: float,
+    every: int,
+    out: Path,
+    stop_below: float,
+    config: str = "fast_ppo",
 ) -> list[dict]:
-    """One run of the fast config on ``env_id``, stopped at the budget or at the first evaluation
-    scoring below ``stop_below`` (nothing is left to measure); its evaluations."""
+    """One run of the shipped ``config`` on ``env_id``, stopped at the budget or at the first
+    evaluation scoring below ``stop_below`` (nothing is left to measure); its evaluations."""
     import shutil
 
     from stable_baselines3.common.callbacks import BaseCallback
@@ -73,7 +81,7 @@ def train_one(
     from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
     from cepam_gym_agents.train import train
 
-    cfg = load_config("fast_ppo")
+    cfg = load_config(config)
     env = EnvConfig.parse({"id": f"cepam_gym/{env_id}", "num_envs": cfg.env.num_envs, "suite": suite.name})
     cfg = cfg.replace(
         env=env,
@@ -209,6 +217,7 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--ids", nargs="+", default=list(IDS))
     p.add_argument("--seeds", type=int, default=5)
+    p.add_argument("--config", default="fast_ppo", help="the shipped training config (default fast_ppo)")
     p.add_argument("--budget-s", type=float, default=None, help="seconds per run (default: per id)")
     p.add_argument("--eval-every", type=int, default=200_000, help="env steps between evaluations")
     p.add_argument("--out", type=Path, default=None, help="run directories (default: a temporary one)")
@@ -221,7 +230,7 @@ def main(argv=None) -> None:
         for f in a.report:
             results.update(json.loads(f.read_text()))
     else:
-        results = measure(a, load_config("fast_ppo").env.num_envs)
+        results = measure(a, load_config(a.config).env.num_envs)
     print(f"\nevaluation every {a.eval_every} steps on the suite's episodes\n" if not a.report else "")
     print(report(results))
     if a.plot:
@@ -240,7 +249,9 @@ def measure(a, num_envs: int) -> dict:
         runs = []
         for seed in range(a.seeds):
             runs.append(
-                train_one(env_id, suite, seed, budget, a.eval_every, out, ys.get("mpc", ys["baseline"]))
+                train_one(
+                    env_id, suite, seed, budget, a.eval_every, out, ys.get("mpc", ys["baseline"]), a.config
+                )
             )
             rows = training_times(runs[-1])
             print(
@@ -249,6 +260,7 @@ def measure(a, num_envs: int) -> dict:
                 flush=True,
             )
         results[env_id] = {
+            "config": a.config,
             "suite": suite.name,
             "budget_s": budget,
             "yardsticks": ys,
