@@ -401,6 +401,10 @@ def test_an_agent_trained_on_the_identified_plant_scores_on_the_rig_what_its_sim
         eval=EvalConfig(10**9, 8, None, 12345),  # one evaluation, at the end, on the fitted plant
         total_timesteps=AGENT_STEPS,
         time_limit_minutes=None,
+        # one core, as any test worker takes: a second thread starved the emulated rig of another
+        # worker's real-time test (its valves then lagged their commands, and its supervisor read a
+        # stuck valve)
+        torch_threads=1,
     )
     t0 = time.perf_counter()
     assert train(cfg, tmp_path / "run", quiet=True) == 0
