@@ -250,6 +250,7 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
             xs.append(x)
             ys.append(y)
         x, y = np.concatenate(xs), np.concatenate(ys)
+        labels_s = time.perf_counter() - tr
         if actor is None:  # statistics of the teacher's states, frozen like a deployed normalizer
             mean, std = x.mean(0), x.std(0) + 1e-3
             scale = y.std(0) + 1e-6
@@ -258,7 +259,13 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
             actor, x, y, mean, std, scale, st.gradient_steps, st.batch_size, st.learning_rate, cfg.seed + it
         )
         rounds.append(
-            {"round": it, "labels": len(x), "loss": loss, "seconds": round(time.perf_counter() - tr, 1)}
+            {
+                "round": it,
+                "labels": len(x),
+                "loss": loss,
+                "seconds": round(time.perf_counter() - tr, 1),
+                "labels_s": round(labels_s, 1),  # the teacher's labels (and the student's driving)
+            }
         )
         say(f"round {it}: {len(x)} labels, scaled loss {loss:.3f}, {rounds[-1]['seconds']} s")
         record.write("running", 0, rounds=rounds)

@@ -59,6 +59,22 @@ def test_student_needs_ppo_and_normalized_inputs():
     check_student(_cfg(teacher="mpc_known_params", teacher_options={"population": 24, "iterations": 3}))
 
 
+def test_every_shipped_student_config_passes_its_check():
+    """The shipped students (the main job's and the two-minute one) build their teacher with their
+    search settings before any round runs: a setting the planner refuses fails here, not after
+    the first round's labels."""
+    from cepam_gym_agents.config import load_config, shipped_configs
+    from cepam_gym_agents.student import check_student
+
+    students = [load_config(n) for n in sorted(shipped_configs())]
+    students = [c for c in students if c.student is not None]
+    assert len(students) >= 3  # student, student_fast, student_residual
+    for cfg in students:
+        check_student(cfg)
+    fast = load_config("student_fast").student.teacher_options
+    assert fast["population"] * fast["iterations"] * 9 == 48 * 6  # a ninth of the default search
+
+
 def test_teacher_options_reach_the_teachers_search():
     from cepam_gym_agents.student import collect
 
@@ -121,6 +137,11 @@ def test_student_learns_to_beat_the_baseline(tmp_path):
     )
     dump_config(cfg, tmp_path / "config.yaml")
     assert train_student(cfg, tmp_path, quiet=True) == 0
+    import json
+
+    rounds = json.loads((tmp_path / "summary.json").read_text())["rounds"]
+    # each round's time splits into the teacher's labels and the fit
+    assert len(rounds) == 2 and all(0 < r["labels_s"] <= r["seconds"] for r in rounds), rounds
     student, _ = run_suite(str(tmp_path), "length-v1", episodes=4)
     baseline, _ = run_suite("baseline", "length-v1", episodes=4)
     # measured on a busy 2-core machine: student 0.086, baseline 0.253

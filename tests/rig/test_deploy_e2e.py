@@ -19,7 +19,7 @@ import yaml
 
 from cepam_gym.identify.logs import read_log
 from cepam_gym.plant.params import preset
-from cepam_gym.rig.cli import DEFAULT_ENV, _episode
+from cepam_gym.rig.cli import DEFAULT_ENV, _episode, noise_free_warning
 from cepam_gym.rig.deploy import connect, run
 from cepam_gym.rig.emulator import RigImperfections
 from cepam_gym.rig.observation import RigObserver
@@ -412,6 +412,7 @@ def test_an_agent_trained_on_the_identified_plant_scores_on_the_rig_what_its_sim
     t_train = time.perf_counter() - t0
     episode = _episode(DEFAULT_ENV, {"plant": str(fit)}, 1000, 0, 1)
     OnnxPolicy(tmp_path / "policy.onnx").check_env(episode[1].obs_dim, episode[1].action_mode)
+    assert noise_free_warning(OnnxPolicy(tmp_path / "policy.onnx")) is None  # trained with noise
     deployed, sims, result = _deployed_against_simulated(
         emulator, episode, lambda: OnnxPolicy(tmp_path / "policy.onnx"), fit, tmp_path / "agent.csv"
     )

@@ -121,3 +121,57 @@ def test_the_emulated_rig_maps_a_pressure_command_as_the_env_does_not_by_its_own
         e.tick()
     assert e.aux[0, pl.A_PC] == pytest.approx(0.4 * setpoint_max, rel=0.05)
     assert e.aux[0, pl.A_PE] == pytest.approx(0.2 * setpoint_max, rel=0.05)
+
+
+def test_deploy_warns_of_a_policy_trained_without_sensor_noise(tmp_path):
+    """An exported policy's file names its training env's kwargs: without ``sensor_noise`` deploy
+    warns (such policies fell apart on the emulated rig); with it, or for a registered controller
+    (no file), it is silent."""
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("onnxruntime")
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    from cepam_gym.control import make_controller
+    from cepam_gym.rig.cli import noise_free_warning
+    from cepam_gym.rig.onnx_policy import OnnxPolicy
+    from cepam_gym_agents.export import export
+
+    env = gym.make("cepam_gym/CEPAM-v2")
+    PPO("MlpPolicy", env, policy_kwargs={"net_arch": [8]}, seed=0).save(str(tmp_path / "agent.zip"))
+    with pytest.warns(UserWarning, match="no VecNormalize statistics"):
+        export(tmp_path / "agent.zip", tmp_path / "bare.onnx")
+    warning = noise_free_warning(OnnxPolicy(tmp_path / "bare.onnx"))
+    assert warning and "bare.onnx was trained without sensor noise" in warning
+    assert noise_free_warning(make_controller("baseline", env)) is None
+    env.close()
+
+
+def test_an_emulated_rig_that_falls_behind_real_time_says_so(monkeypatch):
+    """A stalled tick (here: one that takes 50 ms of a 2 ms period) puts the rig's time behind the
+    wall's; the emulator reports it, once, as an event, instead of applying commands late in
+    silence."""
+    import io
+    import json
+    import time
+
+    from cepam_gym.rig.emulator import serve
+
+    plant = EmulatedPlant(PLANT, load=0.1, rate_hz=500.0)
+    ticks = [0]
+    tick = plant.tick
+
+    def slow_tick():
+        ticks[0] += 1
+        if ticks[0] == 20:
+            time.sleep(0.05)
+        tick()
+
+    monkeypatch.setattr(plant, "tick", slow_tick)
+    out = io.StringIO()
+    assert serve(plant, 0, duration_s=0.3, events=out) == 0
+    events = [json.loads(line) for line in out.getvalue().splitlines()]
+    behind = [e for e in events if e["event"] == "behind"]
+    # the stall, once (a loaded machine may add stalls of its own, each said once)
+    assert sum(0.03 < e["seconds"] < 0.1 for e in behind) == 1, events
+    assert ticks[0] > 50  # it kept ticking after the stall

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import signal
+import sys
 from pathlib import Path
 
 from ..errors import InputError
@@ -73,6 +74,21 @@ def build(args):
     return env, model, controller, observer, limits
 
 
+def noise_free_warning(controller) -> str | None:
+    """A warning when ``controller`` is an exported policy whose training env had no sensor noise
+    (its file's env kwargs): such a policy reads its pressures finer than a rig's sensors give
+    them, and on the emulated rig one fell apart (docs/deploy.md, "Train with the rig's sensor
+    noise")."""
+    kwargs = getattr(controller, "env_kwargs", None)
+    if kwargs is None or kwargs.get("sensor_noise"):
+        return None
+    return (
+        f"warning: {controller.path} was trained without sensor noise (its env kwargs have no "
+        "sensor_noise); policies trained on noise-free sensors have failed on the emulated rig. "
+        "Train with env.kwargs.sensor_noise about twice your rig's noise (docs/deploy.md)."
+    )
+
+
 def deploy_main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="cepam-gym deploy",
@@ -111,6 +127,9 @@ def deploy_main(argv: list[str] | None = None) -> int:
     if args.realtime is not None:
         print(f"real-time scheduling: {set_realtime(args.realtime)}")
     _env, model, controller, observer, limits = build(args)
+    warning = noise_free_warning(controller)
+    if warning:
+        print(warning, file=sys.stderr)
     n_steps = observer.n_steps
     if args.seconds is not None:
         if not args.seconds > 0:

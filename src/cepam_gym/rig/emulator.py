@@ -180,6 +180,10 @@ class EmulatedPlant:
         )
 
 
+BEHIND_S = 0.01  # ticks this far behind the wall clock are reported (half a 50 Hz control period)
+RESYNC_S = 0.1  # and this far behind, the rig's clock skips ahead to the wall's
+
+
 def serve(
     plant: EmulatedPlant,
     port: int,
@@ -192,7 +196,8 @@ def serve(
 ) -> int:
     """Run the emulated rig on UDP ``host:port`` until SIGINT/SIGTERM or ``duration_s``.
     ``scheduled``: faults ``(name, seconds after arming, size)``. ``events``: a writable text file
-    for one JSON line per event (armed, fault, safe state, stop), else stdout."""
+    for one JSON line per event (armed, fault, safe state, stop, and ``behind``: the ticks fell
+    more than :data:`BEHIND_S` behind the wall clock, so the rig's time ran slow), else stdout."""
     rng = np.random.default_rng(seed)
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
@@ -226,6 +231,7 @@ def serve(
     pending = sorted(scheduled, key=lambda f: f[1])
     fault_time = None
     safe_reported = False
+    behind = False
     plant.stop()  # a rig starts in its safe state, until it is armed
     start = time.perf_counter()
     next_tick = start
@@ -296,7 +302,15 @@ def serve(
                 order += 1
                 heapq.heappush(outbox, (now + delay(), order, packet))
         next_tick += plant.tick_dt
-        if next_tick - time.perf_counter() < -0.1:  # far behind (a stalled machine): resynchronise
+        lag = time.perf_counter() - next_tick
+        if lag > BEHIND_S and not behind:
+            # the rig's time runs slow of the wall's: commands apply late, which a supervisor may
+            # read as a fault (a stuck valve); said once per stall, until the ticks catch up
+            behind = True
+            emit(event="behind", seconds=round(lag, 4))
+        elif lag < plant.tick_dt:
+            behind = False
+        if lag > RESYNC_S:  # far behind (a stalled machine): resynchronise
             next_tick = time.perf_counter()
         # until the next tick: send each sensor packet when its latency has passed
         while True:

@@ -1,0 +1,88 @@
+"""What a cheaper teacher costs: the student's teacher at several search settings.
+
+The student (``configs/student.yaml``) is distilled from ``mpc_known_params``, a cross-entropy
+planner whose cost per label is ``population x iterations x horizon_steps`` simulated control
+steps. For each setting (``student.teacher_options`` in a config) this prints the teacher's own
+score on the suites the student trains on (their 20 episodes) and the wall time it took to drive
+them: the screen that picks which settings are worth training students on. Whether a student of
+that teacher is as good is a 5-seed measurement (``python -m cepam_gym_agents.compare``); the
+results are in docs/results/agents.md, "A cheaper teacher".
+
+Wall times include creating the envs and the controller; the load average is printed, since a
+busy machine slows every setting.
+
+Run: ``.venv/bin/python benchmarks/teacher_trade.py`` (``--settings`` a JSON list of
+``teacher_options`` dicts; ``--suites``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+SETTINGS = (
+    {},  # the planner's defaults: population 48, 6 iterations, a 10-step horizon
+    {"population": 48, "iterations": 3},
+    {"population": 24, "iterations": 3, "elites": 4},
+    {"population": 24, "iterations": 2, "elites": 4},
+    {"population": 16, "iterations": 2, "elites": 4},
+    {"population": 24, "iterations": 1, "elites": 4},
+)
+SUITES = ("nominal-v1", "randomized-v1")
+
+
+def teacher_score(opts: dict, suite_name: str) -> tuple[float, float]:
+    """(score, wall seconds) of ``mpc_known_params`` with ``opts`` on a suite's own episodes."""
+    from cepam_gym.bench.harness import record
+    from cepam_gym.bench.metrics import score_traces
+    from cepam_gym.bench.suites import SUITES as ALL
+    from cepam_gym.control import make_controller
+
+    s = ALL[suite_name]
+    t0 = time.perf_counter()
+    traces, track_k = record(
+        lambda venv: make_controller("mpc_known_params", venv, **opts),
+        s.env_id,
+        s.env_kwargs,
+        s.episodes,
+        s.seed,
+        None,
+        s.traces,
+    )
+    wall = time.perf_counter() - t0
+    return float(score_traces(traces, track_k, s.traces)["score"]), wall
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--settings", type=json.loads, default=list(SETTINGS), help="JSON list of option dicts")
+    ap.add_argument("--suites", nargs="+", default=list(SUITES))
+    args = ap.parse_args(argv)
+    import warnings
+
+    import cepam_gym  # noqa: F401  (registers the ids; then its deprecation notice is silenced)
+
+    warnings.filterwarnings("ignore", message=".*out of date.*")
+    print(f"load average before: {os.getloadavg()[0]:.2f}")
+    teacher_score({"population": 2, "iterations": 1, "elites": 1}, args.suites[0])  # compile, cache
+    head = " | ".join(f"{s} score | {s} s" for s in args.suites)
+    print(f"| teacher_options | sims per label | {head} |")
+    print("|---|---|" + "---|---|" * len(args.suites))
+    for opts in args.settings:
+        from cepam_gym.control.planner import CEMConfig
+
+        c = CEMConfig(**opts)
+        cells = []
+        for s in args.suites:
+            score, wall = teacher_score(opts, s)
+            cells += [f"{score:.4f}", f"{wall:.1f}"]
+        sims = c.population * c.iterations * c.horizon_steps
+        print(f"| {json.dumps(opts)} | {sims} | " + " | ".join(cells) + " |", flush=True)
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
