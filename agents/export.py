@@ -175,11 +175,12 @@ def export(run: str | Path, out: str | Path, which: str = "auto") -> dict:
         "history": history,
         "algorithm": algorithm,
         "env_id": (cfg.env.id if cfg is not None else files.env_id()) or "",
-        "env_kwargs": json.dumps(dict(cfg.env.kwargs) if cfg is not None else {}),
         "action_mode": (dict(cfg.env.kwargs) if cfg is not None else {}).get("action_mode", "valve"),
         "normalized": bool(normalizer is not None),
         "source": str(files.model),
     }
+    if cfg is not None:  # without a run config the training env's kwargs are unknown: none written
+        meta["env_kwargs"] = json.dumps(dict(cfg.env.kwargs))
     _write_metadata(out, meta)
     return meta
 

@@ -14,6 +14,7 @@ pytest.importorskip("onnx")
 pytestmark = pytest.mark.train
 
 from cepam_gym.errors import InputError  # noqa: E402
+from cepam_gym.rig.cli import noise_free_warning  # noqa: E402
 from cepam_gym.rig.onnx_policy import OnnxPolicy  # noqa: E402
 from cepam_gym_agents.config import TrainConfig, dump_config  # noqa: E402
 from cepam_gym_agents.export import export  # noqa: E402
@@ -71,6 +72,9 @@ def test_an_exported_ppo_with_history_and_normalisation_acts_as_the_trained_poli
     agent = load_policy(ppo_run, env)
     pol = OnnxPolicy(tmp_path / "policy.onnx")
     assert pol.history == 3 and pol.env_id == ID and pol.obs_dim == env.observation_space.shape[1]
+    # the run's env kwargs travel with the file: deploy knows it was trained without sensor noise
+    assert pol.env_kwargs == {"episode_seconds": 2.0}
+    assert "was trained without sensor noise" in noise_free_warning(pol)
     gap = _recorded_gap(agent, pol)
     print(f"PPO (history 3, VecNormalize): max |ONNX - SB3| = {gap:.2e}")
     assert gap <= TOL
@@ -96,6 +100,7 @@ def test_a_bare_model_with_its_statistics_exports_with_the_action_map(algorithm,
     vn.save(str(tmp_path / "vec_normalize.pkl"))
     meta = export(tmp_path / "agent.zip", tmp_path / "p.onnx")
     assert meta["algorithm"] == algorithm and meta["normalized"]
+    assert "env_kwargs" not in meta and OnnxPolicy(tmp_path / "p.onnx").env_kwargs is None  # unknown
     env = gym.make_vec(ID, num_envs=3)
     gap = _recorded_gap(load_policy(tmp_path / "agent.zip", env), OnnxPolicy(tmp_path / "p.onnx"), steps=30)
     print(f"{algorithm} (bare model, VecNormalize): max |ONNX - SB3| = {gap:.2e}")

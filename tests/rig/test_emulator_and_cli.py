@@ -124,9 +124,8 @@ def test_the_emulated_rig_maps_a_pressure_command_as_the_env_does_not_by_its_own
 
 
 def test_deploy_warns_of_a_policy_trained_without_sensor_noise(tmp_path):
-    """An exported policy's file names its training env's kwargs: without ``sensor_noise`` deploy
-    warns (such policies fell apart on the emulated rig); with it, or for a registered controller
-    (no file), it is silent."""
+    """Deploy warns of a policy whose file does not show sensor noise in its training env (such
+    policies fell apart on the emulated rig); for a registered controller (no file) it is silent."""
     pytest.importorskip("stable_baselines3")
     pytest.importorskip("onnxruntime")
     import gymnasium as gym
@@ -141,8 +140,10 @@ def test_deploy_warns_of_a_policy_trained_without_sensor_noise(tmp_path):
     PPO("MlpPolicy", env, policy_kwargs={"net_arch": [8]}, seed=0).save(str(tmp_path / "agent.zip"))
     with pytest.warns(UserWarning, match="no VecNormalize statistics"):
         export(tmp_path / "agent.zip", tmp_path / "bare.onnx")
+    # a bare model's file does not say what it was trained on (a run's file does:
+    # tests/agents/test_export.py); deploy says so rather than guess
     warning = noise_free_warning(OnnxPolicy(tmp_path / "bare.onnx"))
-    assert warning and "bare.onnx was trained without sensor noise" in warning
+    assert warning and "bare.onnx does not record its training env's sensor noise" in warning
     assert noise_free_warning(make_controller("baseline", env)) is None
     env.close()
 
@@ -150,13 +151,15 @@ def test_deploy_warns_of_a_policy_trained_without_sensor_noise(tmp_path):
 def test_an_emulated_rig_that_falls_behind_real_time_says_so(monkeypatch):
     """A stalled tick (here: one that takes 50 ms of a 2 ms period) puts the rig's time behind the
     wall's; the emulator reports it, once, as an event, instead of applying commands late in
-    silence."""
+    silence. It gives the caller its signal handlers back when it stops."""
     import io
     import json
+    import signal
     import time
 
     from cepam_gym.rig.emulator import serve
 
+    EmulatedPlant(PLANT, load=0.1, rate_hz=500.0).tick()  # the kernels compiled or loaded first
     plant = EmulatedPlant(PLANT, load=0.1, rate_hz=500.0)
     ticks = [0]
     tick = plant.tick
@@ -168,10 +171,14 @@ def test_an_emulated_rig_that_falls_behind_real_time_says_so(monkeypatch):
         tick()
 
     monkeypatch.setattr(plant, "tick", slow_tick)
+    before = signal.getsignal(signal.SIGTERM)
     out = io.StringIO()
-    assert serve(plant, 0, duration_s=0.3, events=out) == 0
+    assert serve(plant, 0, duration_s=0.5, events=out) == 0
+    assert signal.getsignal(signal.SIGTERM) is before
     events = [json.loads(line) for line in out.getvalue().splitlines()]
     behind = [e for e in events if e["event"] == "behind"]
-    # the stall, once (a loaded machine may add stalls of its own, each said once)
-    assert sum(0.03 < e["seconds"] < 0.1 for e in behind) == 1, events
+    # the stall is reported (a loaded machine may add stalls of its own, each said once, not once
+    # per late tick: the 50 ms stall alone leaves 25 ticks late)
+    assert any(0.04 < e["seconds"] < 0.1 for e in behind), events
+    assert len(behind) < 5, events
     assert ticks[0] > 50  # it kept ticking after the stall

@@ -55,7 +55,7 @@ def build(args):
         s = SUITES[args.suite]
         env_id, kwargs, seed, episodes = s.env_id, dict(s.env_kwargs), s.seed, s.episodes
     elif policy is not None and env_id is None and policy.env_id:
-        env_id, kwargs = policy.env_id, dict(policy.env_kwargs)
+        env_id, kwargs = policy.env_id, dict(policy.env_kwargs or {})
     env_id = env_id or DEFAULT_ENV
     if args.plant:
         kwargs["plant"] = PlantParams.from_yaml(args.plant)
@@ -79,13 +79,20 @@ def noise_free_warning(controller) -> str | None:
     (its file's env kwargs): such a policy reads its pressures finer than a rig's sensors give
     them, and on the emulated rig one fell apart (docs/deploy.md, "Train with the rig's sensor
     noise")."""
-    kwargs = getattr(controller, "env_kwargs", None)
-    if kwargs is None or kwargs.get("sensor_noise"):
+    if not hasattr(controller, "env_kwargs"):  # a registered controller, not an exported policy
+        return None
+    kwargs = controller.env_kwargs
+    advice = (
+        "policies trained on noise-free sensors have failed on the emulated rig. Train with "
+        "env.kwargs.sensor_noise about twice your rig's noise (docs/deploy.md)."
+    )
+    if kwargs is None:
+        return f"warning: {controller.path} does not record its training env's sensor noise; {advice}"
+    if kwargs.get("sensor_noise"):
         return None
     return (
         f"warning: {controller.path} was trained without sensor noise (its env kwargs have no "
-        "sensor_noise); policies trained on noise-free sensors have failed on the emulated rig. "
-        "Train with env.kwargs.sensor_noise about twice your rig's noise (docs/deploy.md)."
+        f"sensor_noise); {advice}"
     )
 
 

@@ -210,8 +210,18 @@ def serve(
     def _quit(signum, frame):
         running[0] = False
 
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, _quit)
+    # the caller's handlers come back when the rig stops (a test or a host process calls serve)
+    handlers = {sig: signal.signal(sig, _quit) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return _serve(plant, sock, imp, rng, scheduled, duration_s, events, running)
+    finally:
+        sock.close()
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+
+
+def _serve(plant, sock, imp, rng, scheduled, duration_s, events, running) -> int:
+    """The rig's loop (:func:`serve`), on a bound non-blocking socket."""
 
     def emit(**event) -> None:
         line = json.dumps({"rig_time": round(plant.time, 6), **event})
@@ -301,8 +311,8 @@ def serve(
             if rng.random() >= imp.drop:
                 order += 1
                 heapq.heappush(outbox, (now + delay(), order, packet))
+        lag = time.perf_counter() - next_tick  # how late the tick just run finished
         next_tick += plant.tick_dt
-        lag = time.perf_counter() - next_tick
         if lag > BEHIND_S and not behind:
             # the rig's time runs slow of the wall's: commands apply late, which a supervisor may
             # read as a fault (a stuck valve); said once per stall, until the ticks catch up
@@ -310,7 +320,7 @@ def serve(
             emit(event="behind", seconds=round(lag, 4))
         elif lag < plant.tick_dt:
             behind = False
-        if lag > RESYNC_S:  # far behind (a stalled machine): resynchronise
+        if lag > RESYNC_S + plant.tick_dt:  # far behind (a stalled machine): resynchronise
             next_tick = time.perf_counter()
         # until the next tick: send each sensor packet when its latency has passed
         while True:
@@ -324,6 +334,5 @@ def serve(
             if t >= next_tick:
                 break
             time.sleep(min(next_tick, outbox[0][0] if outbox else next_tick) - t)
-    sock.close()
     emit(event="exit")
     return 0

@@ -51,7 +51,8 @@ class OnnxPolicy:
         self.history = int(self.meta.get("history", 1))
         self.action_mode = self.meta.get("action_mode", "valve")
         self.env_id = self.meta.get("env_id") or None
-        self.env_kwargs = json.loads(self.meta.get("env_kwargs", "{}"))
+        # None: the file does not say (exported from a bare model, without its run's config)
+        self.env_kwargs = json.loads(self.meta["env_kwargs"]) if "env_kwargs" in self.meta else None
         self.path = path
         self._stack: np.ndarray | None = None
 
