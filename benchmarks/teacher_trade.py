@@ -35,24 +35,11 @@ SUITES = ("nominal-v1", "randomized-v1")
 
 def teacher_score(opts: dict, suite_name: str) -> tuple[float, float]:
     """(score, wall seconds) of ``mpc_known_params`` with ``opts`` on a suite's own episodes."""
-    from cepam_gym.bench.harness import record
-    from cepam_gym.bench.metrics import score_traces
-    from cepam_gym.bench.suites import SUITES as ALL
-    from cepam_gym.control import make_controller
+    from cepam_gym.bench.harness import run_suite
 
-    s = ALL[suite_name]
     t0 = time.perf_counter()
-    traces, track_k = record(
-        lambda venv: make_controller("mpc_known_params", venv, **opts),
-        s.env_id,
-        s.env_kwargs,
-        s.episodes,
-        s.seed,
-        None,
-        s.traces,
-    )
-    wall = time.perf_counter() - t0
-    return float(score_traces(traces, track_k, s.traces)["score"]), wall
+    metrics, _ = run_suite("mpc_known_params", suite_name, **opts)
+    return float(metrics["score"]), time.perf_counter() - t0
 
 
 def main(argv=None) -> int:

@@ -119,6 +119,27 @@ def test_baseline_beats_zero_and_random_on_nominal():
     assert scores["baseline"] < 0.5 * scores["zero"] and scores["baseline"] < 0.5 * scores["random"]
 
 
+def test_run_suite_passes_controller_options_to_the_controller():
+    from cepam_gym.bench import run_suite
+
+    full, _ = run_suite("mpc", "nominal", episodes=2, max_steps=30)
+    again, _ = run_suite("mpc", "nominal", episodes=2, max_steps=30)
+    one_plan, _ = run_suite("mpc", "nominal", episodes=2, max_steps=30, population=4, elites=2, iterations=1)
+    assert full["score"] == again["score"]  # the planner is seeded: only the options differ
+    assert one_plan["score"] != full["score"]
+
+
+def test_a_trained_agent_refuses_controller_options(tmp_path):
+    import gymnasium as gym
+
+    from cepam_gym.control import make_controller
+
+    env = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=1)
+    with pytest.raises(ValueError, match="takes no options"):
+        make_controller(str(tmp_path), env, population=4)  # any existing path goes to the loader
+    env.close()
+
+
 def test_unknown_controller_and_suite_are_rejected():
     from cepam_gym.bench import run_suite
 

@@ -93,13 +93,18 @@ def record(
 
 
 def run_suite(
-    controller_spec: str, suite: Suite | str, episodes: int | None = None, max_steps: int | None = None
+    controller_spec: str,
+    suite: Suite | str,
+    episodes: int | None = None,
+    max_steps: int | None = None,
+    **controller_options,
 ) -> tuple[dict, dict]:
     """Run ``episodes`` seeded episodes of a suite under the controller ``controller_spec`` names
-    (:func:`cepam_gym.control.make_controller`); return ``(metrics, traces)``."""
+    (:func:`cepam_gym.control.make_controller`, given ``controller_options``); return
+    ``(metrics, traces)``."""
     suite = SUITES[suite] if isinstance(suite, str) else suite
     tr, track_k = record(
-        lambda venv: make_controller(controller_spec, venv),
+        lambda venv: make_controller(controller_spec, venv, **controller_options),
         suite.env_id,
         suite.env_kwargs,
         episodes or suite.episodes,
