@@ -153,6 +153,12 @@ class AgentConfig:
       the critic also sees what only the simulator knows (:mod:`agents.privileged`: the true plant
       parameters, the load, the true errors); the actor's input masks those columns out, and a
       deployed policy is given NaN there (:mod:`agents.asymmetric`).
+    * ``plant_features``: the actor is told the plant (an adaptive agent in the manner of RMA,
+      Kumar et al. 2021, its adaptation module the project's identification): the log ratios to
+      the nominal plant of the parameter columns the identification window's fit moves
+      (:func:`cepam_gym.identify.window_identifier.plant_columns`). Training reads the true
+      plant; deployed, the agent plays the window's excitation and is told its fit, so it runs
+      only on envs with an identification window (``randomized-id-v2``).
 
     With neither ``target_shift`` nor ``residual`` the policy drives the valves directly."""
 
@@ -171,6 +177,7 @@ class AgentConfig:
     privileged_critic: bool = False
     friction_observer: bool = False
     base_controller: str = "baseline"
+    plant_features: bool = False
 
     @property
     def uses_baseline(self) -> bool:
@@ -194,6 +201,7 @@ class AgentConfig:
             as_bool(d.get("privileged_critic", False), "agent.privileged_critic"),
             as_bool(d.get("friction_observer", False), "agent.friction_observer"),
             _controller(d.get("base_controller", "baseline"), "agent.base_controller"),
+            as_bool(d.get("plant_features", False), "agent.plant_features"),
         )
         if out.base_controller != "baseline" and (
             out.target_shift or out.setpoint_gaps_in_obs or out.friction_observer

@@ -21,8 +21,8 @@ Inputs ``obs`` (batch, obs_dim) float32 and (with history) ``history``; outputs 
 
 Refused with one line (``InputError``): recurrent policies (RecurrentPPO: its LSTM state), and
 agents with a controller in the loop (``residual``, ``target_shift``, ``baseline_in_obs``,
-``setpoint_gaps_in_obs``: the baseline is numpy code with its own state) or observation filters
-(``obs_filters_s``). Those deploy by running the controller (``cepam-gym deploy``), not a file.
+``setpoint_gaps_in_obs``: the baseline is numpy code with its own state), observation filters
+(``obs_filters_s``) and agents told the identified plant (``plant_features``: a fit per episode). Those deploy by running the controller (``cepam-gym deploy``), not a file.
 """
 
 from __future__ import annotations
@@ -60,6 +60,12 @@ def _refusal(cfg, algorithm: str) -> str | None:
         )
         if on
     ]
+    if a.plant_features:
+        return (
+            "the agent is told the plant its identification window's fit finds (agent.plant_features): "
+            "the fit is not a network; exporting it is not supported (run it through Python: "
+            "cepam-gym bench --controller RUN_DIR)"
+        )
     if in_loop:
         return (
             f"the agent runs the controller {a.base_controller!r} in its loop "

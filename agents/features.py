@@ -13,6 +13,12 @@
 * ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
 * ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
   starts with copies of its first one.
+* ``plant_features``: the plant's parameter columns follow the (stacked) frames, for the actor
+  (with ``setpoint_gaps_in_obs``, each frame also holds the set-point gaps of the told plant's
+  inverse static model after the nominal model's):
+  the true plant's during training (:meth:`Features.use_true_plant`), deployed the fit of the
+  episode's identification window (:class:`cepam_gym.identify.window_identifier.WindowIdentifier`,
+  whose excitation drives the window: :attr:`Features.window`).
 * ``privileged_critic``: the privileged columns (:mod:`agents.privileged`) follow, for the
   critic only: read from the env during training (``privileged`` set by
   :func:`make_agent_vec_env`), NaN when deployed (:mod:`agents.asymmetric` masks them).
@@ -80,6 +86,7 @@ class Features:
             self.raw_dim
             + (2 if cfg.baseline_in_obs else 0)
             + (2 if cfg.setpoint_gaps_in_obs else 0)
+            + (2 if cfg.setpoint_gaps_in_obs and cfg.plant_features else 0)
             + self._shift_obs
             + self.raw_dim * len(cfg.obs_filters_s)
         )
@@ -100,7 +107,19 @@ class Features:
 
             self._view = PrivilegedView(rig_model_of(env))
             self.priv_dim = self._view.dim
-        self.actor_dim = self.frame_dim * cfg.history
+        # the plant's columns (training: the true rows; deployed: the window's fit)
+        self.plant_dim, self._rig, self._true_plant, self.identifier = 0, None, False, None
+        self.window = None  # deployed with plant_features: (in the window (N,), its actions (N, 2))
+        if cfg.plant_features:
+            from cepam_gym.control.baseline import rig_model_of
+            from cepam_gym.identify.window_identifier import plant_dim
+
+            self._rig = rig_model_of(env)
+            self.plant_dim = plant_dim(self._rig.nominal)
+        self._plant_last: np.ndarray | None = None
+        self._plant_rows_now: np.ndarray | None = None  # the told plant's rows (N, N_PARAMS)
+        self._plant_weight: np.ndarray | None = None  # its filtered load estimate [N]; NaN: new episode
+        self.actor_dim = self.frame_dim * cfg.history + self.plant_dim
         self.dim = self.actor_dim + self.priv_dim
         self._priv_last: np.ndarray | None = None  # the rows before the latest autoreset
         self._hist: np.ndarray | None = None  # (N, history, frame_dim)
@@ -117,6 +136,7 @@ class Features:
             and self.cfg.history == 1
             and not self.cfg.obs_filters_s
             and not self.priv_dim
+            and not self.plant_dim
         )
 
     @property
@@ -124,8 +144,18 @@ class Features:
         """The baseline acts in :meth:`action` (after the policy), not in :meth:`__call__`."""
         return self.cfg.target_shift
 
+    def use_true_plant(self) -> None:
+        """Training: the plant columns are the env's true plant (read from its model each step)."""
+        self._true_plant = True
+
     def reset(self, indices=None) -> None:
         """Forget the state of all envs, or of ``indices`` (their episodes ended)."""
+        if self.identifier is not None:
+            self.identifier.reset(indices)
+        self._forget(indices)
+
+    def _forget(self, indices=None) -> None:
+        """Forget the frames' state (history, filters, baseline) of all envs or of ``indices``."""
         if self.baseline is not None:
             self.baseline.reset(indices)
         if indices is None or self._fresh is None:
@@ -140,6 +170,10 @@ class Features:
             self._shift = None
         else:
             self._shift[np.asarray(indices)] = np.nan
+        if indices is None or self._plant_weight is None:
+            self._plant_weight = None
+        else:
+            self._plant_weight[np.asarray(indices)] = np.nan
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Features (N, dim) float32 and the baseline's action (N, 2) (None without a baseline)
@@ -148,11 +182,14 @@ class Features:
         if obs.ndim != 2 or obs.shape[1] != self.raw_dim:
             raise ValueError(f"observation must have shape (N, {self.raw_dim}), got {obs.shape}")
         self._obs = obs
+        plant = self._plant_rows(obs) if self.plant_dim else None
         base = self.baseline.act(obs) if (self.baseline is not None and not self.acts_late) else None
         frame = np.concatenate([obs, base], axis=1) if self.cfg.baseline_in_obs else obs
         if self.cfg.setpoint_gaps_in_obs:
             gap = (self.baseline.last_gap / _GAP_UNIT_PA).astype(np.float32)
             frame = np.concatenate([frame, gap], axis=1)
+            if plant is not None:
+                frame = np.concatenate([frame, self._plant_gaps(obs)], axis=1)
         if self._shift_obs:
             state = (
                 np.zeros((obs.shape[0], self.n_shift))
@@ -181,10 +218,51 @@ class Features:
                 self._hist[self._fresh] = frame[self._fresh, None]
                 self._fresh[:] = False
                 self._hist = np.concatenate([self._hist[:, 1:], frame[:, None]], axis=1)
-            f = self._hist.reshape(n, self.actor_dim).astype(np.float32)
+            f = self._hist.reshape(n, self.frame_dim * self.cfg.history).astype(np.float32)
+        if plant is not None:
+            f = np.concatenate([f, plant], axis=1)
         if self.priv_dim:
             f = np.concatenate([f, self._privileged_rows(n)], axis=1)
         return f, base
+
+    def _plant_gaps(self, obs: np.ndarray) -> np.ndarray:
+        """The set-point gaps (N, 2) [100 kPa] of the told plant's inverse static model: its load
+        estimate from the measured force, filtered as the baseline's, its set-points for the
+        targets, minus the measured pressures."""
+        from cepam_gym.physics import api
+        from cepam_gym.physics import layout as ix
+
+        b, rows = self.baseline, self._plant_rows_now
+        L, pc, pe, L_t, K_t = b._decode(np.asarray(obs, dtype=float))
+        w_now = -api.force(L, pc, pe, rows)
+        w = self._plant_weight
+        if w is None or w.shape[0] != len(w_now):
+            w = np.full(len(w_now), np.nan)
+        w = np.where(np.isnan(w), w_now, w + b.alpha * (w_now - w))
+        self._plant_weight = w
+        weight = np.maximum(w, rows[:, ix.M_END] * rows[:, ix.GRAV])
+        pc_set, pe_set = b.setpoints(L_t, K_t, weight, rows)
+        return (np.stack([pc_set - pc, pe_set - pe], axis=1) / _GAP_UNIT_PA).astype(np.float32)
+
+    def _plant_rows(self, obs: np.ndarray) -> np.ndarray:
+        """The plant's columns (N, plant_dim) for this step; deployed, steps the window's
+        identification first (its excitation in :attr:`window`; an env whose tracking starts now
+        begins its frames afresh: the window's frames are another episode's)."""
+        from cepam_gym.identify.window_identifier import WindowIdentifier, plant_columns
+
+        if self._true_plant:
+            if not (self._peeking and self._plant_last is not None):
+                self._plant_rows_now = np.array(self._rig.params)
+                self._plant_last = plant_columns(self._plant_rows_now, self._rig.nominal)
+            return self._plant_last
+        if self.identifier is None:
+            self.identifier = WindowIdentifier(self._rig, "an agent with agent.plant_features")
+        actions, in_window, starts = self.identifier.step(np.asarray(obs, dtype=np.float64))
+        if starts.any():
+            self._forget(np.flatnonzero(starts))
+        self.window = (in_window, actions)
+        self._plant_rows_now = self.identifier.rows
+        return plant_columns(self.identifier.rows, self._rig.nominal)
 
     def _privileged_rows(self, n: int) -> np.ndarray:
         if self.privileged is None:  # deployed: nothing privileged exists
@@ -221,6 +299,8 @@ class Features:
             copy(self._ema),
             copy(self._ema_fresh),
             self._priv_last,
+            self._plant_last,
+            copy(self._plant_weight),
         )
 
     def _restore(self, saved) -> None:
@@ -233,6 +313,8 @@ class Features:
             self._ema,
             self._ema_fresh,
             self._priv_last,
+            self._plant_last,
+            self._plant_weight,
         ) = saved
         if self.baseline is not None:
             self.baseline.set_state(b)
@@ -311,4 +393,6 @@ def make_agent_vec_env(venv, cfg: AgentConfig):
         return venv
     if features.priv_dim:  # training: the privileged columns come from this env
         features.privileged = features._view
+    if features.plant_dim:  # training: the actor is told this env's true plant
+        features.use_true_plant()
     return AgentVecEnv(venv, features)

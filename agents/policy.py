@@ -81,6 +81,9 @@ class AgentPolicy:
         else:
             a, _ = self.model.predict(f, deterministic=True)
         out = self.features.action(np.asarray(a, dtype=np.float32).reshape(len(o), -1), base)
+        if self.features.window is not None:  # the identification window's excitation drives there
+            in_window, excitation = self.features.window
+            out = np.where(in_window[:, None], excitation, out).astype(np.float32)
         return out[0] if single else out
 
 

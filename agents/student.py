@@ -139,6 +139,8 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
         teacher = make_controller(cfg.student.teacher, venv, **cfg.student.teacher_options)
         env_model = model_of(venv)
         features = Features(venv, cfg.agent, env_model.obs_dim)
+        if features.plant_dim:  # the student is told the true plant (deployed: the window's fit)
+            features.use_true_plant()
         rng = np.random.default_rng(seed)
         obs, info = venv.reset(seed=seed)
         teacher.reset()

@@ -55,7 +55,7 @@ def test_its_fit_has_no_time_budget_unless_given_one():
     """By default a fit is bounded by its evaluations only (the score then does not depend on the
     machine); a time budget of 0 s stops each fit at once, on its starting point."""
     venv = _window_env(2, 1.5)
-    assert make_controller("identify_mpc", venv).budget_s is None
+    assert make_controller("identify_mpc", venv).identifier.budget_s is None
     ctrl = make_controller("identify_mpc", venv, max_nfev=3, budget_s=0.0)
     obs, info = venv.reset(seed=1)
     for _ in range(ctrl.window + 1):
@@ -114,3 +114,53 @@ def test_it_beats_the_mpc_on_the_window_suite():
     mpc, _ = run_suite("mpc", suite, episodes=2, max_steps=200)
     assert ident["failure_rate"] == 0.0
     assert ident["score"] < 0.7 * mpc["score"], (ident["score"], mpc["score"])
+
+
+def _window_logs(suite, episodes: int, seed: int) -> list:
+    """The windows' logs ``(commands, measured, supply)`` of a suite's first episodes as
+    identify_mpc records them (its fits replaced by taking the log)."""
+    venv = gym.make_vec(suite.env_id, num_envs=episodes, **suite.env_kwargs)
+    ident = make_controller("identify_mpc", venv).identifier
+    logs = {}
+    ident._fit = lambda i: logs.setdefault(i, (ident._cmd[i].copy(), ident._meas[i].copy(), ident._supply[i].copy()))
+    obs, _ = venv.reset(seed=seed)
+    for _ in range(ident.window + 1):
+        obs, *_ = venv.step(ident.step(obs)[0])
+    venv.close()
+    return [logs[i] for i in range(episodes)], ident
+
+
+@pytest.mark.slow
+def test_the_staged_fit_leaves_the_corner_where_friction_stands_in_for_the_braid_angles():
+    """On one plant of twenty (an unseen seed's 12th episode) the direct fit settles at twice the
+    noise floor's cost: the friction doubled, the braid angles off by up to 8 %, the stiffness
+    tracked 10 % off. Fitting the dynamics first with the statics held lands at the floor; the
+    staged fit keeps the better of the two."""
+    import dataclasses
+
+    from cepam_gym.identify.window_fit import fit_window, fit_window_staged, window_recording
+    from cepam_gym.physics import api
+
+    suite = dataclasses.replace(SUITES["randomized-id-v2"], seed=99000)
+    logs, ident = _window_logs(suite, 12, suite.seed)
+    cmd, meas, supply = logs[11]
+    rec = window_recording(cmd, meas, supply, ident.dt)
+    pc, pe, L = meas[0]
+    hanging = -float(api.force(np.array([L]), np.array([pc]), np.array([pe]), ident.params)[0])
+    start = ident.nominal.replace(end_mass=float(np.clip(hanging / ident.params[ix.GRAV], 0.005, 0.4)))
+    direct = fit_window(rec, start, ident.action_mode, ident.sub_dt, max_nfev=100)
+    staged = fit_window_staged(rec, start, ident.action_mode, ident.sub_dt, max_nfev=100)
+    # measured: direct 0.72, staged 0.34 (the true plant's cost on this log: 0.34)
+    assert staged.cost < 0.6 * direct.cost, (direct.cost, staged.cost)
+    assert staged.evaluations > direct.evaluations  # it ran the direct fit too, and counts it
+
+
+def test_the_staged_fit_is_never_worse_than_the_direct_one():
+    from cepam_gym.identify.window_fit import fit_window, fit_window_staged, window_recording
+
+    logs, ident = _window_logs(SUITES["randomized-id-v2"], 2, 7)
+    for cmd, meas, supply in logs:
+        rec = window_recording(cmd[:150], meas[:150], supply[:150], ident.dt)
+        direct = fit_window(rec, ident.nominal, ident.action_mode, ident.sub_dt, max_nfev=8)
+        staged = fit_window_staged(rec, ident.nominal, ident.action_mode, ident.sub_dt, max_nfev=8)
+        assert staged.cost <= direct.cost and staged.start_cost == direct.start_cost

@@ -121,9 +121,10 @@ class InverseStaticController:
         target_k = v["target_stiffness"] if self.layout.has("target_stiffness") else None
         return v["length"], v["pressure_c"], v["pressure_e"], v["target_length"], target_k
 
-    def setpoints(self, L_target, K_target, weight):
-        """Projected inverse static model: gauge pressures ``(Pc*, Pe*)`` [Pa] (arrays)."""
-        p = self.params
+    def setpoints(self, L_target, K_target, weight, params=None):
+        """Projected inverse static model: gauge pressures ``(Pc*, Pe*)`` [Pa] (arrays) of the
+        nominal plant, or of ``params`` (one row per element of the 1-D arguments)."""
+        p = self.params if params is None else params
         L_target = np.asarray(L_target, dtype=float)
         k_lo, k_hi = stiffness_interval(L_target, weight, weight, p, self.task)
         reachable = k_hi > k_lo

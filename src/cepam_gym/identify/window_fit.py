@@ -145,14 +145,16 @@ def fit_window(
     starts: int = 1,
     short_nfev: int = 12,
     seed: int = 0,
+    around: PlantParams | None = None,
 ) -> WindowFit:
     """Fit ``names`` of ``nominal`` to the window's recording ``rec``: from the nominal plant
     (``starts > 1``: and seeded random points of the bounds, ``short_nfev`` evaluations each, the
     best then polished), ``max_nfev`` evaluations of the polish at most; with a ``budget_s``, stops
-    at that many seconds whatever the stage, with the best parameters evaluated."""
+    at that many seconds whatever the stage, with the best parameters evaluated. The bounds are
+    :func:`bounds_around` ``around`` (default ``nominal``, the start)."""
     t0 = time.perf_counter()
     grid = resample(rec, grid_steps(rec, sub_dt) * sub_dt)
-    bounds = bounds_around(nominal, names)
+    bounds = bounds_around(nominal if around is None else around, names)
     problem = Problem(
         [grid], [grid_steps(rec, sub_dt)], sub_dt, nominal, mode, tuple(names), warmup_s, bounds
     )
@@ -198,5 +200,59 @@ def fit_window(
         start_cost=start_cost,
         cost=min(best["cost"], start_cost),
         evaluations=best["n"],
+        seconds=time.perf_counter() - t0,
+    )
+
+
+# the parameters that set the force at given pressures; the rest set how the pressures and the
+# length move (the valves, volumes, heat, friction, damping)
+STATICS = (
+    "cpam_rest_angle",
+    "epam_sleeve_free_angle",
+    "bladder_thickness",
+    "bladder_shear_modulus",
+    "epam_thread_compliance",
+    "cpam_thread_compliance",
+)
+DYNAMICS_FIRST_NFEV = 40  # the staged fit's first stage
+
+
+def fit_window_staged(
+    rec: Recording,
+    start: PlantParams,
+    mode: str = "valve",
+    sub_dt: float = 5e-4,
+    names=FREE,
+    budget_s: float | None = None,
+    max_nfev: int = 100,
+    starts: int = 1,
+) -> WindowFit:
+    """The better (lower cost) of two fits of ``names`` from ``start``: :func:`fit_window` itself,
+    and a staged one that first fits the dynamics and the moving mass with the statics
+    (:data:`STATICS`) held at ``start`` (at most :data:`DYNAMICS_FIRST_NFEV` evaluations), then
+    everything from there. The direct fit can settle where the friction stands in for the braid
+    angles (a local minimum at twice the noise floor's cost, on about one plant in twenty of
+    ``randomized-v2``); holding the statics first keeps it from that corner, and the direct fit
+    does better on others, so both run. Bounds stay around ``start``; ``budget_s`` (None: none)
+    covers both fits."""
+    t0 = time.perf_counter()
+
+    def left():
+        return None if budget_s is None else max(0.0, budget_s - (time.perf_counter() - t0))
+
+    direct = fit_window(rec, start, mode, sub_dt, names, left(), max_nfev, starts=starts)
+    first_names = tuple(n for n in names if n not in STATICS)
+    if not first_names or len(first_names) == len(names):
+        return direct
+    first = fit_window(rec, start, mode, sub_dt, first_names, left(), DYNAMICS_FIRST_NFEV, around=start)
+    staged = fit_window(rec, first.params, mode, sub_dt, names, left(), max_nfev, around=start)
+    best = staged if staged.cost < direct.cost else direct
+    return WindowFit(
+        params=best.params,
+        names=best.names,
+        values=best.values,
+        start_cost=direct.start_cost,
+        cost=best.cost,
+        evaluations=direct.evaluations + first.evaluations + staged.evaluations,
         seconds=time.perf_counter() - t0,
     )

@@ -1,0 +1,195 @@
+"""The identification window's side of a sensor-only controller: excite, log, fit.
+
+On an env whose episodes start with an identification window (:mod:`cepam_gym.tasks.window`),
+per env and from the sensors only:
+
+1. **in the window** it plays the project's excitation (:func:`cepam_gym.identify.excite.schedule`
+   at the control rate: chamber exhaust, valve anchors, pressure steps, chirps, pseudo-random
+   binary sequences) and logs what it sent and what the sensors read (both pressures, the length,
+   the supply). A guard keeps the excitation within the bladder's limits: a chamber measured
+   above :data:`GUARD` of the nominal burst pressure is vented, and within 10 % below it may not
+   be filled (the log keeps the commands actually sent, so the fit sees them);
+2. **at the window's end** it fits the plant to the log:
+   :func:`cepam_gym.identify.window_fit.fit_window`, the project's output-error identification
+   with the static parameters that carry the randomization's gap freed, the moving mass (the load
+   is not announced) and the valve, friction, volume and damping parameters.
+
+Two controllers use it: ``identify_mpc`` (the MPC planning through the fitted plant) and a trained
+agent given the plant (``agent.plant_features``: :func:`plant_columns` of the fitted row). It reads
+only the env model's fixed facts (the nominal plant, the timing, the window's length, the
+observation layout), never the privileged rows.
+"""
+
+from __future__ import annotations
+
+import time
+import numpy as np
+
+from ..control.baseline import UnsupportedEnvError
+from ..physics import api
+from ..physics import layout as ix
+from .excite import EXHAUST_S, schedule
+from .window_fit import FREE, fit_window, fit_window_staged, window_recording
+
+GUARD = 0.75  # vent a chamber measured above this fraction of the nominal burst pressure
+VENT = -0.5  # the venting command
+NO_WINDOW = (
+    "needs episodes that start with an identification window (task option id_window_s, e.g. the "
+    "suite randomized-id-v2)"
+)
+
+
+class WindowIdentifier:
+    """``step(obs)`` once per control step on a batch of observations; ``rows`` (N, N_PARAMS) the
+    plant each env is believed to be (the nominal row until its window has been fitted, then the
+    fit with the nominal end cap: the fitted moving mass carried the window's load, which a
+    controller estimates on its own). ``max_nfev``, ``budget_s``, ``starts``, ``free``: the fit's
+    (:func:`~cepam_gym.identify.window_fit.fit_window`); ``staged``: the better of that fit and a
+    staged one (:func:`~cepam_gym.identify.window_fit.fit_window_staged`)."""
+
+    def __init__(
+        self,
+        model,
+        who: str = "this controller",
+        budget_s: float | None = None,
+        max_nfev: int = 100,
+        starts: int = 1,
+        free: tuple[str, ...] = FREE,
+        seed: int = 0,
+        staged: bool = True,
+    ):
+        self.window = int(model.window_steps)
+        if self.window < 2:
+            raise UnsupportedEnvError(f"{who} {NO_WINDOW}")
+        self.layout = model.obs_layout
+        self.nominal = model.nominal
+        self.params = model.nominal.to_array()
+        self.dt = float(model.control_dt)
+        self.action_mode, self.sub_dt = model.action_mode, model.sub_dt
+        seconds = self.window * self.dt
+        # the schedule's shortest is its exhaust and a second more; a shorter window plays its start
+        seconds = max(seconds, EXHAUST_S + 1.0) + self.dt
+        cols = schedule(duration_s=seconds, rate_hz=1.0 / self.dt, mode=self.action_mode, seed=seed)
+        self.excitation = np.column_stack([cols["command_c"], cols["command_e"]])[: self.window]
+        self.budget_s = None if budget_s is None else float(budget_s)
+        self.max_nfev, self.free, self.starts = int(max_nfev), tuple(free), int(starts)
+        self.staged = bool(staged)
+        self.p_guard = GUARD * self.nominal.burst_pressure
+        self.fits: list = []  # every fit of its life (WindowFit), for reports
+        self.fit_seconds = 0.0
+        self.k = None  # control steps each env has taken in its episode
+
+    def reset(self, indices=None) -> None:
+        """Start new episodes: all envs, or ``indices``."""
+        if indices is None or self.k is None:
+            self.k = None
+            return
+        idx = np.asarray(indices)
+        self.k[idx] = 0
+        self.rows[idx] = self.params
+
+    def _init(self, n: int) -> None:
+        self.k = np.zeros(n, dtype=np.int64)
+        self._cmd = np.zeros((n, self.window, 2))
+        self._meas = np.zeros((n, self.window, 3))
+        self._supply = np.zeros((n, self.window))
+        self.rows = np.repeat(self.params[None], n, axis=0)
+
+    def step(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance every env one control step on ``obs`` (N, obs_dim): ``(actions (N, 2), in the
+        window (N,) bool, tracking starts now (N,) bool)``. The actions are the excitation's for
+        the envs in their window (zero elsewhere); an env whose window has just ended is fitted
+        here, before its first tracking step."""
+        n = obs.shape[0]
+        if self.k is None or len(self.k) != n:
+            self._init(n)
+        v = self.layout.decode(obs)
+        pc, pe, L = v["pressure_c"], v["pressure_e"], v["length"]
+        out = np.zeros((n, 2), dtype=np.float32)
+        k = self.k
+        in_window = k < self.window
+        win = np.flatnonzero(in_window)
+        if win.size:
+            kw = k[win]
+            self._meas[win, kw] = np.column_stack([pc[win], pe[win], L[win]])
+            self._supply[win, kw] = v["supply_pressure"][win]
+            a = self._excite(kw, pc[win], pe[win])
+            self._cmd[win, kw] = a
+            out[win] = a
+        starts = k == self.window
+        t0 = time.perf_counter()
+        for i in np.flatnonzero(starts):
+            self._fit(int(i))
+        if starts.any():
+            self.fit_seconds = time.perf_counter() - t0
+        self.k += 1
+        return out, in_window, starts
+
+    def _excite(self, k, pc, pe) -> np.ndarray:
+        """The excitation's commands of steps ``k``, guarded against bursts."""
+        a = self.excitation[k].copy()
+        for c, p in ((0, pc), (1, pe)):
+            near = p > self.p_guard - 0.1 * self.nominal.burst_pressure
+            a[:, c] = np.where(p > self.p_guard, VENT, np.where(near, np.minimum(a[:, c], 0.0), a[:, c]))
+        return a
+
+    def _fit(self, i: int) -> None:
+        rec = window_recording(self._cmd[i], self._meas[i], self._supply[i], self.dt)
+        # the fit starts from the nominal plant holding the weight its static balance reads at the
+        # window's first sample (at rest): the load, unannounced, is most of the moving mass
+        pc, pe, L = self._meas[i, 0]
+        hanging = -float(api.force(np.array([L]), np.array([pc]), np.array([pe]), self.params)[0])
+        start = self.nominal.replace(end_mass=float(np.clip(hanging / self.params[ix.GRAV], 0.005, 0.4)))
+        fit = (fit_window_staged if self.staged else fit_window)(
+            rec,
+            start,
+            self.action_mode,
+            self.sub_dt,
+            self.free,
+            budget_s=self.budget_s,
+            max_nfev=self.max_nfev,
+            starts=self.starts,
+        )
+        row = fit.params.to_array()
+        row[ix.M_END] = self.params[ix.M_END]
+        self.rows[i] = row
+        self.fits.append(fit)
+
+
+_COLUMNS: dict[bytes, tuple[int, ...]] = {}
+
+
+def _columns(nominal) -> tuple[int, ...]:
+    """The parameter row's columns the window's fit moves (its free names but the moving mass,
+    which carries the load): found by moving each name by a few percent."""
+    from ..validation.fitcore import apply
+    from .dynamic_params import ALL_PARAMS
+
+    base = nominal.to_array()
+    key = base.tobytes()
+    if key not in _COLUMNS:
+        cols: set[int] = set()
+        for name in FREE:
+            if name == "end_mass":
+                continue
+            value = ALL_PARAMS[name].get(nominal)
+            moved = apply(ALL_PARAMS, nominal, [name], [value * 1.05 if value else 1e-3]).to_array()
+            cols |= set(np.flatnonzero(moved != base).tolist())
+        cols -= {ix.M_END}
+        _COLUMNS[key] = tuple(sorted(c for c in cols if base[c] > 0))
+    return _COLUMNS[key]
+
+
+def plant_columns(rows: np.ndarray, nominal) -> np.ndarray:
+    """What a policy is told of the plant: ``log(row / nominal)`` (N, k) float32 of the columns the
+    window's fit moves (0 for the nominal plant), clipped to +-2. Training reads the true rows, a
+    deployed agent its window's fitted rows (:class:`WindowIdentifier`)."""
+    cols = list(_columns(nominal))
+    base = nominal.to_array()[cols]
+    r = np.log(np.maximum(np.asarray(rows)[:, cols], 1e-300) / base)
+    return np.clip(np.nan_to_num(r), -2.0, 2.0).astype(np.float32)
+
+
+def plant_dim(nominal) -> int:
+    """The number of :func:`plant_columns`."""
+    return len(_columns(nominal))
