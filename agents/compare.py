@@ -3,11 +3,14 @@ table.
 
     python -m cepam_gym_agents.compare --config student --seeds 5 --jobs 2
     python -m cepam_gym_agents.compare --config student --config quick --seeds 5 --report-only
+    python -m cepam_gym_agents.compare --config student_adaptive --suite randomized-id-v2 \
+        --controller baseline --controller identify_mpc --controller mpc_known_params --controller oracle
 
 Each config is trained once per seed (``cepam-gym train --config C --seed S``, its own process, one
 numba thread; ``--jobs 2`` runs two at a time) into ``--out/<config>-s<seed>``, then its final model
 is scored on each suite's own 20 episodes and on 20 episodes of an unseen seed (``--unseen-seed``),
-beside the baseline and the oracle on the same episodes (and the MPCs on the suites' episodes).
+beside the baseline and the oracle on the same episodes (and the MPCs on the suites' episodes;
+``--suite`` and ``--controller`` choose others: then the controllers run on both episode sets).
 Per config and suite: the interquartile mean over seeds with a 95 % stratified-bootstrap interval
 (Agarwal et al. 2021, :mod:`cepam_gym.bench.stats`), and its headline score, the share of the
 baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score`). Written to
@@ -66,24 +69,33 @@ def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
     return float(run_suite(spec, s, episodes)[0]["score"])
 
 
-def measure(configs, seeds, out: Path, unseen: int, cache: dict) -> dict:
-    """Scores of every run and controller (``cache``: what an earlier call measured, kept)."""
-    for suite in SUITES:
-        for where, seed, names in (("suite", None, CONTROLLERS), ("unseen", unseen, UNSEEN_CONTROLLERS)):
-            for name in names:
+def measure(configs, seeds, out: Path, unseen: int, cache: dict, suites=SUITES, controllers=None) -> dict:
+    """Scores of every run and controller (``cache``: what an earlier call measured, kept);
+    ``controllers`` (None: :data:`CONTROLLERS`, and :data:`UNSEEN_CONTROLLERS` on the unseen seed)."""
+    for suite in suites:
+        for where, seed in (("suite", None), ("unseen", unseen)):
+            for name in _controllers(where, controllers):
                 key = f"{suite}|{where}|{name}"
                 if key not in cache:
                     cache[key] = score(name, suite, seed)
+                    (out / "compare.json").write_text(json.dumps(cache, indent=1))
             for c in configs:
                 for s in seeds:
                     key = f"{suite}|{where}|{Path(c).stem}-s{s}"
                     if key not in cache:
                         cache[key] = score(str(out / f"{Path(c).stem}-s{s}"), suite, seed)
-        (out / "compare.json").write_text(json.dumps(cache, indent=1))
+                        (out / "compare.json").write_text(json.dumps(cache, indent=1))
     return cache
 
 
-def table(configs, seeds, cache: dict) -> str:
+def _controllers(where: str, controllers) -> tuple:
+    """The controllers scored on an episode set (the headline needs the baseline and the oracle)."""
+    if controllers is None:
+        return CONTROLLERS if where == "suite" else UNSEEN_CONTROLLERS
+    return tuple(dict.fromkeys(("baseline", *controllers, "oracle")))
+
+
+def table(configs, seeds, cache: dict, suites=SUITES, controllers=None) -> str:
     import numpy as np
 
     from cepam_gym.bench.headline import headline_score
@@ -93,15 +105,14 @@ def table(configs, seeds, cache: dict) -> str:
         "| suite | episodes | controller | score (IQM over seeds, 95 % CI) | headline (gap closed) |",
         "|---|---|---|---|---|",
     ]
-    for suite in SUITES:
+    for suite in suites:
         for where in ("suite", "unseen"):
             base, orc = cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"]
 
             def gap(v, base=base, orc=orc):
                 return f"{headline_score(v, base, orc):.0f}"
 
-            names = CONTROLLERS if where == "suite" else UNSEEN_CONTROLLERS
-            for name in names:
+            for name in _controllers(where, controllers):
                 v = cache[f"{suite}|{where}|{name}"]
                 lines.append(f"| {suite} | {where} | {name} | {v:.4f} | {gap(v)} |")
             for c in configs:
@@ -131,9 +142,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
     ap.add_argument("--out", default="runs/compare", help="run directories and the results")
     ap.add_argument("--report-only", action="store_true", help="score and report the runs already trained")
+    ap.add_argument(
+        "--suite", action="append", help=f"a suite to score on (repeatable; default {', '.join(SUITES)})"
+    )
+    ap.add_argument(
+        "--controller",
+        action="append",
+        help="a registered controller to score beside the agents, on both episode sets (repeatable; "
+        "the baseline and the oracle always are); default: the MPCs on the suites' episodes",
+    )
     args = ap.parse_args(argv)
     if args.seeds < 1 or args.jobs < 1:
         ap.error("--seeds and --jobs must be >= 1")
+    from cepam_gym.bench.suites import SUITES as ALL
+    from cepam_gym.control import controller_names
+
+    suites = tuple(args.suite or SUITES)
+    for name in suites:
+        if name not in ALL:
+            ap.error(f"unknown suite {name!r}; one of {', '.join(sorted(ALL))}")
+    for name in args.controller or ():
+        if name not in controller_names():
+            ap.error(f"unknown controller {name!r}; one of {', '.join(controller_names())}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.seeds))
@@ -141,8 +171,8 @@ def main(argv: list[str] | None = None) -> int:
         train_runs(args.config, seeds, out, args.jobs)
     path = out / "compare.json"
     cache = json.loads(path.read_text()) if path.is_file() else {}
-    cache = measure(args.config, seeds, out, args.unseen_seed, cache)
-    md = table(args.config, seeds, cache)
+    cache = measure(args.config, seeds, out, args.unseen_seed, cache, suites, args.controller)
+    md = table(args.config, seeds, cache, suites, args.controller)
     (out / "compare.md").write_text(md)
     print(md)
     return 0

@@ -193,6 +193,26 @@ def test_comparison_table_gives_iqm_and_the_gap_closed():
     assert "no IQM under 5 seeds" in one and "| 10 |" in one
 
 
+def test_comparison_on_chosen_suites_scores_the_chosen_controllers_on_both_episode_sets(tmp_path, capsys):
+    """``--suite``/``--controller``: the controllers (with the baseline and the oracle) are scored
+    on the suite's and the unseen seed's episodes; the cache is kept between calls."""
+    from cepam_gym_agents import compare
+
+    cache = {}
+    for where in ("suite", "unseen"):
+        cache[f"randomized-id-v2|{where}|baseline"], cache[f"randomized-id-v2|{where}|oracle"] = 1.0, 0.0
+        cache[f"randomized-id-v2|{where}|identify_mpc"] = 0.25
+    got = compare.measure([], [], tmp_path, 99000, dict(cache), ("randomized-id-v2",), ["identify_mpc"])
+    assert got == cache  # nothing left to score: the cache answered every key
+    md = compare.table([], [], cache, ("randomized-id-v2",), ["identify_mpc"])
+    rows = [r for r in md.splitlines() if "identify_mpc" in r]
+    assert len(rows) == 2 and all("0.2500 | 75 |" in r for r in rows), rows
+    for bad, words in ((["--suite", "moon"], "unknown suite 'moon'"), (["--controller", "pid"], "unknown controller 'pid'")):
+        with pytest.raises(SystemExit):
+            compare.main(["--config", "student", "--report-only", "--out", str(tmp_path), *bad])
+        assert words in capsys.readouterr().err
+
+
 def test_base_controller_config_is_checked():
     with pytest.raises(ConfigError, match="agent.base_controller must be a registered controller"):
         TrainConfig.from_dict(
