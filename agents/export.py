@@ -22,7 +22,8 @@ Inputs ``obs`` (batch, obs_dim) float32 and (with history) ``history``; outputs 
 Refused with one line (``InputError``): recurrent policies (RecurrentPPO: its LSTM state), and
 agents with a controller in the loop (``residual``, ``target_shift``, ``baseline_in_obs``,
 ``setpoint_gaps_in_obs``: the baseline is numpy code with its own state), observation filters
-(``obs_filters_s``) and agents told the identified plant (``plant_features``: a fit per episode). Those deploy by running the controller (``cepam-gym deploy``), not a file.
+(``obs_filters_s``) and agents told the identified plant (``plant_features``: a fit per
+episode). Those deploy by running the controller (``cepam-gym deploy``), not a file.
 """
 
 from __future__ import annotations

@@ -207,7 +207,10 @@ def test_comparison_on_chosen_suites_scores_the_chosen_controllers_on_both_episo
     md = compare.table([], [], cache, ("randomized-id-v2",), ["identify_mpc"])
     rows = [r for r in md.splitlines() if "identify_mpc" in r]
     assert len(rows) == 2 and all("0.2500 | 75 |" in r for r in rows), rows
-    for bad, words in ((["--suite", "moon"], "unknown suite 'moon'"), (["--controller", "pid"], "unknown controller 'pid'")):
+    for bad, words in (
+        (["--suite", "moon"], "unknown suite 'moon'"),
+        (["--controller", "pid"], "unknown controller 'pid'"),
+    ):
         with pytest.raises(SystemExit):
             compare.main(["--config", "student", "--report-only", "--out", str(tmp_path), *bad])
         assert words in capsys.readouterr().err

@@ -171,7 +171,9 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
         raise InputError(_unknown(name, loaders))
     if kwargs:
         # a trained agent's options are its run's: dropping these would score something else
-        raise InputError(f"controller {name!r} is a trained agent and takes no options (given {sorted(kwargs)})")
+        raise InputError(
+            f"controller {name!r} is a trained agent and takes no options (given {sorted(kwargs)})"
+        )
     if is_joint_env(env) and not _batched(env):
         raise InputError(
             f"controller {name!r}: a trained agent cannot drive the MuJoCo joint env "

@@ -23,11 +23,13 @@ observation layout), never the privileged rows.
 from __future__ import annotations
 
 import time
+
 import numpy as np
 
 from ..control.baseline import UnsupportedEnvError
 from ..physics import api
 from ..physics import layout as ix
+from ..plant.params import PlantParams
 from .excite import EXHAUST_S, schedule
 from .window_fit import FREE, fit_window, fit_window_staged, window_recording
 
@@ -133,16 +135,19 @@ class WindowIdentifier:
             a[:, c] = np.where(p > self.p_guard, VENT, np.where(near, np.minimum(a[:, c], 0.0), a[:, c]))
         return a
 
+    def start_of(self, first) -> PlantParams:
+        """The plant a fit starts from, given the window's first sample ``(pc, pe, L)`` (at rest):
+        the nominal plant holding the weight its static balance reads there (the load, not
+        announced, is most of the moving mass)."""
+        pc, pe, L = first
+        hanging = -float(api.force(np.array([L]), np.array([pc]), np.array([pe]), self.params)[0])
+        return self.nominal.replace(end_mass=float(np.clip(hanging / self.params[ix.GRAV], 0.005, 0.4)))
+
     def _fit(self, i: int) -> None:
         rec = window_recording(self._cmd[i], self._meas[i], self._supply[i], self.dt)
-        # the fit starts from the nominal plant holding the weight its static balance reads at the
-        # window's first sample (at rest): the load, unannounced, is most of the moving mass
-        pc, pe, L = self._meas[i, 0]
-        hanging = -float(api.force(np.array([L]), np.array([pc]), np.array([pe]), self.params)[0])
-        start = self.nominal.replace(end_mass=float(np.clip(hanging / self.params[ix.GRAV], 0.005, 0.4)))
         fit = (fit_window_staged if self.staged else fit_window)(
             rec,
-            start,
+            self.start_of(self._meas[i, 0]),
             self.action_mode,
             self.sub_dt,
             self.free,
