@@ -408,7 +408,7 @@ class TrainConfig:
         if d.get("student") is not None and algo != "PPO":
             raise ConfigError(f"a student is saved as a PPO policy: algorithm must be PPO, not {algo}")
         learner = _learner(d.get("learner", cls.learner), algo, hp, agent, d.get("student"))
-        return cls(
+        out = cls(
             algorithm=algo,
             learner=learner,
             total_timesteps=as_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
@@ -427,9 +427,46 @@ class TrainConfig:
             else as_float(d["time_limit_minutes"], "time_limit_minutes", 0.0),
             student=StudentConfig.parse(d.get("student")),
         )
+        if agent.plant_features:
+            _check_plant_features(out)
+        return out
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     def replace(self, **changes) -> TrainConfig:
         return dataclasses.replace(self, **changes)
+
+
+def _has_window(env_kwargs: dict) -> bool:
+    """Whether env kwargs start each episode with an identification window."""
+    options = env_kwargs.get("task_options") or {}
+    return float(options.get("id_window_s", 0.0) or 0.0) > 0.0
+
+
+def _check_plant_features(cfg: TrainConfig) -> None:
+    """An agent told the plant trains on the true plant (no window: the teacher and the agent
+    would drive the window, told the plant from its first step) and is evaluated as deployed,
+    behind an identification window whose fit it is told."""
+    from cepam_gym.bench.suites import SUITES
+
+    if cfg.algorithm == "RecurrentPPO":
+        raise ConfigError(
+            "agent.plant_features is built for feed-forward policies: a recurrent policy's state would "
+            "carry the identification window's excitation into the tracking"
+        )
+    window_eval = cfg.eval.suite is not None and _has_window(SUITES[cfg.eval.suite].env_kwargs)
+    if not window_eval:
+        raise ConfigError(
+            "agent.plant_features: eval.suite must start its episodes with an identification window "
+            f"(e.g. randomized-id-v2; got {cfg.eval.suite!r}): deployed, the agent is told that window's fit"
+        )
+    trained = {"env": cfg.env.kwargs}
+    if cfg.student is not None:
+        trained.update({f"student.suites.{n}": SUITES[n].env_kwargs for n in cfg.student.suites})
+    windowed = [where for where, kwargs in trained.items() if _has_window(kwargs)]
+    if windowed:
+        raise ConfigError(
+            f"agent.plant_features trains on the true plant without a window; {', '.join(windowed)} "
+            "start episodes with an identification window (use e.g. randomized-v2)"
+        )

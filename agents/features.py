@@ -118,6 +118,7 @@ class Features:
             self.plant_dim = plant_dim(self._rig.nominal)
         self._plant_last: np.ndarray | None = None
         self._plant_rows_now: np.ndarray | None = None  # the told plant's rows (N, N_PARAMS)
+        self._plant_true: np.ndarray | None = None  # training: the true rows of the last frame
         self._plant_weight: np.ndarray | None = None  # its filtered load estimate [N]; NaN: new episode
         self.actor_dim = self.frame_dim * cfg.history + self.plant_dim
         self.dim = self.actor_dim + self.priv_dim
@@ -248,12 +249,15 @@ class Features:
         """The plant's columns (N, plant_dim) for this step; deployed, steps the window's
         identification first (its excitation in :attr:`window`; an env whose tracking starts now
         begins its frames afresh: the window's frames are another episode's)."""
-        from cepam_gym.identify.window_identifier import WindowIdentifier, plant_columns
+        from cepam_gym.identify.window_identifier import WindowIdentifier, plant_columns, told_rows
 
+        supply = self._rig.obs_layout.value(np.asarray(obs, dtype=np.float64), "supply_pressure")
         if self._true_plant:
             if not (self._peeking and self._plant_last is not None):
-                self._plant_rows_now = np.array(self._rig.params)
-                self._plant_last = plant_columns(self._plant_rows_now, self._rig.nominal)
+                self._plant_last = plant_columns(self._rig.params, self._rig.nominal)
+                self._plant_true = np.array(self._rig.params)
+            # the finished episode's plant for a terminal observation, the supply as measured
+            self._plant_rows_now = told_rows(self._plant_true, self._rig.nominal, supply)
             return self._plant_last
         if self.identifier is None:
             self.identifier = WindowIdentifier(self._rig, "an agent with agent.plant_features")
@@ -261,7 +265,7 @@ class Features:
         if starts.any():
             self._forget(np.flatnonzero(starts))
         self.window = (in_window, actions)
-        self._plant_rows_now = self.identifier.rows
+        self._plant_rows_now = told_rows(self.identifier.rows, self._rig.nominal, supply)
         return plant_columns(self.identifier.rows, self._rig.nominal)
 
     def _privileged_rows(self, n: int) -> np.ndarray:
@@ -301,6 +305,7 @@ class Features:
             self._priv_last,
             self._plant_last,
             copy(self._plant_weight),
+            self._plant_true,
         )
 
     def _restore(self, saved) -> None:
@@ -315,6 +320,7 @@ class Features:
             self._priv_last,
             self._plant_last,
             self._plant_weight,
+            self._plant_true,
         ) = saved
         if self.baseline is not None:
             self.baseline.set_state(b)

@@ -37,6 +37,8 @@ def test_plant_columns_are_zero_on_the_nominal_plant_and_never_tell_the_load():
     cols = plant_columns(model.params, nominal)
     assert cols.shape == (4, plant_dim(nominal)) and cols.dtype == np.float32
     assert (np.abs(cols) > 1e-3).sum(axis=1).min() >= 10  # every randomized plant differs in many
+    # the guide's Coulomb friction (nominal 0, randomized) is told too: in units of its tolerance
+    np.testing.assert_allclose(cols[:, -1], np.clip(model.params[:, ix.F_COUL] / 0.5, -2, 2), rtol=1e-6)
     heavier = np.array(model.params)
     heavier[:, ix.M_END] *= 3.0  # a load rides on the end mass: the columns must not carry it
     np.testing.assert_array_equal(plant_columns(heavier, nominal), cols)
@@ -55,6 +57,33 @@ def test_training_features_tell_the_true_plant():
     np.testing.assert_array_equal(x[:, -k:], plant_columns(model.params, model.nominal))
     assert f.window is None  # training: no identification, the env's actions are the policy's
     venv.close()
+
+
+@pytest.mark.parametrize(
+    "changes, words",
+    [
+        ({"eval": {"suite": "randomized-v2"}}, "eval.suite must start its episodes with an identification window"),
+        ({"eval": {}}, "got None"),
+        ({"student": {"suites": {"randomized-id-v2": 4}}}, "student.suites.randomized-id-v2 start episodes"),
+        ({"env": {"id": "cepam_gym/CEPAM-v2", "suite": "randomized-id-v2"}}, "env start episodes"),
+        ({"algorithm": "RecurrentPPO", "student": None}, "recurrent policy"),
+    ],
+)
+def test_a_config_told_the_plant_trains_without_a_window_and_evaluates_behind_one(changes, words):
+    from cepam_gym_agents.config import ConfigError
+
+    base = {
+        "algorithm": "PPO",
+        "env": {"id": "cepam_gym/CEPAM-v2", "suite": "randomized-v2"},
+        "normalize": {"obs": True},
+        "agent": {"plant_features": True},
+        "student": {"suites": {"randomized-v2": 4}},
+        "eval": {"suite": "randomized-id-v2"},
+    }
+    TrainConfig.from_dict(base)  # the shipped recipe's shape passes
+    bad = {k: v for k, v in {**base, **changes}.items() if v is not None}
+    with pytest.raises(ConfigError, match=words):
+        TrainConfig.from_dict(bad)
 
 
 def test_deployed_it_needs_an_identification_window():
@@ -82,6 +111,7 @@ def _agent(tmp_path, venv):
             "normalize": {"obs": True},
             "agent": {"history": 2, "setpoint_gaps_in_obs": True, "plant_features": True},
             "student": {"suites": {"randomized-v2": 2}, "net_arch": [16, 16]},
+            "eval": {"suite": "randomized-id-v2"},
         }
     )
     obs_dim = venv.observation_space.shape[1]

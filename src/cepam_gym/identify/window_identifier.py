@@ -161,40 +161,68 @@ class WindowIdentifier:
         self.fits.append(fit)
 
 
-_COLUMNS: dict[bytes, tuple[int, ...]] = {}
+_COLUMNS: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
-def _columns(nominal) -> tuple[int, ...]:
+def _columns(nominal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The parameter row's columns the window's fit moves (its free names but the moving mass,
-    which carries the load): found by moving each name by a few percent."""
+    which carries the load), found by moving each name: ``(ratio columns, linear columns, their
+    units)``. A column with a positive nominal value is told as a log ratio; one whose nominal
+    value is 0 (the guide's Coulomb friction) in units of the row's value at the name's
+    :data:`~cepam_gym.identify.window_fit.TOLERANCE`. Columns that move by rounding alone are not
+    told."""
     from ..validation.fitcore import apply
     from .dynamic_params import ALL_PARAMS
+    from .window_fit import TOLERANCE
 
     base = nominal.to_array()
     key = base.tobytes()
     if key not in _COLUMNS:
-        cols: set[int] = set()
+        ratio: set[int] = set()
+        linear: dict[int, float] = {}
         for name in FREE:
             if name == "end_mass":
                 continue
             value = ALL_PARAMS[name].get(nominal)
-            moved = apply(ALL_PARAMS, nominal, [name], [value * 1.05 if value else 1e-3]).to_array()
-            cols |= set(np.flatnonzero(moved != base).tolist())
-        cols -= {ix.M_END}
-        _COLUMNS[key] = tuple(sorted(c for c in cols if base[c] > 0))
+            moved = apply(ALL_PARAMS, nominal, [name], [value * 1.05 if value else TOLERANCE[name]]).to_array()
+            changed = np.abs(moved - base) > 1e-9 * np.maximum(np.abs(base), 1e-30)
+            for c in np.flatnonzero(changed):
+                if c == ix.M_END:
+                    continue
+                if base[c] > 0:
+                    ratio.add(int(c))
+                elif base[c] == 0.0:
+                    linear[int(c)] = float(moved[c])
+        lin = sorted(linear)
+        _COLUMNS[key] = (np.array(sorted(ratio)), np.array(lin, dtype=int), np.array([linear[c] for c in lin]))
     return _COLUMNS[key]
 
 
+def told_rows(rows: np.ndarray, nominal, supply_pa) -> np.ndarray:
+    """The plant a policy is told, as parameter rows (N, N_PARAMS): ``rows`` (the true plant in
+    training, the window's fit deployed) with the nominal end cap (the moving mass carries the
+    load, which no one announces) and the supply measured now (``supply_pa``, gauge)."""
+    out = np.array(rows, dtype=float)
+    base = nominal.to_array()
+    out[:, ix.M_END] = base[ix.M_END]
+    out[:, ix.P_SUP] = np.asarray(supply_pa, dtype=float) + base[ix.P_ATM]
+    return out
+
+
 def plant_columns(rows: np.ndarray, nominal) -> np.ndarray:
-    """What a policy is told of the plant: ``log(row / nominal)`` (N, k) float32 of the columns the
-    window's fit moves (0 for the nominal plant), clipped to +-2. Training reads the true rows, a
+    """What a policy is told of the plant (N, k) float32: the columns the window's fit moves, as
+    ``log(row / nominal)`` (0 for the nominal plant) and, for a column whose nominal value is 0,
+    the value over its unit (:func:`_columns`); clipped to +-2. Training reads the true rows, a
     deployed agent its window's fitted rows (:class:`WindowIdentifier`)."""
-    cols = list(_columns(nominal))
-    base = nominal.to_array()[cols]
-    r = np.log(np.maximum(np.asarray(rows)[:, cols], 1e-300) / base)
-    return np.clip(np.nan_to_num(r), -2.0, 2.0).astype(np.float32)
+    ratio, linear, units = _columns(nominal)
+    rows = np.asarray(rows, dtype=float)
+    base = nominal.to_array()
+    r = np.log(np.maximum(rows[:, ratio], 1e-300) / base[ratio])
+    out = np.concatenate([r, rows[:, linear] / units], axis=1)
+    return np.clip(np.nan_to_num(out), -2.0, 2.0).astype(np.float32)
 
 
 def plant_dim(nominal) -> int:
     """The number of :func:`plant_columns`."""
-    return len(_columns(nominal))
+    ratio, linear, _ = _columns(nominal)
+    return len(ratio) + len(linear)
