@@ -62,7 +62,10 @@ def test_training_features_tell_the_true_plant():
 @pytest.mark.parametrize(
     "changes, words",
     [
-        ({"eval": {"suite": "randomized-v2"}}, "eval.suite must start its episodes with an identification window"),
+        (
+            {"eval": {"suite": "randomized-v2"}},
+            "eval.suite must start its episodes with an identification window",
+        ),
         ({"eval": {}}, "got None"),
         ({"student": {"suites": {"randomized-id-v2": 4}}}, "student.suites.randomized-id-v2 start episodes"),
         ({"env": {"id": "cepam_gym/CEPAM-v2", "suite": "randomized-id-v2"}}, "env start episodes"),
@@ -220,3 +223,49 @@ def test_the_adaptive_student_learns_and_runs_behind_the_window(tmp_path):
     baseline, _ = run_suite("baseline", "randomized-id-v2", episodes=2, max_steps=250)
     assert agent["failure_rate"] == 0.0
     assert agent["score"] < baseline["score"], (agent["score"], baseline["score"])
+
+
+def test_in_training_a_terminal_observation_is_told_the_finished_episodes_plant():
+    """At an autoreset the env already holds the next plant: the finished episode's last features
+    (SB3's ``terminal_observation``) keep the plant it ran on, the next episode's its own."""
+    from cepam_gym.integrations.sb3 import make_sb3_vec_env
+    from cepam_gym_agents.features import make_agent_vec_env
+
+    raw = make_sb3_vec_env(
+        "cepam_gym/CEPAM-v2", num_envs=2, seed=0, max_episode_steps=3, randomize=RANDOMIZE_V2
+    )
+    env = make_agent_vec_env(raw, CFG)
+    model = rig_model_of(raw)
+    k = plant_dim(model.nominal)
+    env.reset()
+    before = plant_columns(model.params, model.nominal)
+    for _ in range(5):
+        obs, _, done, infos = env.step(np.zeros((2, 2), dtype=np.float32))
+        if done.any():
+            break
+    else:
+        pytest.fail("episodes of 3 steps did not end")
+    after = plant_columns(model.params, model.nominal)
+    i = int(np.flatnonzero(done)[0])
+    assert np.abs(after[i] - before[i]).max() > 1e-3  # a new plant was drawn
+    np.testing.assert_array_equal(infos[i]["terminal_observation"][-k:], before[i])
+    np.testing.assert_array_equal(obs[i, -k:], after[i])
+    env.close()
+
+
+def test_deployed_one_envs_new_episode_restarts_its_window_alone(tmp_path):
+    venv = _window_env(2, 1.5)
+    policy = _agent(tmp_path, venv)
+    obs, _ = venv.reset(seed=2)
+    policy.reset()
+    window = policy.features._rig.window_steps
+    for _ in range(window + 2):
+        obs, *_ = venv.step(policy.act(obs))
+    assert not policy.features.window[0].any()  # both tracking
+    policy.reset([0])  # env 0's episode ended
+    a = policy.act(obs)
+    in_window, excitation = policy.features.window
+    assert in_window.tolist() == [True, False]
+    np.testing.assert_array_equal(a[0], excitation[0])
+    assert policy.features.identifier.k.tolist() == [1, window + 3]
+    venv.close()

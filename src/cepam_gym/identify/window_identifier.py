@@ -184,7 +184,9 @@ def _columns(nominal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             if name == "end_mass":
                 continue
             value = ALL_PARAMS[name].get(nominal)
-            moved = apply(ALL_PARAMS, nominal, [name], [value * 1.05 if value else TOLERANCE[name]]).to_array()
+            moved = apply(
+                ALL_PARAMS, nominal, [name], [value * 1.05 if value else TOLERANCE[name]]
+            ).to_array()
             changed = np.abs(moved - base) > 1e-9 * np.maximum(np.abs(base), 1e-30)
             for c in np.flatnonzero(changed):
                 if c == ix.M_END:
@@ -194,7 +196,11 @@ def _columns(nominal) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 elif base[c] == 0.0:
                     linear[int(c)] = float(moved[c])
         lin = sorted(linear)
-        _COLUMNS[key] = (np.array(sorted(ratio)), np.array(lin, dtype=int), np.array([linear[c] for c in lin]))
+        _COLUMNS[key] = (
+            np.array(sorted(ratio)),
+            np.array(lin, dtype=int),
+            np.array([linear[c] for c in lin]),
+        )
     return _COLUMNS[key]
 
 
