@@ -6,8 +6,8 @@ table.
     python -m cepam_gym_agents.compare --config student_adaptive --suite randomized-id-v2 \
         --controller baseline --controller identify_mpc --controller mpc_known_params --controller oracle
 
-Each config is trained once per seed (``cepam-gym train --config C --seed S``, its own process, one
-numba thread; ``--jobs 2`` runs two at a time) into ``--out/<config>-s<seed>``, then its final model
+Each config is trained once per seed (``cepam-gym train --config C --seed S``, its own process;
+``--jobs 2`` runs two at a time, each on one core's numba thread, ``--jobs 1`` one on all cores) into ``--out/<config>-s<seed>``, then its final model
 is scored on each suite's own 20 episodes and on 20 episodes of an unseen seed (``--unseen-seed``),
 beside the baseline and the oracle on the same episodes (and the MPCs on the suites' episodes;
 ``--suite`` and ``--controller`` choose others: then the controllers run on both episode sets).
@@ -33,11 +33,13 @@ UNSEEN_CONTROLLERS = ("baseline", "oracle")  # what the gap on an unseen seed ne
 
 
 def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int) -> None:
-    """Every (config, seed) not yet trained, ``jobs`` processes at a time, one numba thread each."""
+    """Every (config, seed) not yet trained, ``jobs`` processes at a time, the machine's cores
+    shared among them (numba's and OpenMP's threads: one each when the jobs fill the cores)."""
     todo = [
         (c, s) for c in configs for s in seeds if not (out / f"{Path(c).stem}-s{s}" / "model.zip").is_file()
     ]
-    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    threads = str(max(1, (os.cpu_count() or 1) // max(jobs, 1)))
+    env = {**os.environ, "NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
     running: list = []
     while todo or running:
         while todo and len(running) < jobs:

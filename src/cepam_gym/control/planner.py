@@ -59,12 +59,19 @@ class CEMConfig:
     effort_weight: float = 0.1  # cost per unit squared command and step: holds still at rest
     allowance_weight: float = 0.0  # weight of errors within the settling allowance (score: 0)
     seed: int = 0
+    # sub-steps per control step of the planner's own simulation; None: the env's integration.
+    # Fewer, longer sub-steps make a plan cheaper and its model coarser (the sub-step must stay
+    # stable: :func:`cepam_gym.plant.state.check_stability` is asked when the planner is built)
+    plan_substeps: int | None = None
 
     def __post_init__(self):
         for name in ("horizon_steps", "population", "elites", "iterations"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
                 raise InputError(f"CEMConfig.{name} must be a positive integer, got {v!r}")
+        v = self.plan_substeps
+        if v is not None and (isinstance(v, bool) or int(v) != v or v < 1):
+            raise InputError(f"CEMConfig.plan_substeps must be a positive integer or None, got {v!r}")
         if self.elites > self.population:
             raise InputError(
                 f"CEMConfig.elites ({self.elites}) must not exceed population ({self.population})"
@@ -278,8 +285,15 @@ def planner_for(
     fields of ``config``."""
     from .objective import spec_of_core
 
+    from ..plant.state import check_stability
+
     spec = spec or spec_of_core(model)
     cfg = dataclasses.replace(config or CEMConfig(), **overrides)
+    sub_dt, n_sub = model.sub_dt, model.n_sub
+    if cfg.plan_substeps is not None and cfg.plan_substeps != n_sub:
+        # the same control period in fewer (or more) sub-steps
+        sub_dt, n_sub = sub_dt * n_sub / cfg.plan_substeps, int(cfg.plan_substeps)
+        check_stability(np.asarray(model.params, dtype=float), sub_dt)
     hinge = np.array(model.hinge, dtype=float)  # the planner's own (writable) copy of the constants
     norm = spec.position_norm
     if model.mech == pl.HINGE:
@@ -287,8 +301,8 @@ def planner_for(
     return CEMPlanner(
         cfg,
         model.mode,
-        model.sub_dt,
-        model.n_sub,
+        sub_dt,
+        n_sub,
         model.setpoint_max,
         track_stiffness=model.track_stiffness,
         mech=model.mech,
