@@ -283,9 +283,8 @@ def planner_for(
     valve mode, integration, pressure range, task and mechanism; ``spec`` the benchmark's scoring
     of it (:func:`~cepam_gym.control.objective.spec_of_core` by default); ``overrides`` replace
     fields of ``config``."""
-    from .objective import spec_of_core
-
     from ..plant.state import check_stability
+    from .objective import spec_of_core
 
     spec = spec or spec_of_core(model)
     cfg = dataclasses.replace(config or CEMConfig(), **overrides)
