@@ -10,7 +10,8 @@ Each config is trained once per seed (``cepam-gym train --config C --seed S``, i
 ``--jobs 2`` runs two at a time, each on one core's numba thread, ``--jobs 1`` one on all cores)
 into ``--out/<config>-s<seed>``, then its final model is scored on each suite's own 20 episodes
 and on 20 episodes of an unseen seed (``--unseen-seed``), beside the baseline and the oracle on
-the same episodes (and the MPCs on the suites' episodes; ``--suite`` and ``--controller`` choose others: then the controllers run on both episode sets).
+the same episodes (and the MPCs on the suites' episodes; ``--suite`` and ``--controller`` choose
+others: then the controllers run on both episode sets).
 Per config and suite: the interquartile mean over seeds with a 95 % stratified-bootstrap interval
 (Agarwal et al. 2021, :mod:`cepam_gym.bench.stats`), and its headline score, the share of the
 baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score`). Written to
