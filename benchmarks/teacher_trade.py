@@ -4,9 +4,11 @@ The student (``configs/student.yaml``) is distilled from ``mpc_known_params``, a
 planner whose cost per label is ``population x iterations x horizon_steps`` simulated control
 steps. For each setting (``student.teacher_options`` in a config) this prints the teacher's own
 score on the suites the student trains on (their 20 episodes) and the wall time it took to drive
-them: the screen that picks which settings are worth training students on. Whether a student of
-that teacher is as good is a 5-seed measurement (``python -m cepam_gym_agents.compare``); the
-results are in docs/results/agents.md, "A cheaper teacher".
+them, beside the plant sub-steps it simulates per label (``plan_substeps`` sets how many make a
+control step of its own simulation; the env's by default): the screen that picks which settings
+are worth training students on. Whether a student of that teacher is as good is a 5-seed
+measurement (``python -m cepam_gym_agents.compare``); the results are in docs/results/agents.md,
+"A cheaper teacher". A better teacher is not always a better student: see there.
 
 Wall times include creating the envs and the controller; the load average is printed, since a
 busy machine slows every setting.
@@ -29,6 +31,11 @@ SETTINGS = (
     {"population": 24, "iterations": 2, "elites": 4},
     {"population": 16, "iterations": 2, "elites": 4},
     {"population": 24, "iterations": 1, "elites": 4},
+    # the same searches through a coarser integration of the planner's own plant (20 sub-steps
+    # of 1 ms per control step instead of the env's 40 of 0.5 ms)
+    {"plan_substeps": 20},
+    {"population": 24, "iterations": 3, "elites": 4, "plan_substeps": 20},
+    {"population": 16, "iterations": 2, "elites": 4, "plan_substeps": 20},
 )
 SUITES = ("nominal-v1", "randomized-v1")
 
@@ -54,9 +61,18 @@ def main(argv=None) -> int:
     warnings.filterwarnings("ignore", message=".*out of date.*")
     print(f"load average before: {os.getloadavg()[0]:.2f}")
     teacher_score({"population": 2, "iterations": 1, "elites": 1}, args.suites[0])  # compile, cache
+    import gymnasium as gym
+
+    from cepam_gym.bench.suites import SUITES as ALL
+    from cepam_gym.envs.model import model_of
+
+    first = ALL[args.suites[0]]
+    venv = gym.make_vec(first.env_id, num_envs=1, **first.env_kwargs)
+    env_substeps = model_of(venv).n_sub
+    venv.close()
     head = " | ".join(f"{s} score | {s} s" for s in args.suites)
-    print(f"| teacher_options | sims per label | {head} |")
-    print("|---|---|" + "---|---|" * len(args.suites))
+    print(f"| teacher_options | sims per label | sub-steps per label | {head} |")
+    print("|---|---|---|" + "---|---|" * len(args.suites))
     for opts in args.settings:
         from cepam_gym.control.planner import CEMConfig
 
@@ -66,7 +82,8 @@ def main(argv=None) -> int:
             score, wall = teacher_score(opts, s)
             cells += [f"{score:.4f}", f"{wall:.1f}"]
         sims = c.population * c.iterations * c.horizon_steps
-        print(f"| {json.dumps(opts)} | {sims} | " + " | ".join(cells) + " |", flush=True)
+        sub = sims * (c.plan_substeps or env_substeps)
+        print(f"| {json.dumps(opts)} | {sims} | {sub} | " + " | ".join(cells) + " |", flush=True)
     print(f"load average after: {os.getloadavg()[0]:.2f}")
     return 0
 
