@@ -230,6 +230,7 @@ class Features:
         """The set-point gaps (N, 2) [100 kPa] of the told plant's inverse static model: its load
         estimate from the measured force, filtered as the baseline's, its set-points for the
         targets, minus the measured pressures."""
+        from cepam_gym.control.baseline import low_pass
         from cepam_gym.physics import api
         from cepam_gym.physics import layout as ix
 
@@ -239,8 +240,7 @@ class Features:
         w = self._plant_weight
         if w is None or w.shape[0] != len(w_now):
             w = np.full(len(w_now), np.nan)
-        w = np.where(np.isnan(w), w_now, w + b.alpha * (w_now - w))
-        self._plant_weight = w
+        self._plant_weight = w = low_pass(w, w_now, b.alpha)  # the baseline's filter, the told plant
         weight = np.maximum(w, rows[:, ix.M_END] * rows[:, ix.GRAV])
         pc_set, pe_set = b.setpoints(L_t, K_t, weight, rows)
         return (np.stack([pc_set - pc, pe_set - pe], axis=1) / _GAP_UNIT_PA).astype(np.float32)

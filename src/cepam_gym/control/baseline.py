@@ -187,8 +187,7 @@ class InverseStaticController:
         if self._weight is None or self._weight.shape[0] != n:
             self._weight = np.full(n, np.nan)
             self._integral = np.zeros((n, 2))
-        fresh = np.isnan(self._weight)
-        self._weight = np.where(fresh, load_now, self._weight + self.alpha * (load_now - self._weight))
+        self._weight = low_pass(self._weight, load_now, self.alpha)
         return self._weight
 
     @property
@@ -211,6 +210,12 @@ class InverseStaticController:
             action = np.stack([uc, ue], axis=1)
         action = np.clip(action, -1.0, 1.0).astype(np.float32)
         return action[0] if single else action
+
+
+def low_pass(previous: np.ndarray, now: np.ndarray, alpha: float) -> np.ndarray:
+    """One step of the load estimate's first-order filter: ``now`` where an env has no estimate
+    yet (NaN: its episode just started), else ``previous`` moved ``alpha`` of the way to ``now``."""
+    return np.where(np.isnan(previous), now, previous + alpha * (now - previous))
 
 
 class FrictionAwareBaseline(InverseStaticController):
