@@ -148,8 +148,9 @@ def test_drawing_every_iterations_noise_at_once_gives_the_same_numbers(beta, sha
 
 def test_coarser_planning_integration_keeps_the_control_period_and_the_plant():
     """``plan_substeps`` re-divides the same 20 ms control period; at half the env's sub-steps
-    a plan's cost stays within 2 % of the fine one's, and a sub-step past
-    the explicit integration's stability limit is refused with the fix named."""
+    a plan's cost stays within 2 % of the fine one's, and a sub-step past the explicit
+    integration's stability limit is refused with the fix named, for the rows the planner is
+    built with and for rows it is given later."""
     from cepam_gym.control.planner import planner_for
     from cepam_gym.envs.model import model_of
 
@@ -170,6 +171,16 @@ def test_coarser_planning_integration_keeps_the_control_period_and_the_plant():
     c_coarse = coarse.rollout_cost(x, np.asarray(model.params), actions, *args)
     np.testing.assert_allclose(c_coarse, c_fine, rtol=0.02)  # measured: 0.3 %
     assert not np.array_equal(c_coarse, c_fine)  # a different integration, not the same one
-    with pytest.raises(ValueError, match="sub-step .* too long.*use sub_dt"):
+    with pytest.raises(ValueError, match="plan_substeps=5: sub-step .* too long.*use sub_dt"):
         planner_for(model, plan_substeps=5)
+    # rows that arrive after the build (a randomized plant at reset) are checked too: a setting
+    # stable on the nominal plant is refused for a plant with faster valves
+    from cepam_gym.physics import layout as ix
+
+    edge = planner_for(model, plan_substeps=14)  # 1.43 ms: stable on the nominal plant
+    fast = np.repeat(np.asarray(model.params, dtype=float), 8, axis=0)
+    fast[:, ix.C_PROP] *= 2.0
+    with pytest.raises(ValueError, match="plan_substeps=14: sub-step"):
+        edge.rollout_cost(x, fast, actions, *args)
+    assert np.isfinite(edge.rollout_cost(x, np.asarray(model.params), actions, *args)).all()
     venv.close()

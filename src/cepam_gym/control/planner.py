@@ -61,7 +61,7 @@ class CEMConfig:
     seed: int = 0
     # sub-steps per control step of the planner's own simulation; None: the env's integration.
     # Fewer, longer sub-steps make a plan cheaper and its model coarser (the sub-step must stay
-    # stable: :func:`cepam_gym.plant.state.check_stability` is asked when the planner is built)
+    # stable: :meth:`CEMPlanner.check_stability` asks it of every new set of parameter rows)
     plan_substeps: int | None = None
 
     def __post_init__(self):
@@ -150,6 +150,10 @@ class CEMPlanner:
         self.hinge = tk.no_hinge() if hinge is None else np.atleast_2d(np.asarray(hinge, dtype=float))
         self.length_norm = RIG.position_norm if length_norm is None else float(length_norm)
         self.rng = np.random.default_rng(cfg.seed)
+        # a coarser integration than the env's (CEMConfig.plan_substeps) is checked for stability
+        # on every new set of parameter rows: randomized plants arrive at reset, after the build
+        self.check_rows = False
+        self._checked_rows: np.ndarray | None = None
         self.mean: np.ndarray | None = None  # (N, H, 2) warm start: the last best plan, shifted
         self.kept: np.ndarray | None = None  # (N, k, H, 2) the last elites kept, shifted
         self.last_cost: np.ndarray | None = None
@@ -219,10 +223,27 @@ class CEMPlanner:
         self.last_cost = best_cost  # (N,) the cost of the plans just chosen
         return best[:, 0].copy()
 
+    def check_stability(self, params) -> None:
+        """With :attr:`check_rows` (a coarser sub-step than the env's): refuse parameter rows
+        for which the planner's sub-step is unstable, naming ``plan_substeps``; each new set of
+        rows is checked once."""
+        from ..plant.state import check_stability
+
+        if not self.check_rows or (
+            self._checked_rows is not None and np.array_equal(params, self._checked_rows)
+        ):
+            return
+        try:
+            check_stability(np.asarray(params, dtype=float), self.sub_dt)
+        except InputError as e:
+            raise InputError(f"CEMConfig.plan_substeps={self.cfg.plan_substeps}: {e}") from None
+        self._checked_rows = np.array(params, dtype=float)
+
     def _rollout(self, state, params, target_l, target_k, load, weight):
         """``cost = f(actions)`` for fixed start states, parameters, targets, loads and weights
         (the compiled rollout with its arguments converted once, for all of a step's iterations;
         ``f`` reuses its output array)."""
+        self.check_stability(params)
         m, h = np.shape(target_l)
         params = np.ascontiguousarray(np.broadcast_to(params, (m, params.shape[1])))
         weight = np.ones((m, h)) if weight is None else np.ascontiguousarray(weight, dtype=float)
@@ -283,21 +304,19 @@ def planner_for(
     valve mode, integration, pressure range, task and mechanism; ``spec`` the benchmark's scoring
     of it (:func:`~cepam_gym.control.objective.spec_of_core` by default); ``overrides`` replace
     fields of ``config``."""
-    from ..plant.state import check_stability
     from .objective import spec_of_core
 
     spec = spec or spec_of_core(model)
     cfg = dataclasses.replace(config or CEMConfig(), **overrides)
     sub_dt, n_sub = model.sub_dt, model.n_sub
-    if cfg.plan_substeps is not None and cfg.plan_substeps != n_sub:
-        # the same control period in fewer (or more) sub-steps
+    coarse = cfg.plan_substeps is not None and cfg.plan_substeps != n_sub
+    if coarse:  # the same control period in fewer (or more) sub-steps
         sub_dt, n_sub = sub_dt * n_sub / cfg.plan_substeps, int(cfg.plan_substeps)
-        check_stability(np.asarray(model.params, dtype=float), sub_dt)
     hinge = np.array(model.hinge, dtype=float)  # the planner's own (writable) copy of the constants
     norm = spec.position_norm
     if model.mech == pl.HINGE:
         norm *= float(hinge[0, tk.H_R])  # an angle error of theta is a length error of r theta
-    return CEMPlanner(
+    planner = CEMPlanner(
         cfg,
         model.mode,
         sub_dt,
@@ -308,3 +327,6 @@ def planner_for(
         hinge=hinge,
         length_norm=norm,
     )
+    planner.check_rows = coarse
+    planner.check_stability(np.asarray(model.params, dtype=float))  # a misfit setting fails here
+    return planner
