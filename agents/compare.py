@@ -9,7 +9,8 @@ table.
 Each config is trained once per seed (``cepam-gym train --config C --seed S``, its own process;
 ``--jobs 2`` runs two at a time, each on one core's numba thread, ``--jobs 1`` one on all cores)
 into ``--out/<config>-s<seed>``, then its final model is scored on each suite's own 20 episodes
-and on 20 episodes of an unseen seed (``--unseen-seed``), beside the baseline and the oracle on
+and on 20 episodes of an unseen seed (``--unseen-seed``; ``--unseen-episodes`` more of them, where 20
+episodes cannot separate two agents), beside the baseline and the oracle on
 the same episodes (and the MPCs on the suites' episodes; ``--suite`` and ``--controller`` choose
 others: then the controllers run on both episode sets).
 Per config and suite: the interquartile mean over seeds with a 95 % stratified-bootstrap interval
@@ -72,21 +73,31 @@ def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
     return float(run_suite(spec, s, episodes)[0]["score"])
 
 
-def measure(configs, seeds, out: Path, unseen: int, cache: dict, suites=SUITES, controllers=None) -> dict:
+def unseen_set(episodes: int = 20) -> str:
+    """The name of the unseen seed's episode set in the cache and the table: ``unseen`` for the
+    usual 20, ``unseen-<N>`` for another count (scores over different episode sets never mix)."""
+    return "unseen" if episodes == 20 else f"unseen-{episodes}"
+
+
+def measure(
+    configs, seeds, out: Path, unseen: int, cache: dict, suites=SUITES, controllers=None, unseen_episodes=20
+) -> dict:
     """Scores of every run and controller (``cache``: what an earlier call measured, kept);
-    ``controllers`` (None: :data:`CONTROLLERS`, and :data:`UNSEEN_CONTROLLERS` on the unseen seed)."""
+    ``controllers`` (None: :data:`CONTROLLERS`, and :data:`UNSEEN_CONTROLLERS` on the unseen seed);
+    ``unseen_episodes`` of the unseen seed."""
+    sets = (("suite", None, 20), (unseen_set(unseen_episodes), unseen, unseen_episodes))
     for suite in suites:
-        for where, seed in (("suite", None), ("unseen", unseen)):
+        for where, seed, episodes in sets:
             for name in _controllers(where, controllers):
                 key = f"{suite}|{where}|{name}"
                 if key not in cache:
-                    cache[key] = score(name, suite, seed)
+                    cache[key] = score(name, suite, seed, episodes)
                     (out / "compare.json").write_text(json.dumps(cache, indent=1))
             for c in configs:
                 for s in seeds:
                     key = f"{suite}|{where}|{Path(c).stem}-s{s}"
                     if key not in cache:
-                        cache[key] = score(str(out / f"{Path(c).stem}-s{s}"), suite, seed)
+                        cache[key] = score(str(out / f"{Path(c).stem}-s{s}"), suite, seed, episodes)
                         (out / "compare.json").write_text(json.dumps(cache, indent=1))
     return cache
 
@@ -98,7 +109,7 @@ def _controllers(where: str, controllers) -> tuple:
     return tuple(dict.fromkeys(("baseline", *controllers, "oracle")))
 
 
-def table(configs, seeds, cache: dict, suites=SUITES, controllers=None) -> str:
+def table(configs, seeds, cache: dict, suites=SUITES, controllers=None, unseen_episodes=20) -> str:
     import numpy as np
 
     from cepam_gym.bench.headline import headline_score
@@ -109,7 +120,7 @@ def table(configs, seeds, cache: dict, suites=SUITES, controllers=None) -> str:
         "|---|---|---|---|---|",
     ]
     for suite in suites:
-        for where in ("suite", "unseen"):
+        for where in ("suite", unseen_set(unseen_episodes)):
             base, orc = cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"]
 
             def gap(v, base=base, orc=orc):
@@ -143,6 +154,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=5, help="training seeds 0..N-1 (at least 5 for the IQM)")
     ap.add_argument("--jobs", type=int, default=2, help="trainings at a time")
     ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
+    ap.add_argument(
+        "--unseen-episodes",
+        type=int,
+        default=20,
+        help="episodes of the unseen seed (more separate close agents)",
+    )
     ap.add_argument("--out", default="runs/compare", help="run directories and the results")
     ap.add_argument("--report-only", action="store_true", help="score and report the runs already trained")
     ap.add_argument(
@@ -155,8 +172,8 @@ def main(argv: list[str] | None = None) -> int:
         "the baseline and the oracle always are); default: the MPCs on the suites' episodes",
     )
     args = ap.parse_args(argv)
-    if args.seeds < 1 or args.jobs < 1:
-        ap.error("--seeds and --jobs must be >= 1")
+    if args.seeds < 1 or args.jobs < 1 or args.unseen_episodes < 1:
+        ap.error("--seeds, --jobs and --unseen-episodes must be >= 1")
     from cepam_gym.bench.suites import SUITES as ALL
     from cepam_gym.control import controller_names
 
@@ -174,8 +191,9 @@ def main(argv: list[str] | None = None) -> int:
         train_runs(args.config, seeds, out, args.jobs)
     path = out / "compare.json"
     cache = json.loads(path.read_text()) if path.is_file() else {}
-    cache = measure(args.config, seeds, out, args.unseen_seed, cache, suites, args.controller)
-    md = table(args.config, seeds, cache, suites, args.controller)
+    n = args.unseen_episodes
+    cache = measure(args.config, seeds, out, args.unseen_seed, cache, suites, args.controller, n)
+    md = table(args.config, seeds, cache, suites, args.controller, n)
     (out / "compare.md").write_text(md)
     print(md)
     return 0

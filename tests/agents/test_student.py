@@ -216,6 +216,34 @@ def test_comparison_on_chosen_suites_scores_the_chosen_controllers_on_both_episo
         assert words in capsys.readouterr().err
 
 
+def test_comparison_on_more_unseen_episodes_keeps_them_apart_from_the_twenty(tmp_path, monkeypatch, capsys):
+    """``--unseen-episodes N``: the unseen seed's N episodes are scored under their own name, so a
+    cache of the usual 20 is neither reused for them nor overwritten; a count below 1 is refused."""
+    from cepam_gym_agents import compare
+
+    calls = []
+
+    def fake_score(spec, suite, seed, episodes=20):
+        calls.append((spec, seed, episodes))
+        return {"baseline": 0.8, "oracle": 0.2}[spec]
+
+    monkeypatch.setattr(compare, "score", fake_score)
+    cache = {
+        f"nominal-v1|{w}|{n}": v for w in ("suite", "unseen") for n, v in (("baseline", 1.0), ("oracle", 0.0))
+    }
+    got = compare.measure([], [], tmp_path, 99000, dict(cache), ("nominal-v1",), [], unseen_episodes=100)
+    assert sorted(calls) == [("baseline", 99000, 100), ("oracle", 99000, 100)]
+    assert got["nominal-v1|unseen|baseline"] == 1.0 and got["nominal-v1|unseen-100|baseline"] == 0.8
+    assert compare.unseen_set() == "unseen" and compare.unseen_set(100) == "unseen-100"
+    md = compare.table([], [], got, ("nominal-v1",), [], unseen_episodes=100)
+    assert "| nominal-v1 | unseen-100 | baseline | 0.8000 |" in md
+    with pytest.raises(SystemExit):
+        compare.main(
+            ["--config", "student", "--report-only", "--out", str(tmp_path), "--unseen-episodes", "0"]
+        )
+    assert "--unseen-episodes must be >= 1" in capsys.readouterr().err
+
+
 def test_base_controller_config_is_checked():
     with pytest.raises(ConfigError, match="agent.base_controller must be a registered controller"):
         TrainConfig.from_dict(
