@@ -110,6 +110,7 @@ def test_mpc_acts_on_observations_only():
         {"noise_beta": -1.0},
         {"plan_substeps": 0},
         {"plan_substeps": 2.5},
+        {"send": "median"},
     ],
 )
 def test_cem_config_rejects_bad_settings_by_name(bad):
@@ -184,3 +185,39 @@ def test_coarser_planning_integration_keeps_the_control_period_and_the_plant():
         edge.rollout_cost(x, fast, actions, *args)
     assert np.isfinite(edge.rollout_cost(x, np.asarray(model.params), actions, *args)).all()
     venv.close()
+
+
+def _sent(cfg: CEMConfig, steps: int) -> np.ndarray:
+    """The commands (steps, 2) a planner of ``cfg`` sends while driving a nominal-v1 plant along
+    a 1 Hz, 5 mm sine about its target length."""
+    from cepam_gym.control.planner import planner_for
+    from cepam_gym.envs.model import model_of
+
+    venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=1)
+    venv.reset(seed=7)
+    core, model = venv.unwrapped.core, model_of(venv)
+    planner = planner_for(model, cfg)
+    h = cfg.horizon_steps
+    sent = []
+    l0, k0 = core.target_l[:, :1].copy(), core.target_k[:, :1].repeat(h, 1)
+    for i in range(steps):
+        tl = l0 + 5e-3 * np.sin(2 * np.pi * 0.02 * (i + np.arange(h)))[None]
+        tk = k0
+        a = planner.plan(core.state.copy(), np.asarray(model.params), tl, tk, np.full((1, h), 0.1))
+        sent.append(a[0])
+        venv.step(a.astype(np.float32))
+    venv.close()
+    return np.array(sent)
+
+
+def test_sending_the_refined_mean_smooths_the_commands_and_keeps_the_search():
+    """``send="mean"``: with one elite, no momentum and one iteration the refitted mean is the best
+    plan, so the commands are the same bit for bit; with the student's cheap search (16 x 2) they
+    move less from one step to the next than the best plan's first commands."""
+    one = {"population": 8, "elites": 1, "iterations": 1, "momentum": 0.0}
+    np.testing.assert_array_equal(_sent(CEMConfig(**one), 15), _sent(CEMConfig(**one, send="mean"), 15))
+    cheap = {"population": 16, "elites": 4, "iterations": 2}
+    best, mean = _sent(CEMConfig(**cheap), 60), _sent(CEMConfig(**cheap, send="mean"), 60)
+    assert np.abs(mean).max() <= 1.0
+    jitter = lambda a: np.abs(np.diff(a, axis=0)).mean()  # noqa: E731
+    assert jitter(mean) < 0.9 * jitter(best), (jitter(mean), jitter(best))  # measured: 0.79

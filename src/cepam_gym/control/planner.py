@@ -63,6 +63,10 @@ class CEMConfig:
     # Fewer, longer sub-steps make a plan cheaper and its model coarser (the sub-step must stay
     # stable: :meth:`CEMPlanner.check_stability` asks it of every new set of parameter rows)
     plan_substeps: int | None = None
+    # what is sent: "best", the first command of the best plan simulated; "mean", the first
+    # command of the refitted mean (averaged over the elites, so it varies less from one step's
+    # draws to the next: smoother labels for a student to imitate; never simulated as a whole)
+    send: str = "best"
 
     def __post_init__(self):
         for name in ("horizon_steps", "population", "elites", "iterations"):
@@ -72,6 +76,8 @@ class CEMConfig:
         v = self.plan_substeps
         if v is not None and (isinstance(v, bool) or int(v) != v or v < 1):
             raise InputError(f"CEMConfig.plan_substeps must be a positive integer or None, got {v!r}")
+        if self.send not in ("best", "mean"):
+            raise InputError(f"CEMConfig.send must be 'best' or 'mean', got {self.send!r}")
         if self.elites > self.population:
             raise InputError(
                 f"CEMConfig.elites ({self.elites}) must not exceed population ({self.population})"
@@ -220,7 +226,9 @@ class CEMPlanner:
         # simulated); it and the elites warm-start the next step, one step on
         self.mean = _shift(best)
         self.kept = _shift(kept) if n_keep else None
-        self.last_cost = best_cost  # (N,) the cost of the plans just chosen
+        self.last_cost = best_cost  # (N,) the cost of the best plans (with send="mean": of the plans refined)
+        if cfg.send == "mean":
+            return np.clip(mean[:, 0], -1.0, 1.0)
         return best[:, 0].copy()
 
     def check_stability(self, params) -> None:
