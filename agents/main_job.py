@@ -43,17 +43,16 @@ def fresh_dir(path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The main job on the default config: the plant's step response, the paper reproduction
-    table, then train an agent on the shipped ``student_fast`` config (the student of a privileged
-    teacher, on ``CEPAM-v1``, in about two minutes: the agent with the best measured scores; on ``CEPAM-v2`` the same
-    recipe does not yet beat the baseline on ``nominal-v2``, docs/results/agents.md) and score it
-    beside the inverse-model baseline and the MPC on its id's headline suites, with the headline
-    score (the zero controller's and the oracle's ends: the stored reference scores of the same
-    episodes); ``--no-train`` scores the baseline and the MPC on the recommended id's suites.
-    Everything lands in ``--out-dir`` (default ``runs/main``): ``step_response.png``,
-    ``validate/``, ``agent/`` (model, logs, config; ``agent-2/`` ... on later runs),
-    ``agent/eval/`` (table.txt, results.json, plots) and ``summary.md`` (what ran, versions,
-    where everything is, the scores)."""
+    """The main job on the default config: the plant's step response, the paper reproduction table, then
+    train an agent on the shipped ``student_fast`` config (the student of a privileged teacher, on
+    ``CEPAM-v1``, in about two minutes: the agent with the best measured scores; on ``CEPAM-v2`` the same
+    recipe does not yet beat the baseline on ``nominal-v2``, docs/results/agents.md) and score it beside
+    the inverse-model baseline and the MPC on its id's headline suites, with the headline score (the zero
+    controller's and the oracle's ends: the stored reference scores of the same episodes); ``--no-train``
+    scores the baseline and the MPC on the recommended id's suites. Everything lands in ``--out-dir``
+    (default ``runs/main``): ``step_response.png``, ``validate/``, ``agent/`` (model, logs, config;
+    ``agent-2/`` ... on later runs), ``agent/eval/`` (table.txt, results.json, plots) and ``summary.md``
+    (what ran, versions, where everything is, the scores)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     ap = argparse.ArgumentParser(prog="cepam-gym run", description=main.__doc__)
     ap.add_argument("--out-dir", default="runs/main")

@@ -1,7 +1,8 @@
 """Fingerprints of the main job's stages on small fixed inputs, to compare two installs.
 
 The main job (``cepam-gym run``: a DAgger student) chains four stages, here with the teacher and
-features of ``configs/student.yaml``; each is run here on inputs small enough to take a minute or two, and its arrays are saved:
+features of ``configs/student.yaml``; each is run on inputs small enough to take a minute or two,
+and its arrays are saved:
 
 * ``env_<suite>``: the observations of 4 envs of the suite's plant driven by seeded random
   commands (the compiled plant and task: numba, numpy);

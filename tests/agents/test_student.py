@@ -60,9 +60,9 @@ def test_student_needs_ppo_and_normalized_inputs():
 
 
 def test_every_shipped_student_config_passes_its_check():
-    """The shipped students (the main job's two-minute one, the full-teacher one, ...) build their teacher with their
-    search settings before any round runs: a setting the planner refuses fails here, not after
-    the first round's labels."""
+    """The shipped students (the main job's two-minute one, the full-teacher one, ...) build their
+    teacher with their search settings before any round runs: a setting the planner refuses fails
+    here, not after the first round's labels."""
     from cepam_gym_agents.config import load_config, shipped_configs
     from cepam_gym_agents.student import check_student
 
