@@ -7,12 +7,14 @@ spectrum ``1/f^noise_beta``) noise, simulates every sample through the plant's o
 scores it with the benchmark's objective (:mod:`cepam_gym.control.objective`), and refits the mean
 and spread to the best ``elites`` (Rubinstein 1999; iCEM: Pinneri et al. 2020, whose coloured
 noise, kept elites and momentum this follows). After the last iteration the first command of the
-best plan simulated is sent.
+best plan simulated is sent (``CEMConfig.send="mean"``: the first command of the refined mean, a
+smoother label for a student, whose plan as a whole was never simulated).
 
 Why more search can only help: every iteration's population contains the current mean, the plan
 of closed valves and the best plans kept from the previous iteration (the first iteration: the
 previous control step's, shifted by one step), and the plan sent is the best ever simulated. So
-a larger population or more iterations adds candidates and removes none.
+a larger population or more iterations adds candidates and removes none (with ``send="mean"`` this
+holds for the best plan found, not for the command sent).
 
 The cost of a plan is the sum over its steps of ``w (e_L / L_norm)^2 + w (e_K / K* / 20 %)^2``
 (the stiffness term only where the task tracks it) plus a large penalty on a step where a chamber
@@ -226,7 +228,8 @@ class CEMPlanner:
         # simulated); it and the elites warm-start the next step, one step on
         self.mean = _shift(best)
         self.kept = _shift(kept) if n_keep else None
-        self.last_cost = best_cost  # (N,) the cost of the best plans (with send="mean": of the plans refined)
+        # (N,) the cost of the best plans simulated (with send="mean" not of the command sent)
+        self.last_cost = best_cost
         if cfg.send == "mean":
             return np.clip(mean[:, 0], -1.0, 1.0)
         return best[:, 0].copy()
