@@ -9,7 +9,10 @@ as the id exists. One number covers the whole env, so the steps do not all chang
 * ``v0``: the set-point tasks on plant v0 (preset ``balloon_v0``): targets jump unannounced;
 * ``v1``: the planned-reference tasks, announced ``preview_steps`` ahead, on plant v1 (the default
   plant, preset ``balloon``): a new task, a new observation and a new plant;
-* ``v2``: the v1 tasks unchanged on plant v2 (preset ``balloon_v2``): only the plant changed.
+* ``v2``: the v1 tasks unchanged on plant v2 (preset ``balloon_v2``): only the plant changed;
+* ``v3``: the v1 tasks on plant v2 with the reward that is the score's per-step form (task
+  version 2, :mod:`cepam_gym.tasks.contract`, "Reward and score") and observations with a rig's
+  sensor noise by default (:data:`RIG_SENSOR_NOISE`; ``sensor_noise=None`` for ideal sensors).
 
 Each row says which: :attr:`Version.task_version` and :attr:`Version.plant_version`.
 
@@ -41,6 +44,15 @@ DEFAULT_PRESET = PLANT_PRESETS[1]
 # reference points announced by the v1 and v2 ids: 0.2 s at 50 Hz
 PREVIEW_STEPS = 10
 MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
+# The v3 ids observe through a rig's sensors: the emulated rig's default noise
+# (cepam_gym.rig.emulator.Impairments: 0.2 kPa on every pressure, 0.03 mm on the length) and the
+# length rate's noise of the deploy loop's filtered difference of those readings at 50 Hz
+# (cepam_gym.rig.observation; tests/envs/test_v3.py measures it); the 50 Pa and 10 um
+# quantisation steps add 14 Pa and 3 um rms, below the noise, and are left out
+RIG_SENSOR_NOISE = (("length_mm", 0.03), ("velocity_mm_s", 1.2), ("pressure_kpa", 0.2))
+# the hinge reads its angle from the same length sensor through its 2.5 cm lever arm (tasks.joint):
+# 0.03 mm / 25 mm = 1.2 mrad, 1.2 mm/s / 25 mm = 48 mrad/s
+JOINT_SENSOR_NOISE = (("angle_mrad", 1.2), ("angular_velocity_mrad_s", 48.0), ("pressure_kpa", 0.2))
 
 _RIG = ("cepam_gym.envs.cepam:CEPAMEnv", "cepam_gym.envs.cepam:CEPAMVectorEnv")
 _JOINT = ("cepam_gym.envs.joint:CEPAMJointV1Env", "cepam_gym.envs.joint:CEPAMJointVectorEnv")
@@ -74,6 +86,7 @@ class Version:
     vector_entry_point: str | None
     fixed_task: bool = False
     extra: str = ""
+    sensor_noise: tuple[tuple[str, float], ...] = ()  # the default sensor_noise kwarg (v3: a rig's)
 
     @property
     def env_id(self) -> str:
@@ -97,25 +110,28 @@ class Version:
             out["preview_steps"] = self.preview_steps
         if self.plant is not None:
             out["plant"] = self.plant
+        if self.sensor_noise:
+            out["sensor_noise"] = dict(self.sensor_noise)
         return out
 
 
 def _rig(family, version, task, observation, suites, status) -> Version:
-    task_version = 0 if version == 0 else 1
+    task_version = min(version, 1) if version < 3 else 2
     return Version(
         family,
         version,
         task,
         task_version,
-        plant_version=version,
+        plant_version=min(version, 2),
         preview_steps=0 if task_version == 0 else PREVIEW_STEPS,
         mechanism="rig",
         observation=observation if task_version == 0 else f"{observation}+preview",
         suites=suites,
-        oracle=f"v{version}",
+        oracle=f"v{min(version, 2)}",  # v3 runs plant v2: the oracle plans as on v2
         status=status,
         entry_point=_RIG[0],
         vector_entry_point=_RIG[1],
+        sensor_noise=RIG_SENSOR_NOISE if version >= 3 else (),
     )
 
 
@@ -123,9 +139,9 @@ def _joint(version, suites, status) -> Version:
     return Version(
         "CEPAMJoint",
         version,
-        "joint_v1",
-        1,
-        plant_version=version,
+        "joint_v1" if version < 3 else "joint_v3",
+        1 if version < 3 else 2,
+        plant_version=min(version, 2),
         preview_steps=PREVIEW_STEPS,
         mechanism="hinge",
         observation="hinge+preview",
@@ -134,6 +150,7 @@ def _joint(version, suites, status) -> Version:
         status=status,
         entry_point=_JOINT[0],
         vector_entry_point=_JOINT[1],
+        sensor_noise=JOINT_SENSOR_NOISE if version >= 3 else (),
     )
 
 
@@ -163,14 +180,18 @@ _ROWS = (
     _rig("CEPAMLength", 1, "length_v1", "length", ("length-v1",), "supported"),
     _rig("CEPAMStiffness", 1, "stiffness_v1", "rig", ("stiffness-at-fixed-length-v1",), "supported"),
     _joint(1, ("joint-v1",), "supported"),
-    _rig("CEPAM", 2, "cepam_v1", "rig", ("nominal-v2", "randomized-v2"), "recommended"),
-    _rig("CEPAMLength", 2, "length_v1", "length", ("length-v2",), "recommended"),
-    _rig("CEPAMStiffness", 2, "stiffness_v1", "rig", ("stiffness-at-fixed-length-v2",), "recommended"),
-    _joint(2, ("joint-v2",), "recommended"),
+    _rig("CEPAM", 2, "cepam_v1", "rig", ("nominal-v2", "randomized-v2"), "supported"),
+    _rig("CEPAMLength", 2, "length_v1", "length", ("length-v2",), "supported"),
+    _rig("CEPAMStiffness", 2, "stiffness_v1", "rig", ("stiffness-at-fixed-length-v2",), "supported"),
+    _joint(2, ("joint-v2",), "supported"),
+    _rig("CEPAM", 3, "cepam_v3", "rig", ("nominal-v3", "randomized-v3", "randomized-id-v3"), "recommended"),
+    _rig("CEPAMLength", 3, "length_v3", "length", ("length-v3",), "recommended"),
+    _rig("CEPAMStiffness", 3, "stiffness_v3", "rig", ("stiffness-at-fixed-length-v3",), "recommended"),
+    _joint(3, ("joint-v3",), "recommended"),
 )
 VERSIONS: dict[str, Version] = {row.env_id: row for row in _ROWS}
 # the id a new user starts from: the defaults of the integrations and of `cepam-gym video`
-RECOMMENDED_ID = "cepam_gym/CEPAM-v2"
+RECOMMENDED_ID = "cepam_gym/CEPAM-v3"
 
 
 def get(env_id: str) -> Version:
@@ -181,6 +202,16 @@ def get(env_id: str) -> Version:
         return VERSIONS[env_id]
     except KeyError:
         raise InputError(f"{env_id!r} is not a cepam_gym id; registered: {list(VERSIONS)}") from None
+
+
+def id_of(family: str, version: int) -> str:
+    """The registered id of ``family`` at ``version`` (``ValueError`` naming the ids otherwise)."""
+    from .errors import InputError
+
+    for row in _ROWS:
+        if (row.family, row.version) == (family, version):
+            return row.env_id
+    raise InputError(f"no cepam_gym id {family}-v{version}; registered: {list(VERSIONS)}")
 
 
 def task_version(task) -> int | None:

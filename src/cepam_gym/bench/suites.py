@@ -223,18 +223,25 @@ def _on_plant_v2(v1: Suite) -> Suite:
 
 _V1 = {s.name: s for s in _SUITES_V0_V1}
 # the v2 suites, in their order since they were written out by hand (the stored references' order)
-_SUITES_V2 = tuple(
-    _on_plant_v2(_V1[f"{name}-v1"])
-    for name in (
-        "nominal",
-        "randomized",
-        "tracking",
-        "stiffness-at-fixed-length",
-        "stress",
-        "length",
-        "joint",
+# the stems of the suites every planned-reference version runs, in the stored references' order
+_STEMS = ("nominal", "randomized", "tracking", "stiffness-at-fixed-length", "stress", "length", "joint")
+_SUITES_V2 = tuple(_on_plant_v2(_V1[f"{stem}-v1"]) for stem in _STEMS)
+
+def _on_v3(stem: str) -> Suite:
+    """The v2 suite ``<stem>-v2`` on the v3 ids (same plant, the score's reward, a rig's sensors by
+    default): same options, its own seed (the v2 seed + 10000)."""
+    from .. import versions
+
+    v2 = _V2[f"{stem}-v2"]
+    row = versions.get(v2.env_id)
+    return replace(
+        v2,
+        name=f"{stem}-v3",
+        env_id=versions.id_of(row.family, 3),
+        seed=v2.seed + 10000,
+        doc=v2.doc.replace("v2 plant: ", "v3: ", 1),
     )
-)
+
 
 # The identification window's default length [s] (tasks.window): the measured trade-off of
 # docs/identify_then_control.md (the fitted braid angles' error against the window's length).
@@ -256,8 +263,12 @@ def with_id_window(suite: Suite, seconds: float = ID_WINDOW_S) -> Suite:
     )
 
 
-_SUITES_ID = (with_id_window(_SUITES_V2[1]),)
-SUITES: dict[str, Suite] = {s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2, *_SUITES_ID)}
+_V2 = {s.name: s for s in _SUITES_V2}
+_SUITES_V3 = tuple(_on_v3(stem) for stem in _STEMS)
+_SUITES_ID = (with_id_window(_SUITES_V2[1]), with_id_window(_SUITES_V3[1]))
+SUITES: dict[str, Suite] = {
+    s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2, *_SUITES_ID[:1], *_SUITES_V3, *_SUITES_ID[1:])
+}
 
 
 def headline_suites(env_id: str) -> list[str]:

@@ -55,8 +55,8 @@ class TraceSpec:
     plot_load: tuple[str, str, float] = ("load", "g", 1000.0)
     # tracking with preview (v1): seconds left out after each jump of the target, and what a jump is
     allowance_s: float = 0.0
-    jump_length: float = 1e-3  # SI (m, or rad for the joint): more than this in one control step
-    jump_stiffness: float = 0.05  # relative: more than 5 % in one control step
+    jump_length: float = _RIG.trade.jump_position  # SI (m, or rad): more than this in one control step
+    jump_stiffness: float = _RIG.trade.jump_stiffness  # relative: more than this in one control step
 
     @property
     def rmse_key(self) -> str:
@@ -70,7 +70,7 @@ class TraceSpec:
 
 RIG = TraceSpec()
 # the v1 suites: tracking with preview, 0.5 s of settling allowed after a jump of the target
-RIG_V1 = TraceSpec(allowance_s=0.5)
+RIG_V1 = TraceSpec(allowance_s=_RIG.trade.allowance_s)
 JOINT = TraceSpec(
     quantity=_JOINT.position,
     unit=_JOINT.trade.unit,
@@ -84,7 +84,8 @@ JOINT = TraceSpec(
     plot_load=("external torque", "mN m", 1000.0),
 )
 # the v1 joint: tracking with preview, the same allowance as the rig's v1 suites
-JOINT_V1 = dataclasses.replace(JOINT, allowance_s=RIG_V1.allowance_s)
+JOINT_V1 = dataclasses.replace(JOINT, allowance_s=_JOINT.trade.allowance_s)
+assert (JOINT.jump_length, JOINT.jump_stiffness) == (_JOINT.trade.jump_position, _JOINT.trade.jump_stiffness)
 
 
 def _model_of(core):

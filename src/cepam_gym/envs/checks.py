@@ -12,7 +12,15 @@ from ..errors import InputError
 from ..plant.params import PlantParams, preset
 
 _MAX_CONTROL_DT = 1.0  # s: larger values are milliseconds passed as seconds
-_NOISE_KEYS = {"length_mm": 1e-3, "velocity_mm_s": 1e-3, "pressure_kpa": 1e3}
+# sensor_noise keys -> (noise column, SI per unit); a hinge's position is its angle, so its noise can
+# be given in mrad (the same column as the rig's length)
+_NOISE_KEYS = {
+    "length_mm": (0, 1e-3),
+    "velocity_mm_s": (1, 1e-3),
+    "angle_mrad": (0, 1e-3),
+    "angular_velocity_mrad_s": (1, 1e-3),
+    "pressure_kpa": (2, 1e3),
+}
 
 
 def resolve_params(plant: PlantParams | str | Mapping[str, Any] | None) -> PlantParams:
@@ -113,7 +121,8 @@ def as_actions(actions, num_envs: int) -> np.ndarray:
 
 
 def check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
-    """Noise standard deviations (SI) for [length, velocity, pressure_c, pressure_e, supply]."""
+    """Noise standard deviations (SI) for [position, velocity, pressure_c, pressure_e, supply]
+    (the position is the rig's length or the hinge's angle)."""
     sd = dict(sensor_noise or {})
     bad = set(sd) - set(_NOISE_KEYS)
     if bad:
@@ -121,5 +130,11 @@ def check_noise(sensor_noise: Mapping[str, float] | None) -> np.ndarray:
     for k, v in sd.items():
         if not (np.isfinite(v) and v >= 0):
             raise InputError(f"sensor_noise: {k} must be finite and >= 0, got {v!r}")
-    p = sd.get("pressure_kpa", 0.0) * 1e3
-    return np.array([sd.get("length_mm", 0.0) * 1e-3, sd.get("velocity_mm_s", 0.0) * 1e-3, p, p, p])
+    out = np.zeros(5)
+    for k, v in sd.items():
+        col, si = _NOISE_KEYS[k]
+        if out[col]:
+            raise InputError(f"sensor_noise: {k} and another key set the same sensor's noise; give one")
+        out[col] = float(v) * si
+    out[3:] = out[2]  # one pressure noise for both chambers and the supply
+    return out

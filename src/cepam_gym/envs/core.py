@@ -80,7 +80,7 @@ class CEPAMBatch:
         self.n_window = win.window_steps(self.task.spec, self.control_dt)
         self.n_tracked, self.n_steps = n_tracked, self.n_window + n_tracked
         self.nominal = resolve_params(plant)
-        self.task.bind(self.nominal, self.sub_dt)
+        self.task.bind(self.nominal, self.sub_dt, self.control_dt)
         if self.nominal.supply_pressure > self.nominal.burst_pressure:
             warnings.warn(
                 f"supply_pressure ({self.nominal.supply_pressure / 1e3:g} kPa) is above "

@@ -22,7 +22,17 @@ logging its keys, :mod:`cepam_gym.control.objective` its trade and columns, and 
 
 Reward and score
 ----------------
-The reward of a step is the sum of its terms, among them ``r_x = -w_x min(|e_x| / u, clip_x)``
+The v3 ids (``TaskSpec.reward_form == "score"``) pay the score's own per-step form: on a step the
+score counts (:func:`cepam_gym.control.objective.scored_steps`: not within the settling
+allowance after a jump of a target) ``r_x = -w_x (e_x / x_norm)^2`` and
+``r_K = -w_K ((K / K* - 1) / 0.2)^2`` with ``w_x = w_K = 1``, zero on the steps it leaves out; a
+burst is charged ``failure_weight^2 x max_episode_steps`` once (the return of an episode whose
+every step scores ``failure_weight``); effort and air are priced too little to change a ranking.
+The mean return of a suite is then minus the number of scored steps times the sum of the squared
+RMS terms, which orders controllers as the score does (tests/bench/test_reward_ranking.py
+checks it on every v3 headline suite). The earlier ids keep the reward below.
+
+The reward of the earlier ids of a step is the sum of its terms, among them ``r_x = -w_x min(|e_x| / u, clip_x)``
 (``e_x`` the position error, ``u`` the task's ``tracking_unit``) and
 ``r_K = -w_K min(|K / K* - 1|, clip_K)``. The score of a suite is
 ``RMS(e_x) / x_norm + RMS(K / K* - 1) / 0.2 + 2 x failure rate`` over the steps it counts. The
@@ -74,6 +84,12 @@ class ScoreTrade:
     score_norm: float  # in ``unit``
     stiffness_norm: float = 0.2
     failure_weight: float = 2.0
+    # the planned-reference suites (task version >= 1) leave out ``allowance_s`` after each jump of
+    # a target: a change of more than ``jump_position`` (SI) or of ``jump_stiffness`` (relative)
+    # within one control step
+    allowance_s: float = 0.5
+    jump_position: float = 1e-3
+    jump_stiffness: float = 0.05
 
     @property
     def position_norm(self) -> float:

@@ -28,10 +28,23 @@ from .planner import start_at_rest
 from .randomization import Randomizer, unstable
 from .spec import check_kwargs
 from .task import Task
+from .task_params import allowance_of
 
 # v1: planned references (smooth moves, the paper's two profiles), as the rig's v1 tasks
 V1_REFERENCES = ("min_jerk", "sine", "chirp", "stiffness_ramp")
-JOINT_TASKS = {"joint": JointTask(), "joint_v1": JointTask(references=V1_REFERENCES)}
+# v3: the v1 joint paying the score's per-step form (tasks.contract, "Reward and score"): 10 deg and
+# 20 % one unit each, squared; a burst charged as 500 steps that each score the failure weight 2
+JOINT_SCORE_SCALES = dataclasses.replace(
+    JointTask.scales, tracking_clip=30.0, stiffness_unit=0.2, stiffness_clip=25.0
+)
+JOINT_SCORE_WEIGHTS = JointRewardWeights(angle=1.0, stiffness=1.0, effort=1e-4, air=1e-4, burst=2000.0)
+JOINT_TASKS = {
+    "joint": JointTask(),
+    "joint_v1": JointTask(references=V1_REFERENCES),
+    "joint_v3": JointTask(
+        references=V1_REFERENCES, scales=JOINT_SCORE_SCALES, weights=JOINT_SCORE_WEIGHTS, reward_form="score"
+    ),
+}
 REWARD_TERMS = JOINT.reward_terms  # tasks.kernel.reward_terms, in order
 TERM_KEYS = JOINT.term_keys
 INFO_KEYS = JOINT.info_keys
@@ -61,18 +74,20 @@ class HingeTask(Task):
             task = JOINT_TASKS[task]
         elif not isinstance(task, JointTask):
             raise TypeError(f"task must be a joint task name or a JointTask, got {type(task).__name__}")
-        opts = check_kwargs(JointTask, task_options, "task_options", exclude=("scales",))
+        opts = check_kwargs(
+            JointTask, task_options, "task_options", exclude=("scales", "weights", "reward_form")
+        )
         if opts:
             task = dataclasses.replace(
                 task, **{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             )
-        weights = JointRewardWeights(
-            **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
+        weights = dataclasses.replace(
+            task.weights, **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
         )
         return cls(task, JointGeometry.from_kwargs(joint), weights, preview_steps)
 
     # ------------------------------------------------------------------ build
-    def bind(self, nominal, sub_dt: float) -> None:
+    def bind(self, nominal, sub_dt: float, control_dt: float = 0.02) -> None:
         self.nominal, self.sub_dt = nominal, sub_dt
         self.nominal_row = nominal_row = nominal.to_array()
         self.mechanism = joint_mechanism(self.geometry, nominal_row, self.spec.angle_range)
@@ -86,6 +101,8 @@ class HingeTask(Task):
             nominal.pressure_cap,
             True,
             "angle",
+            score_form=self.spec.reward_form == "score",
+            allowance=allowance_of(JOINT.trade, control_dt),
         )
 
     def hinge_row(self) -> np.ndarray:

@@ -115,6 +115,21 @@ class JointGeometry:
 
 
 @dataclass(frozen=True)
+class JointRewardWeights:
+    angle: float = 1.0  # per 10 deg of |theta - theta*| (clipped at 5)
+    stiffness: float = 5.0  # per unit relative error |K_joint - K*| / K* (clipped at 2): 20 % ~ 10 deg
+    effort: float = 0.05  # per unit mean squared action
+    air: float = 0.05  # per 10 mg of supply air in one control step
+    burst: float = 100.0  # once, when a chamber exceeds the burst pressure
+
+    def __post_init__(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not (np.isfinite(v) and v >= 0):
+                raise InputError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
+
+
+@dataclass(frozen=True)
 class JointTask:
     """Targets and loads of the joint task. Angles rad, stiffness N m/rad, torques N m, times s."""
 
@@ -133,6 +148,10 @@ class JointTask:
     # of stiffness is, which JointRewardWeights.stiffness = 5 prices alike); angular velocity per
     # 5 rad/s and joint stiffness per 1 N m/rad in the observation
     scales: TaskScales = TaskScales(tracking_unit=math.radians(10.0), velocity_scale=5.0, stiffness_scale=1.0)
+    # the default reward weights (a user's reward_weights override them) and how the reward prices
+    # errors (tasks.spec.REWARD_FORMS: "score" on the v3 joint)
+    weights: JointRewardWeights = JointRewardWeights()
+    reward_form: str = "abs"
 
     def __post_init__(self):
         lo, hi = self.angle_range
@@ -152,6 +171,7 @@ class JointTask:
             pressure_margin=self.pressure_margin,
             references=tuple(self.references),
             move_s=self.move_s,
+            reward_form=self.reward_form,
         )
 
     def check_range(self, geom: JointGeometry, p) -> None:
@@ -196,21 +216,6 @@ class JointTask:
             if not np.any(k_hi > k_lo):
                 return float(tau)
         return None
-
-
-@dataclass(frozen=True)
-class JointRewardWeights:
-    angle: float = 1.0  # per 10 deg of |theta - theta*| (clipped at 5)
-    stiffness: float = 5.0  # per unit relative error |K_joint - K*| / K* (clipped at 2): 20 % ~ 10 deg
-    effort: float = 0.05  # per unit mean squared action
-    air: float = 0.05  # per 10 mg of supply air in one control step
-    burst: float = 100.0  # once, when a chamber exceeds the burst pressure
-
-    def __post_init__(self):
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if not (np.isfinite(v) and v >= 0):
-                raise InputError(f"reward weight {f.name} must be finite and >= 0, got {v!r}")
 
 
 # the quantities the joint env measures, in the order of the rig's OBS_FIELDS

@@ -44,6 +44,7 @@ __all__ = [
     "write_obs",
     "write_preview",
     "reward_terms",
+    "scored",
     "termination",
     "plant_inputs",
     "valve_commands",
@@ -125,18 +126,41 @@ def write_obs(pos, vel, aux, target_l, target_k, prev_a, p, task, noise, obs):
 
 
 @jit
-def reward_terms(x, x_target, K, K_target, a0, a1, air, burst, task, terms):
+def scored(tl_row, tk_row, k, task):
+    """Whether step ``k`` of an episode with targets ``tl_row``, ``tk_row`` is one the score counts:
+    no jump of a target (:attr:`TaskParams.jump_pos`, ``jump_k``) within the ``task.allow_steps``
+    steps up to it. The compiled twin of :func:`cepam_gym.control.objective.scored_steps` (a test
+    holds them equal)."""
+    for j in range(max(1, k - task.allow_steps + 1), k + 1):
+        if abs(tl_row[j] - tl_row[j - 1]) > task.jump_pos:
+            return False
+        if task.track_k != 0 and abs(tk_row[j] - tk_row[j - 1]) / abs(tk_row[j - 1]) > task.jump_k:
+            return False
+    return True
+
+
+@jit
+def reward_terms(x, x_target, K, K_target, a0, a1, air, burst, task, terms, counted=True):
     """Signed reward terms of one env (all <= 0), written to ``terms``; returns their sum.
 
     ``x`` is the tracked position (muscle length [m] on the rig, joint angle [rad] on the joint),
     ``K`` the stiffness the task sets (N/m, or N m/rad), ``a0, a1`` the applied action, ``air`` the
     supply air of the step [kg], ``burst`` whether a chamber burst, ``task`` the
-    :class:`TaskParams`. The same function scores every env (rig and joint)."""
-    terms[0] = -task.w_track * min(abs(x - x_target) / task.track_unit, task.track_clip)
+    :class:`TaskParams`, ``counted`` whether the score counts the step (:func:`scored`; read by the
+    score form only). The same function scores every env (rig and joint).
+
+    The absolute form (v0-v2) prices ``min(|e| / unit, clip)``; the score form (v3) squares it and
+    pays nothing on a step the score leaves out (tasks.contract, "Reward and score")."""
+    e_x = min(abs(x - x_target) / task.track_unit, task.track_clip)
+    e_k = 0.0
     if task.track_k != 0:
-        terms[1] = -task.w_stiff * min(abs(K - K_target) / K_target, task.stiff_clip)
+        e_k = min(abs(K - K_target) / K_target / task.stiff_unit, task.stiff_clip)
+    if task.score_form != 0:
+        terms[0] = -task.w_track * e_x * e_x if counted else 0.0
+        terms[1] = -task.w_stiff * e_k * e_k if counted and task.track_k != 0 else 0.0
     else:
-        terms[1] = 0.0
+        terms[0] = -task.w_track * e_x
+        terms[1] = -task.w_stiff * e_k if task.track_k != 0 else 0.0
     terms[2] = -task.w_effort * 0.5 * (a0 * a0 + a1 * a1)
     terms[3] = -task.w_air * air / task.air_unit
     terms[4] = -task.w_burst if burst else 0.0
@@ -190,7 +214,8 @@ def _env_block(lo, n, s, c, task, W):
         h = row_of(hinge, 0 if hinge.shape[0] == 1 else i)
         pos, vel, K = mechanism_view(x, ax[pl.A_STIFF], p, h, mech)
         terms = row_of(s.terms, i)
-        reward = reward_terms(pos, tl[i, k], K, tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms)
+        counted = task.score_form == 0 or scored(row_of(tl, i), row_of(tk, i), k, task)
+        reward = reward_terms(pos, tl[i, k], K, tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms, counted)
         rz = row_of(noise, 0 if noise.shape[0] == 1 else i)
         write_obs(pos, vel, ax, tl[i, k1], tk[i, k1], a, p, task, rz, row_of(obs, i))
         write_preview(row_of(tl, i), row_of(tk, i), t_idx[i] + 1, task, row_of(obs, i))

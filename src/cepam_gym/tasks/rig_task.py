@@ -18,6 +18,7 @@ from .randomization import Randomizer
 from .single import AUX_INFO, N_INFO
 from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
 from .task import Task
+from .task_params import allowance_of
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
 # the contract's info keys: length and velocity, then the columns read from aux in the order
@@ -60,7 +61,7 @@ class RigTask(Task):
         elif not isinstance(task, TaskSpec):
             raise TypeError(f"task must be a task name or a TaskSpec, got {type(task).__name__}")
         if task_options:
-            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales"))
+            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales", "reward_form"))
             opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)
         if reward_weights:
@@ -69,9 +70,10 @@ class RigTask(Task):
         return cls(task, preview_steps)
 
     # ------------------------------------------------------------------ build
-    def bind(self, nominal, sub_dt: float) -> None:
+    def bind(self, nominal, sub_dt: float, control_dt: float = 0.02) -> None:
         """Task ranges in SI against the plant (lengths [m] within the end stops), then the
-        observation layout and the task's parameters."""
+        observation layout and the task's parameters (the score form's settling allowance in
+        steps of ``control_dt``)."""
         lo, hi = nominal.min_length, nominal.max_length
         t = self.spec
         for name, vals in (
@@ -86,7 +88,13 @@ class RigTask(Task):
         self.nominal, self.sub_dt = nominal, sub_dt
         self.layout = rig_layout(t, nominal, self.preview_steps)
         self.params = tk.task_params(
-            dataclasses.astuple(t.weights), t.scales, self.layout, nominal.pressure_cap, t.track_stiffness
+            dataclasses.astuple(t.weights),
+            t.scales,
+            self.layout,
+            nominal.pressure_cap,
+            t.track_stiffness,
+            score_form=t.reward_form == "score",
+            allowance=allowance_of(RIG.trade, control_dt),
         )
 
     def hinge_row(self) -> np.ndarray:

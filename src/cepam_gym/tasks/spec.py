@@ -3,13 +3,17 @@ termination reasons. Frozen dataclasses."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
 from ..errors import InputError
 
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
+# how the tracking and stiffness terms price an error (tasks.kernel.reward_terms): "abs" the
+# clipped absolute errors of the v0-v2 ids, "score" the score's squared per-step form of the v3 ids,
+# zero within the settling allowance (tasks.contract, "Reward and score")
+REWARD_FORMS = ("abs", "score")
 REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # tasks.references
 
 # termination reasons: integer codes (what the step kernels return) and their names, index = code
@@ -36,11 +40,13 @@ class TaskScales:
 
     ``tracking_unit`` is one unit of the tracking term (1 cm of length on the rig, 10 deg of
     angle on the joint), which is clipped at ``tracking_clip`` units; the relative stiffness error
-    is clipped at ``stiffness_clip``; ``air_unit`` is one unit of the air term (10 mg)."""
+    is counted in units of ``stiffness_unit`` and clipped at ``stiffness_clip`` units; ``air_unit``
+    is one unit of the air term (10 mg). The score-form reward (v3) squares the clipped units."""
 
     tracking_unit: float = 0.01  # m
     tracking_clip: float = 5.0
     stiffness_clip: float = 2.0
+    stiffness_unit: float = 1.0  # relative stiffness error of one unit of the stiffness term
     air_unit: float = 1e-5  # kg
     velocity_scale: float = 0.1  # m/s per observation unit
     stiffness_scale: float = 1000.0  # N/m per observation unit
@@ -96,6 +102,8 @@ class TaskSpec:
     move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s] (lengthened if needed)
     # an unscored identification window before the scored tracking [s] (tasks.window; 0: none)
     id_window_s: float = 0.0
+    # how the reward prices errors (REWARD_FORMS): "score" pays the benchmark's own per-step form
+    reward_form: str = "abs"
 
     def __post_init__(self):
         lo, hi = self.length_range
@@ -125,9 +133,27 @@ class TaskSpec:
             )
         if not (np.isfinite(self.move_s) and self.move_s > 0):
             raise InputError(f"move_s must be finite and > 0, got {self.move_s!r}")
+        if self.reward_form not in REWARD_FORMS:
+            raise InputError(f"reward_form must be one of {REWARD_FORMS}, got {self.reward_form!r}")
         w = self.id_window_s
         if isinstance(w, bool) or not isinstance(w, (int, float)) or not (np.isfinite(w) and 0 <= w <= 600):
             raise InputError(f"id_window_s is in seconds and must lie in [0, 600], got {w!r}")
+
+
+# The score's own units (tasks.contract.RIG.trade): 5 mm and 20 % are one unit each, squared by the
+# "score" form; clips far outside any task's range (30 units is 15 cm, 25 units a 500 % error) keep a
+# diverging state's reward finite without touching a ranking.
+SCORE_SCALES = TaskScales(tracking_unit=0.005, tracking_clip=30.0, stiffness_unit=0.2, stiffness_clip=25.0)
+# Squared errors at the score's trade (w = 1); a burst charged as an episode whose every one of its
+# 500 steps scores the failure weight 2 (2^2 x 500); effort and air at prices measured not to change
+# the ranking of any shipped controller (tests/bench/test_reward_ranking.py)
+SCORE_WEIGHTS = RewardWeights(length=1.0, stiffness=1.0, effort=1e-4, air=1e-4, burst=2000.0)
+
+
+def _v3(v1: TaskSpec) -> TaskSpec:
+    """The v3 task of a v1 task: the same references and loads, the score's reward."""
+    name = v1.name.removesuffix("_v1") + "_v3"
+    return replace(v1, name=name, weights=SCORE_WEIGHTS, scales=SCORE_SCALES, reward_form="score")
 
 
 TASKS = {
@@ -143,3 +169,5 @@ TASKS = {
         "stiffness_v1", fixed_length=0.175, load_range=(0.0, 0.15), references=("min_jerk", "stiffness_ramp")
     ),
 }
+# v3: the v1 tasks paying the score's per-step form
+TASKS.update({t.name: t for t in map(_v3, (TASKS["cepam_v1"], TASKS["length_v1"], TASKS["stiffness_v1"]))})

@@ -62,9 +62,10 @@ class Task:
     renderers: tuple[str, ...]  # the first is the default
     spec: Any  # the task's frozen parameters (a TaskSpec or a JointTask)
 
-    def bind(self, nominal, sub_dt: float) -> None:
-        """Check the task against the env's nominal plant and sub-step (``ValueError`` naming
-        what does not fit) and compute what depends on them (layout, task parameters)."""
+    def bind(self, nominal, sub_dt: float, control_dt: float = 0.02) -> None:
+        """Check the task against the env's nominal plant, sub-step and control period
+        (``ValueError`` naming what does not fit) and compute what depends on them (layout, task
+        parameters)."""
         raise NotImplementedError
 
     layout: ObsLayout

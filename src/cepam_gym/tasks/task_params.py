@@ -21,7 +21,12 @@ TaskParams = record(
         Field("track_k", "i8", (), "1 if the task sets a stiffness target"),
         Field("track_unit", "f8", (), "the position error that scores 1 [m or rad]"),
         Field("track_clip", "f8", (), "largest position term (in units)"),
-        Field("stiff_clip", "f8", (), "largest relative stiffness error"),
+        Field("stiff_clip", "f8", (), "largest stiffness term (in units)"),
+        Field("stiff_unit", "f8", (), "the relative stiffness error of one unit"),
+        Field("score_form", "i8", (), "1: the score's squared per-step form (zero in the allowance)"),
+        Field("allow_steps", "i8", (), "control steps left out after a jump of a target"),
+        Field("jump_pos", "f8", (), "a position change larger than this in one step is a jump [SI]"),
+        Field("jump_k", "f8", (), "a relative stiffness change larger than this is a jump"),
         Field("air_unit", "f8", (), "the supply air that scores 1 [kg]"),
         Field("setpoint_max", "f8", (), "gauge set-point of the action +1 in pressure mode [Pa]"),
         Field("obs_clip", "f8", (), "every observation column is clipped to +- this"),
@@ -47,12 +52,16 @@ def task_params(
     setpoint_max: float,
     track_stiffness: bool = True,
     position: str = "length",
+    score_form: bool = False,
+    allowance=(0, 0.0, 0.0),
 ) -> TaskParams:
     """The :class:`TaskParams` of a task: ``weights`` the five reward weights in REWARD_TERMS
     order, ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout
     (at most :data:`MAX_OBS` measured columns), ``setpoint_max`` [Pa] the gauge pressure of the
     action +1 in pressure mode, ``position`` the name of the tracked position in the preview
-    columns (``"length"`` on the rig, ``"angle"`` on the joint)."""
+    columns (``"length"`` on the rig, ``"angle"`` on the joint), ``score_form`` whether the reward
+    is the score's squared form, ``allowance`` its ``(steps, jump_position, jump_stiffness)``:
+    the control steps left out after a jump of a target (:func:`allowance_of`)."""
     n = layout.n_measured
     if n > MAX_OBS:
         raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns; got {layout.names}")
@@ -80,6 +89,11 @@ def task_params(
         track_unit=scales.tracking_unit,
         track_clip=scales.tracking_clip,
         stiff_clip=scales.stiffness_clip,
+        stiff_unit=scales.stiffness_unit,
+        score_form=int(bool(score_form)),
+        allow_steps=int(allowance[0]),
+        jump_pos=float(allowance[1]),
+        jump_k=float(allowance[2]),
         air_unit=scales.air_unit,
         setpoint_max=setpoint_max,
         obs_clip=layout.clip,
@@ -92,3 +106,10 @@ def task_params(
         prev_scale=prev[1],
         prev_k_scale=prev[2],
     )
+
+
+def allowance_of(trade, control_dt: float) -> tuple[int, float, float]:
+    """``(steps, jump_position, jump_stiffness)`` of a contract's score trade
+    (:class:`~cepam_gym.tasks.contract.ScoreTrade`) at ``control_dt`` [s], rounded as the score's
+    mask rounds it (:func:`cepam_gym.control.objective.scored_steps`)."""
+    return int(round(trade.allowance_s / control_dt)), trade.jump_position, trade.jump_stiffness
