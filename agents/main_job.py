@@ -17,9 +17,9 @@ from .evaluate import main as evaluate_main
 from .main_summary import write_summary
 from .train import main as train_main
 
-# the main job's agent: the shipped config ``configs/student_fast.yaml`` (the two-minute student;
-# ``--config student`` trains the full-teacher one, about 9 minutes)
-MAIN_CONFIG = "student_fast"
+# the main job's agent: the shipped config ``configs/student_v3.yaml`` (the two-minute student on the
+# recommended id; ``--config student_fast`` trains it on CEPAM-v1)
+MAIN_CONFIG = "student_v3"
 
 # run beside the trained agent by the main job: the two model-based controllers an agent must beat.
 # The other ends of the scores (the zero controller, the oracle) are the stored reference scores of
@@ -43,10 +43,9 @@ def fresh_dir(path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The main job on the default config: the plant's step response, the paper reproduction table, then
-    train an agent on the shipped ``student_fast`` config (the student of a privileged teacher, on
-    ``CEPAM-v1``, in about two minutes: the agent with the best measured scores; on ``CEPAM-v2`` the same
-    recipe does not yet beat the baseline on ``nominal-v2``, docs/results/agents.md) and score it beside
+    """The main job on the default config: the recommended plant's step response and its reproduction of
+    the paper's numbers, then train an agent on the shipped ``student_v3`` config (the student of a
+    privileged teacher on the recommended id ``CEPAM-v3``, in about two minutes) and score it beside
     the inverse-model baseline and the MPC on its id's headline suites, with the headline score (the zero
     controller's and the oracle's ends: the stored reference scores of the same episodes); ``--no-train``
     scores the baseline and the MPC on the recommended id's suites. Everything lands in ``--out-dir``
@@ -100,12 +99,16 @@ def _run_steps(args, out: Path, steps: list, where: dict) -> int:
         code = train_main(["--config", args.config, "--check"])
         if code:
             return code
-    steps.append(["plant step response", "failed", None])
-    steps[-1][1:] = ["done", demo.step_response(out_dir=out)]
-    print(f"[1/3] plant step response: {steps[-1][2]}", flush=True)
-    print("[2/3] the paper's reported numbers beside the model's", flush=True)
-    steps.append(["the paper's numbers beside the model's", "failed", out / "validate"])
-    validate_main(["--out-dir", str(out / "validate")])
+    from cepam_gym.plant.params import preset
+
+    # the plant of the recommended id: its step response and its calibration against the paper
+    plant = versions.get(versions.RECOMMENDED_ID).plant_preset
+    steps.append([f"plant step response (preset {plant})", "failed", None])
+    steps[-1][1:] = ["done", demo.step_response(preset(plant), out_dir=out)]
+    print(f"[1/3] plant step response (preset {plant}): {steps[-1][2]}", flush=True)
+    print(f"[2/3] the paper's reported numbers beside plant {plant}'s", flush=True)
+    steps.append([f"the paper's numbers beside plant {plant}'s", "failed", out / "validate"])
+    validate_main(["--preset", plant, "--out-dir", str(out / "validate")])
     steps[-1][1] = "done"
     if args.no_train:
         from cepam_gym.bench import cli as bench_cli

@@ -52,6 +52,9 @@ VERSIONS = {
     "(preset `balloon`: tension-only braids, neo-Hookean walls, braid-bladder friction). Supported.",
     "v2": "the v1 task on plant v2 (preset `balloon_v2`: a slack contractor pulls through its seal, "
     "contact-area friction, extensible braid threads; calibrated through the paper's protocols). "
+    "Supported.",
+    "v3": "the v1 task on plant v2 with the reward that is the benchmark score's per-step form and a "
+    "rig's sensor noise in the observation by default (`sensor_noise=None`: ideal sensors). "
     "Recommended.",
 }
 JOINT_V0 = "The hinge is simulated in MuJoCo (needs the `[mujoco]` extra). "
@@ -70,7 +73,8 @@ ARGUMENTS = {
     "reward_weights": "override any weight of the Rewards table",
     "randomize": "`{plant key: [low, high]}` in the key's units, drawn per episode (checked when the "
     "env is built; a draw that fails is redrawn, counted in `info['redraws']`)",
-    "sensor_noise": '`{"length_mm", "velocity_mm_s", "pressure_kpa"}` standard deviations',
+    "sensor_noise": '`{"length_mm" (or "angle_mrad"), "velocity_mm_s" (or "angular_velocity_mrad_s"), '
+    '"pressure_kpa"}` standard deviations (v3: a rig's sensors by default; `None`: ideal sensors)',
     "action_latency_steps": "actions reach the valves this many control steps late",
     "supply_drift_kpa": "random-walk intensity of the supply pressure [kPa/sqrt(s)], clipped to +-20 %",
     "task_options": "override the task's fields (Starting state)",
@@ -91,6 +95,15 @@ TERM_FORMULAS = {
     "effort": "-w mean(a^2)",
     "air": "-w (air drawn from the supply this step) / {air}",
     "burst": "-w, once, when a chamber exceeds the burst pressure",
+}
+# the score's per-step form (task version 2, the v3 ids): zero on the steps of the settling allowance
+SCORE_TERM_FORMULAS = {
+    **TERM_FORMULAS,
+    "track": "-w min(|x - x*| / {unit}, {clip})^2 on the steps the score counts, else 0",
+    "stiffness": "-w min(|K / K* - 1| / {kunit}, {kclip})^2 on the steps the score counts, else 0; "
+    "K the stiffness at constant pressures; counted when the task tracks stiffness",
+    "burst": "-w, once, when a chamber exceeds the burst pressure (the return of an episode whose "
+    "every step scores the failure weight 2)",
 }
 
 
@@ -224,10 +237,21 @@ def spec_page(f: dict) -> str:
         "unit": unit,
         "clip": _num(sc.tracking_clip),
         "kclip": _num(sc.stiffness_clip),
+        "kunit": _num(sc.stiffness_unit),
         "air": f"{sc.air_unit * 1e6:.3g} mg",
     }
+    score_form = getattr(task, "reward_form", "abs") == "score"
+    if score_form:
+        lines[-3:-3] = [
+            "The reward is the benchmark score's per-step form: squared errors at the score's trade, "
+            "nothing paid within the 0.5 s settling allowance after a jump of a target (the steps the "
+            "score leaves out), so the mean return ranks controllers as the score does "
+            "([benchmark](../benchmark.md#reward-and-score-on-v3)).",
+            "",
+        ]
+    formulas = SCORE_TERM_FORMULAS if score_form else TERM_FORMULAS
     for term, w in f["weights"].items():
-        formula = TERM_FORMULAS["track" if term == track else term].format(**fmt)
+        formula = formulas["track" if term == track else term].format(**fmt)
         lines.append(f"| {term} | `{formula}` | {_num(w)} |")
     ranges = {
         k: v

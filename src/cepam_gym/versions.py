@@ -45,7 +45,7 @@ DEFAULT_PRESET = PLANT_PRESETS[1]
 PREVIEW_STEPS = 10
 MAX_EPISODE_STEPS = 500  # 10 s at 50 Hz
 # The v3 ids observe through a rig's sensors: the emulated rig's default noise
-# (cepam_gym.rig.emulator.Impairments: 0.2 kPa on every pressure, 0.03 mm on the length) and the
+# (cepam_gym.rig.emulator.RigImperfections: 0.2 kPa on every pressure, 0.03 mm on the length) and the
 # length rate's noise of the deploy loop's filtered difference of those readings at 50 Hz
 # (cepam_gym.rig.observation; tests/envs/test_v3.py measures it); the 50 Pa and 10 um
 # quantisation steps add 14 Pa and 3 um rms, below the noise, and are left out

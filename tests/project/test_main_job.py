@@ -8,6 +8,7 @@ from datetime import UTC, datetime
 
 import pytest
 
+from cepam_gym.bench.suites import SUITES
 from cepam_gym.cli import main
 from cepam_gym_agents import main_job
 from cepam_gym_agents.config import load_config
@@ -25,9 +26,13 @@ def test_main_job_never_reuses_a_run_directory(tmp_path):
     assert fresh_dir(tmp_path / "agent") == tmp_path / "agent-3"
 
 
-def test_the_main_jobs_default_config_is_a_shipped_student(capsys):
+def test_the_main_jobs_default_config_is_a_shipped_student_on_the_recommended_id(capsys):
+    from cepam_gym import versions
+
     cfg = load_config(main_job.MAIN_CONFIG)
     assert cfg.student is not None
+    assert cfg.env.id == versions.RECOMMENDED_ID
+    assert all(SUITES[s].env_id == versions.RECOMMENDED_ID for s in cfg.student.suites)
     with pytest.raises(SystemExit) as done:  # argparse's --help, through the command line's hook
         main(["run", "--help"])
     assert done.value.code == 0
@@ -47,10 +52,14 @@ def test_main_job_without_the_train_extra_fails_in_one_line_before_any_step(tmp_
 
 
 @pytest.mark.slow
-def test_main_job_without_training_writes_the_summary(tmp_path, capsys):
+def test_main_job_without_training_writes_the_summary(tmp_path, capsys, recwarn):
+    from cepam_gym import versions
+
     out = tmp_path / "main"
     assert main(["run", "--out-dir", str(out), "--no-train", "--episodes", "2"]) == 0
+    assert not [w for w in recwarn if "out of date" in str(w.message)]  # only the recommended id runs
     text = (out / "summary.md").read_text()
+    assert f"preset {versions.get(versions.RECOMMENDED_ID).plant_preset}" in text
     assert "cepam-gym run --out-dir" in text and "numba" in text and "gymnasium" in text
     for what in ("`step_response.png`", "`validate`", "`bench`", "| done |"):
         assert what in text, what

@@ -1,0 +1,93 @@
+"""Does the env's mean return rank controllers as the benchmark's score does? On the v3 ids it
+must (their reward is the score's per-step form: tasks.contract, "Reward and score").
+
+For each suite, every controller's mean episode return and its score on the suite's seeded
+episodes, then the two rankings side by side. The controllers span the range: valves shut, random
+commands, the inverse-model baseline, the MPCs, the oracle, and a near-oracle that weighs the
+settling allowance as the score does not (the oracle planned with ``allowance_weight=1``: the
+policy an env that paid for the allowance would prefer). ``--agent RUN_DIR`` adds a trained
+agent. ``--json FILE`` writes the rows (with the package version and commit) for the docs and
+for ``tests/bench/test_reward_ranking.py``'s stored check.
+
+Run: ``python benchmarks/reward_ranking.py [--suite nominal-v3 ...] [--episodes 20] [--agent runs/main/agent]
+[--json docs/results/reward_ranking.json]`` (the default suites: every v3 headline suite).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import time
+
+import cepam_gym
+from cepam_gym import versions
+from cepam_gym.bench.harness import run_suite
+from cepam_gym.bench.suites import SUITES
+
+NEAR_ORACLE = ("oracle", {"allowance_weight": 1.0}, "oracle (allowance_weight=1)")
+
+
+def controllers_for(suite_name: str, agent: str | None = None) -> list[tuple[str, dict, str]]:
+    """``(controller, options, label)`` of every controller ranked on a suite."""
+    joint = SUITES[suite_name].traces.quantity == "angle"
+    base = "joint_baseline" if joint else "baseline"
+    out = [("zero", {}, "zero"), ("random", {}, "random"), (base, {}, base), ("mpc", {}, "mpc")]
+    if not joint:
+        out.append(("adaptive_mpc", {}, "adaptive_mpc"))
+    if "-id-" in suite_name:
+        out.append(("identify_mpc", {}, "identify_mpc"))
+    if agent:
+        out.append((agent, {}, "agent"))
+    return [*out, ("oracle", {}, "oracle"), NEAR_ORACLE]
+
+
+def rank(suite_name: str, episodes: int | None, agent: str | None = None, max_steps: int | None = None) -> list:
+    """Each controller's score and mean return on the suite's first ``episodes`` episodes
+    (``max_steps``: the first steps only)."""
+    rows = []
+    for controller, options, label in controllers_for(suite_name, agent):
+        t0 = time.perf_counter()
+        m, _ = run_suite(controller, suite_name, episodes, max_steps, **options)
+        rows.append(
+            {"controller": label, "score": m["score"], "mean_return": m["mean_return"], "seconds": time.perf_counter() - t0}
+        )
+        print(f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}  ({rows[-1]['seconds']:.0f} s)", flush=True)
+    return rows
+
+
+def agree(rows) -> bool:
+    """Whether the mean return orders the rows exactly as the score does (higher return, lower score)."""
+    by_score = sorted(range(len(rows)), key=lambda i: rows[i]["score"])
+    by_return = sorted(range(len(rows)), key=lambda i: -rows[i]["mean_return"])
+    return by_score == by_return
+
+
+def headline_v3() -> list[str]:
+    return [s for row in versions.VERSIONS.values() if row.version == 3 for s in row.suites]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--suite", action="append", help="suite (repeatable; default: every v3 headline suite)")
+    ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's)")
+    ap.add_argument("--agent", default=None, help="a trained agent's run directory to rank too")
+    ap.add_argument("--json", default=None, help="write the rows to this file")
+    args = ap.parse_args()
+    out = {
+        "version": cepam_gym.__version__,
+        "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),
+        "suites": {},
+    }
+    for name in args.suite or headline_v3():
+        print(f"{name}:", flush=True)
+        rows = rank(name, args.episodes, args.agent)
+        out["suites"][name] = {"episodes": args.episodes or SUITES[name].episodes, "rows": rows, "agree": agree(rows)}
+        print(f"  return ranks as the score: {agree(rows)}", flush=True)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

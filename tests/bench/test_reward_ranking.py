@@ -1,0 +1,57 @@
+"""On the v3 ids the mean return ranks controllers exactly as the benchmark's score does.
+
+``docs/results/reward_ranking.json`` holds the ranking on every v3 headline suite at its 20
+episodes (``python benchmarks/reward_ranking.py --json docs/results/reward_ranking.json``
+regenerates it); the fast test checks that file covers every v3 headline suite with the controllers
+the claim names and agrees; the slow test re-runs the ranking on shortened episodes of two suites,
+the oracle and the near-oracle included.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+from cepam_gym import versions
+
+ROOT = Path(__file__).resolve().parents[2]
+STORED = ROOT / "docs" / "results" / "reward_ranking.json"
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("reward_ranking", ROOT / "benchmarks" / "reward_ranking.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_agree_is_the_same_order_by_score_and_by_return():
+    bench = _bench()
+    rows = [{"score": 1.0, "mean_return": -10.0}, {"score": 0.5, "mean_return": -3.0}]
+    assert bench.agree(rows)
+    rows[1]["mean_return"] = -20.0
+    assert not bench.agree(rows)
+
+
+def test_the_stored_ranking_covers_every_v3_headline_suite_and_agrees():
+    stored = json.loads(STORED.read_text())
+    headline = [s for row in versions.VERSIONS.values() if row.version == 3 for s in row.suites]
+    assert sorted(stored["suites"]) == sorted(headline)
+    for name, entry in stored["suites"].items():
+        labels = {r["controller"] for r in entry["rows"]}
+        assert {"zero", "random", "mpc", "oracle", "oracle (allowance_weight=1)"} <= labels, name
+        assert labels & {"baseline", "joint_baseline"}, name
+        assert entry["episodes"] == 20, name
+        assert _bench().agree(entry["rows"]), f"{name}: the return ranks otherwise than the score"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("suite", ["nominal-v3", "joint-v3"])
+def test_return_ranks_as_the_score_on_shortened_episodes(suite):
+    bench = _bench()
+    rows = bench.rank(suite, episodes=3, max_steps=150)
+    assert len(rows) >= 7
+    assert bench.agree(rows), rows
