@@ -21,13 +21,14 @@ baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from cepam_gym._cli_errors import CommandParser
 
 SUITES = ("nominal-v1", "randomized-v1")
 CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")
@@ -145,9 +146,7 @@ def table(configs, seeds, cache: dict, suites=SUITES, controllers=None, unseen_e
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(
-        prog="python -m cepam_gym_agents.compare", description=__doc__.split("\n\n")[0]
-    )
+    ap = CommandParser(prog="python -m cepam_gym_agents.compare", description=__doc__.split("\n\n")[0])
     ap.add_argument(
         "--config", action="append", required=True, help="a shipped config name or a file (repeatable)"
     )

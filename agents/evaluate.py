@@ -16,11 +16,11 @@ score, the share of the baseline-to-oracle gap it closes, against :data:`GAP_GOA
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
+from cepam_gym._cli_errors import CommandParser
 from cepam_gym.bench.headline import LEGEND, headline_score
 from cepam_gym.errors import InputError
 
@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
     from cepam_gym.control.baseline import UnsupportedEnvError
     from cepam_gym.control.registry import controller_names
 
-    ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
+    ap = CommandParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
     ap.add_argument(
         "--run",
         required=True,

@@ -3,15 +3,15 @@ benchmark suite; the dataset id is the last line printed."""
 
 from __future__ import annotations
 
-import argparse
 import sys
 
+from .._cli_errors import CommandParser
 from ..bench.suites import SUITES
 from ..control import controller_names
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="cepam-gym dataset", description=__doc__)
+    ap = CommandParser(prog="cepam-gym dataset", description=__doc__)
     ap.add_argument("--suite", required=True, help=f"one of {', '.join(SUITES)}")
     ap.add_argument(
         "--controller",
