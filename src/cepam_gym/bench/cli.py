@@ -279,8 +279,11 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     check_agents_fit(controllers, suites)
 
+    from ..progress import runs
+
     rows, traces = [], {}
-    _run_suites(args, controllers, suites, rows, traces)
+    with runs(len(suites) * len(controllers), "cepam-gym bench"):
+        _run_suites(args, controllers, suites, rows, traces)
     # a normalized score needs both ends measured on these episodes: run the missing ones, or say so
     missing = missing_ends(rows)
     for s in dict.fromkeys(s for s, _ in missing):

@@ -37,16 +37,19 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError as e:
         print(f"cepam-gym dataset: error: {e}", file=sys.stderr)
         return 2
-    out = record_dataset(
-        args.suite,
-        args.controller,
-        args.episodes,
-        seed=args.seed,
-        max_steps=args.max_steps,
-        name=args.name,
-        dataset_version=args.dataset_version,
-        overwrite=args.overwrite,
-    )
+    from ..progress import runs
+
+    with runs(1, "cepam-gym dataset"):
+        out = record_dataset(
+            args.suite,
+            args.controller,
+            args.episodes,
+            seed=args.seed,
+            max_steps=args.max_steps,
+            name=args.name,
+            dataset_version=args.dataset_version,
+            overwrite=args.overwrite,
+        )
     if not store.reference_scores(SUITES[out["suite"]]):
         from ..bench.cli import _oracle_drives
 
