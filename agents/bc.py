@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym._cli_errors import CommandParser
 from cepam_gym.errors import InputError
 
 from .bc_policy import STD_FLOOR, BCPolicy, make_mlp, save
@@ -122,7 +123,7 @@ def _positive(kind):
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m cepam_gym_agents.bc", description=__doc__.split("\n\n")[0])
+    ap = CommandParser(prog="python -m cepam_gym_agents.bc", description=__doc__.split("\n\n")[0])
     ap.add_argument("--dataset", required=True, help="Minari dataset id (cepam-gym dataset prints it)")
     ap.add_argument("--out", required=True, help="run directory to write (bc_policy.pt, bc.json)")
     ap.add_argument("--epochs", type=_positive(int), default=100)

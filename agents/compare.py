@@ -21,13 +21,14 @@ baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+from cepam_gym._cli_errors import CommandParser
 
 SUITES = ("nominal-v1", "randomized-v1")
 CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")
@@ -85,7 +86,21 @@ def measure(
     """Scores of every run and controller (``cache``: what an earlier call measured, kept);
     ``controllers`` (None: :data:`CONTROLLERS`, and :data:`UNSEEN_CONTROLLERS` on the unseen seed);
     ``unseen_episodes`` of the unseen seed."""
+    from cepam_gym.progress import runs
+
     sets = (("suite", None, 20), (unseen_set(unseen_episodes), unseen, unseen_episodes))
+    todo = sum(
+        len(_controllers(where, controllers)) + len(configs) * len(seeds)
+        for _ in suites
+        for where, _, _ in sets
+    )
+    with runs(todo, "compare: scoring"):
+        _score_all(configs, seeds, out, unseen, cache, suites, controllers, sets)
+    return cache
+
+
+def _score_all(configs, seeds, out: Path, unseen: int, cache: dict, suites, controllers, sets) -> None:
+    """The loop of :func:`scores` (cached keys are skipped; their bar steps go by unadvanced)."""
     for suite in suites:
         for where, seed, episodes in sets:
             for name in _controllers(where, controllers):
@@ -99,7 +114,6 @@ def measure(
                     if key not in cache:
                         cache[key] = score(str(out / f"{Path(c).stem}-s{s}"), suite, seed, episodes)
                         (out / "compare.json").write_text(json.dumps(cache, indent=1))
-    return cache
 
 
 def _controllers(where: str, controllers) -> tuple:
@@ -145,9 +159,7 @@ def table(configs, seeds, cache: dict, suites=SUITES, controllers=None, unseen_e
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(
-        prog="python -m cepam_gym_agents.compare", description=__doc__.split("\n\n")[0]
-    )
+    ap = CommandParser(prog="python -m cepam_gym_agents.compare", description=__doc__.split("\n\n")[0])
     ap.add_argument(
         "--config", action="append", required=True, help="a shipped config name or a file (repeatable)"
     )

@@ -21,7 +21,6 @@ a time, each pinned to a core with ``taskset`` where it exists). Written to ``--
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -32,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym._cli_errors import CommandParser
 from cepam_gym.versions import VERSIONS
 
 from .config import ConfigError, dump_config, load_config
@@ -303,9 +303,7 @@ def table_markdown(finals: list[dict], episodes: int | None) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(
-        prog="python -m cepam_gym_agents.curves", description=__doc__.split("\n\n")[0]
-    )
+    ap = CommandParser(prog="python -m cepam_gym_agents.curves", description=__doc__.split("\n\n")[0])
     ap.add_argument("--algos", nargs="+", default=list(CONFIG_OF), choices=list(CONFIG_OF))
     ap.add_argument("--ids", nargs="+", default=list(SUITE_OF), choices=list(SUITE_OF))
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])

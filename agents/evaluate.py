@@ -16,11 +16,11 @@ score, the share of the baseline-to-oracle gap it closes, against :data:`GAP_GOA
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
+from cepam_gym._cli_errors import CommandParser
 from cepam_gym.bench.headline import LEGEND, headline_score
 from cepam_gym.errors import InputError
 
@@ -174,15 +174,32 @@ def default_suites(env_id: str, asked: list[str] | None = None) -> list[str]:
     return suites
 
 
+def _score_into(rows: list, traces: dict, suites: list, controllers: list, episodes: int | None) -> None:
+    """Score every ``(name, spec)`` of ``controllers`` on every suite, into ``rows`` and ``traces``;
+    a controller that cannot drive a suite's env is skipped, said on stderr."""
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.control.baseline import UnsupportedEnvError
+
+    for s in suites:
+        for name, c in controllers:
+            try:
+                metrics, tr = run_suite(c, s, episodes=episodes)
+            except UnsupportedEnvError as e:  # e.g. the rig's MPC on the joint
+                print(f"cepam-gym eval: skipped {name} on {s}: {e}", file=sys.stderr, flush=True)
+                continue
+            metrics["controller"] = name
+            rows.append(metrics)
+            traces[(s, name)] = tr
+
+
 def main(argv: list[str] | None = None) -> int:
     from cepam_gym.bench import report
     from cepam_gym.bench.cli import add_scores
-    from cepam_gym.bench.harness import run_suite
     from cepam_gym.bench.suites import SUITES
-    from cepam_gym.control.baseline import UnsupportedEnvError
     from cepam_gym.control.registry import controller_names
+    from cepam_gym.progress import runs
 
-    ap = argparse.ArgumentParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
+    ap = CommandParser(prog="cepam-gym eval", description=__doc__.split("\n\n")[0])
     ap.add_argument(
         "--run",
         required=True,
@@ -240,17 +257,9 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out_dir) if args.out_dir else default_out
     out.mkdir(parents=True, exist_ok=True)
     rows, traces = [], {}
-    for s in suites:
-        controllers = [("agent", spec)] + [(c, c) for c in dict.fromkeys(against)]
-        for name, c in controllers:
-            try:
-                metrics, tr = run_suite(c, s, episodes=args.episodes)
-            except UnsupportedEnvError as e:  # e.g. the rig's MPC on the joint
-                print(f"cepam-gym eval: skipped {name} on {s}: {e}", file=sys.stderr, flush=True)
-                continue
-            metrics["controller"] = name
-            rows.append(metrics)
-            traces[(s, name)] = tr
+    controllers = [("agent", spec)] + [(c, c) for c in dict.fromkeys(against)]
+    with runs(len(suites) * len(controllers), "cepam-gym eval"):
+        _score_into(rows, traces, suites, controllers, args.episodes)
     add_scores(rows)
     text = report.table(rows)
     cmp, gaps = compare(rows), gaps_closed(rows)

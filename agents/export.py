@@ -28,13 +28,13 @@ episode). Those deploy by running the controller (``cepam-gym deploy``), not a f
 
 from __future__ import annotations
 
-import argparse
 import json
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from cepam_gym._cli_errors import CommandParser
 from cepam_gym.errors import InputError
 
 OPSET = 17
@@ -213,7 +213,7 @@ def _write_metadata(path: Path, meta: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(
+    ap = CommandParser(
         prog="cepam-gym export",
         description="write a trained agent as one ONNX file (normalisation, history, clipping and "
         "action map inside); run it with onnxruntime (the [deploy] extra) or cepam-gym deploy",

@@ -259,3 +259,16 @@ def evaluate(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: in
     spec = RIG if spec is None else spec
     tr, track_k = record(make_policy, env_id, env_kwargs, episodes, seed, spec=spec)
     return score_traces(tr, track_k, spec)
+
+
+def trained_env_id(spec: str | Path) -> str | None:
+    """The env id the agent ``spec`` (what :func:`load_policy` takes) was trained on, as its record
+    names it (``config.yaml``, RL Zoo3's ``args.yml``); None for a behaviour-cloning run or a bare
+    model without a record. ``cepam-gym bench`` reads it (as ``load_policy.env_id_of``) to score an
+    agent on its own id's headline suites."""
+    if is_bc_run(Path(spec)):
+        return None
+    return locate(spec).env_id()
+
+
+load_policy.env_id_of = trained_env_id  # the loader protocol of cepam_gym.control.registry.agent_env_id

@@ -1,4 +1,4 @@
-"""``cepam-gym train``: train SAC, PPO or TD3 on a CE-PAM env from a YAML config.
+"""``cepam-gym train``: train an agent (an algorithm of ``ALGORITHMS``) on a CE-PAM env from a YAML config.
 
     cepam-gym train --config configs/quick.yaml [--total-timesteps N] [--seed S] [--out DIR] [--resume]
 
@@ -34,10 +34,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from cepam_gym._cli_errors import debug_on, report, user_error_types
+from cepam_gym._cli_errors import CommandParser, debug_on, report, user_error_types
 
 # the session's parts, importable from here as before the split into modules
-from .algorithm import steps_per_collection
+from .algorithm import ALGORITHMS, steps_per_collection
 from .callbacks import FIRST_CHECKPOINT_FRACTION, FIRST_CHECKPOINT_MINUTES
 from .config import load_config
 from .envs import make_train_env
@@ -65,9 +65,9 @@ __all__ = [
 # --------------------------------------------------------------------------- command line
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    ap = argparse.ArgumentParser(
+    ap = CommandParser(
         prog="cepam-gym train",
-        description=__doc__.split("\n\n")[0],
+        description=f"train an agent ({', '.join(ALGORITHMS)}) on a CE-PAM env from a YAML config",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     ap.add_argument("--config", help="training config (YAML), e.g. configs/quick.yaml")
@@ -81,7 +81,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--quiet", action="store_true", help="no progress bar or messages")
     ap.add_argument(
-        "--check", action="store_true", help="load and check the config (and its env kwargs), then exit"
+        "--check",
+        action="store_true",
+        help="run every check a training session makes (the config, its env and plant, the model and its "
+        "hyperparameters, the evaluation env), build each once, then exit without writing anything",
     )
     args = ap.parse_args(argv)
     if args.total_timesteps is not None and args.total_timesteps < 1:
@@ -114,6 +117,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.total_timesteps is not None:
             cfg = cfg.replace(total_timesteps=args.total_timesteps)
         if args.check:
+            from .trainer import check
+
+            check(cfg)
+            print(f"cepam-gym train: {args.config or run} checks: the config, its env and its model build")
             return 0
         return train(cfg, run, resume=args.resume, quiet=args.quiet, argv=["train", *argv])
     except KeyboardInterrupt:  # during start-up (learn() handles its own): nothing to save yet

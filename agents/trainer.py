@@ -35,6 +35,49 @@ _LOGGED_METRICS = (
 )
 
 
+def build_train_env(cfg: TrainConfig, seed: int):
+    """The training env of ``cfg`` (:func:`~.envs.make_train_env`); a kwarg the env refuses (a
+    missing plant file, a plant out of its ranges) is a ``ConfigError`` naming the env."""
+    try:
+        return make_train_env(cfg, seed)
+    except (ValueError, TypeError, OSError) as e:
+        raise ConfigError(f"env {cfg.env.id} (env.kwargs of the config): {e}") from e
+
+
+def new_model(cfg: TrainConfig, algo, raw) -> tuple:
+    """``(env, model)``: a fresh model of ``algo`` on ``raw`` in the config's normalization; the
+    algorithm's refusal of its hyperparameters or policy_kwargs is a ``ConfigError``."""
+    env = normalize(raw, cfg)
+    try:
+        pol, pk = policy(cfg.algorithm, cfg.policy_kwargs, cfg.agent.privileged_critic, raw)
+        hp = hyperparameters(cfg.hyperparameters)
+        return env, algo(pol, env, seed=cfg.seed, verbose=0, device="cpu", policy_kwargs=pk, **hp)
+    except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
+        raise ConfigError(
+            f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
+            f"or policy_kwargs {cfg.policy_kwargs}: {e}"
+        ) from e
+
+
+def check(cfg: TrainConfig) -> None:
+    """What ``cepam-gym train --check`` runs: every check a session makes before its first step
+    (the training env with its kwargs and plant, the model with its hyperparameters, the periodic
+    evaluation's env), building each once and writing nothing."""
+    import gymnasium as gym
+
+    raw = build_train_env(cfg, cfg.seed)
+    try:
+        if cfg.student is None:
+            new_model(cfg, training_class(cfg.algorithm, cfg.learner), raw)
+        eval_id, eval_kwargs, _ = eval_env_spec(cfg)
+        try:
+            gym.make_vec(eval_id, num_envs=1, **eval_kwargs).close()
+        except (ValueError, TypeError, OSError) as e:
+            raise ConfigError(f"the evaluation env {eval_id} (eval.suite of the config): {e}") from e
+    finally:
+        raw.close()
+
+
 class Trainer:
     """One training session of one run directory (new or resumed)."""
 
@@ -77,25 +120,12 @@ class Trainer:
         start = int(latest["steps"]) if latest else 0
         # a resumed session draws new episodes: seed + steps done
         seed = cfg.seed + start
-        try:
-            env = make_train_env(cfg, seed)
-        except (ValueError, TypeError) as e:
-            raise ConfigError(f"env {cfg.env.id} (env.kwargs of the config): {e}") from e
-        raw = env
+        raw = env = build_train_env(cfg, seed)
         if latest:
             env, self.model, latest = self.checkpoints.load_newest(candidates, raw, cfg, algo, self._say)
             self._restore(latest, seed)
         else:
-            env = normalize(env, cfg)
-            try:
-                pol, pk = policy(cfg.algorithm, cfg.policy_kwargs, cfg.agent.privileged_critic, raw)
-                hp = hyperparameters(cfg.hyperparameters)
-                self.model = algo(pol, env, seed=cfg.seed, verbose=0, device="cpu", policy_kwargs=pk, **hp)
-            except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
-                raise ConfigError(
-                    f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
-                    f"or policy_kwargs {cfg.policy_kwargs}: {e}"
-                ) from e
+            env, self.model = new_model(cfg, algo, raw)
         self.env = env
         self.vecnorm = env if cfg.normalize.enabled else None
         self.start_step = int(self.model.num_timesteps)

@@ -114,6 +114,7 @@ def env_facts(env_id: str) -> dict:
     import gymnasium as gym
 
     import cepam_gym  # noqa: F401  (registers the ids)
+    from cepam_gym import versions
 
     spec = gym.spec(env_id)
     env = gym.make(env_id)
@@ -124,7 +125,8 @@ def env_facts(env_id: str) -> dict:
     weights = weights if weights is not None else u.weights
     if core is not None:
         init = inspect.signature(type(core).__init__).parameters
-        kwargs = {k: p.default for k, p in init.items() if k not in ("self", "num_envs", "task")}
+        refused = _task_arguments_refused(type(core.task))
+        kwargs = {k: p.default for k, p in init.items() if k not in ("self", "num_envs", "task", *refused)}
         kwargs.update(render_mode=None, renderer=core.task.renderers[0])
         renderers = core.task.renderers
     else:
@@ -151,9 +153,74 @@ def env_facts(env_id: str) -> dict:
         "termination": u.contract.termination_names,  # the task's contract (cepam_gym.tasks.contract)
         "pin_keys": u.contract.pin_keys,
         "renderers": renderers,
+        "status": versions.get(env_id).status,
+        "task_fields": _task_fields(env_id, task, spec),
+        "starts_on_reference": tuple(task.references) != ("step",),
+        "start_keys": [
+            (u.contract.score_keys[k], u.contract.score_keys[f"target_{k}"]) for k in ("length", "stiffness")
+        ],
     }
     env.close()
     return facts
+
+
+def _task_arguments_refused(task_class) -> list[str]:
+    """The arguments of :func:`cepam_gym.tasks.registry.make_task` (the env's task kwargs) that
+    this task class does not take (the rig takes no ``joint``)."""
+    from cepam_gym.tasks.registry import make_task
+
+    takes = inspect.signature(task_class.from_kwargs).parameters
+    return [k for k in inspect.signature(make_task).parameters if k != "task" and k not in takes]
+
+
+def _task_fields(env_id: str, task, spec) -> dict:
+    """The fields of the task's declaration (its dataclass) that the kwarg ``task_options``
+    overrides, with their values: each field is offered back at its own value, as the env's own
+    check of ``task_options`` sees it (the batched tasks' ``from_kwargs``; the MuJoCo joint's
+    constructor)."""
+    import gymnasium as gym
+
+    from cepam_gym.errors import InputError
+    from cepam_gym.tasks.registry import make_task
+
+    out = {}
+    for f in dataclasses.fields(task):
+        value = getattr(task, f.name)
+        try:
+            if "task" in spec.kwargs:
+                make_task(
+                    spec.kwargs["task"], {f.name: value}, preview_steps=spec.kwargs.get("preview_steps", 0)
+                )
+            else:
+                gym.make(env_id, task_options={f.name: value}).close()
+        except (InputError, TypeError):
+            continue
+        out[f.name] = value
+    return out
+
+
+# how close the plant's stiffness comes to the first target's at rest on the reference: the
+# inverse static model's pressures on the nominal plant (1.7 % at most over 20 seeds of each id)
+START_STIFFNESS_TOL = 0.02
+
+
+def starting_state(f: dict) -> list[str]:
+    """The starting state, as the task's declaration has it (its reference kinds) and as
+    ``tests/project/test_spec_pages.py`` checks against ``reset`` (20 seeds)."""
+    (position, target), (stiffness, target_k) = (tuple(f"`{k}`" for k in pair) for pair in f["start_keys"])
+    if f["starts_on_reference"]:
+        return [
+            "Each episode starts at rest on the first point of its reference: after `reset`, "
+            f"{position} equals {target} and {stiffness} is within {START_STIFFNESS_TOL:.0%} of "
+            f"{target_k} (the chamber pressures are the inverse static model's for the first target "
+            "under the first load), so there is no jump at t = 0. The reference then moves smoothly "
+            "(its kinds: the field `references`)."
+        ]
+    return [
+        "Each episode starts at rest at a reachable operating point drawn apart from the first target: "
+        f"after `reset`, ({position}, {stiffness}) is not ({target}, {target_k}), and the first "
+        "set-point is a step away."
+    ]
 
 
 def _num(x) -> str:
@@ -182,7 +249,7 @@ def _obs_rows(columns, preview_steps: int) -> list[str]:
 def spec_page(f: dict) -> str:
     """The Gymnasium-style spec page of one id, from :func:`env_facts`."""
     name, version = f["id"].split("/")[-1].rsplit("-", 1)
-    sc, task = f["scales"], f["task"]
+    sc = f["scales"]
     joint = name == "CEPAMJoint"
     unit = (
         f"{sc.tracking_unit * 180 / 3.141592653589793:.3g} deg"
@@ -193,7 +260,7 @@ def spec_page(f: dict) -> str:
     lines = [
         f"# {f['id']}",
         "",
-        f"| | |\n|---|---|\n| status | {VERSIONS[version].rsplit('. ', 1)[-1].rstrip('.')} |",
+        f"| | |\n|---|---|\n| status | {f['status']} |",
         f"| action space | `{f['action_space']}` |",
         f"| observation space | `{f['observation_space']}` |",
         f"| plant preset | `{f['plant']}` |",
@@ -253,24 +320,20 @@ def spec_page(f: dict) -> str:
     for term, w in f["weights"].items():
         formula = formulas["track" if term == track else term].format(**fmt)
         lines.append(f"| {term} | `{formula}` | {_num(w)} |")
-    ranges = {
-        k: v
-        for k, v in dataclasses.asdict(task).items()
-        if k.endswith("_range")
-        or k in ("fixed_length", "load_kinds", "segment_duration", "references", "pressure_margin")
-    }
     lines += [
         "",
         "## Starting state",
         "",
-        "Each episode starts at rest at a reachable operating point different from the first target. "
+        *starting_state(f),
+        "",
         "Targets change every `segment_duration` seconds and are drawn where the inverse static model "
         "finds pressures within the task's `pressure_margin` for every load of the segment: every "
-        "episode is solvable. The task's fields (kwarg `task_options` overrides them, in SI units):",
+        "episode is solvable. The task's fields, all of which the kwarg `task_options` overrides (SI "
+        "units):",
         "",
         "| field | value |",
         "|---|---|",
-        *(f"| `{k}` | `{v}` |" for k, v in ranges.items()),
+        *(f"| `{k}` | `{v}` |" for k, v in f["task_fields"].items()),
         "",
         f"`reset(options={{...}})` pins any of {', '.join(f'`{k}`' for k in f['pin_keys'])} for the episode.",
         "",
@@ -314,10 +377,12 @@ def registered_ids() -> list[str]:
 
 
 def index_page(ids: list[str]) -> str:
+    from cepam_gym import versions
+
     rows = []
     for env_id in ids:
         name, version = env_id.split("/")[-1].rsplit("-", 1)
-        status = VERSIONS[version].rsplit(". ", 1)[-1].rstrip(".")
+        status = versions.get(env_id).status
         rows.append(
             f"| [`{env_id}`]({name}-{version}.md) | {status} | {DESCRIPTIONS[name].split('Task: ')[-1]} |"
         )

@@ -10,6 +10,7 @@ traceback.
 
 from __future__ import annotations
 
+import argparse
 import os
 import pickle
 import sys
@@ -19,6 +20,17 @@ from .errors import InputError
 
 EXIT_USER_ERROR = 2
 _debug = False  # set by run_guarded: commands that report their own errors re-raise instead
+
+
+class CommandParser(argparse.ArgumentParser):
+    """argparse's parser with the command line's error format: a bad option or value is one line,
+    ``prog: error: message (--help shows the options)``, and exit code 2 (argparse prints the whole
+    usage block first, several lines for a command with many options). ``--help`` is unchanged."""
+
+    def error(self, message: str):
+        self.exit(
+            EXIT_USER_ERROR, f"{self.prog}: error: {' '.join(message.split())} (--help shows the options)\n"
+        )
 
 
 def debug_on() -> bool:

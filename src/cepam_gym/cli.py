@@ -3,8 +3,9 @@ and the hook of the training package's (``run``, the main job; ``train``; ``eval
 
 from __future__ import annotations
 
-import argparse
 import sys
+
+from ._cli_errors import CommandParser
 
 # commands of other packages, found by name: the training package's run (the main job, with its
 # default config and summary), train, eval and export (a trained agent as an ONNX file)
@@ -39,7 +40,7 @@ def _rollout(argv: list[str]) -> int:
 
     from . import ENV_IDS
 
-    ap = argparse.ArgumentParser(prog="cepam-gym rollout", description="random-action episodes of every id")
+    ap = CommandParser(prog="cepam-gym rollout", description="random-action episodes of every id")
     ap.add_argument("--out-dir", default="runs/rollout")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)

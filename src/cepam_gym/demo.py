@@ -14,12 +14,12 @@ Run ``python -m cepam_gym.demo --out-dir runs/demo`` (prints the PNG path).
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 from . import plant
+from ._cli_errors import CommandParser
 from .plant.params import PlantParams, preset, preset_names
 
 DT = 5e-4  # s, plant sub-step
@@ -175,7 +175,7 @@ def step_response(params: PlantParams | None = None, out_dir: str | Path = "runs
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m cepam_gym.demo", description=__doc__.splitlines()[0])
+    ap = CommandParser(prog="python -m cepam_gym.demo", description=__doc__.splitlines()[0])
     ap.add_argument("--out-dir", default="runs/demo", help="directory for step_response.png")
     ap.add_argument(
         "--preset",

@@ -13,13 +13,13 @@ video is written as a GIF next to the requested name, with a message.
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from ._cli_errors import CommandParser
 from .control import controller_names, make_controller
 from .errors import InputError
 from .versions import RECOMMENDED_ID
@@ -205,7 +205,7 @@ def record(
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="cepam-gym video", description=__doc__.split("\n\n")[0])
+    ap = CommandParser(prog="cepam-gym video", description=__doc__.split("\n\n")[0])
     ap.add_argument(
         "--controller",
         default="baseline",

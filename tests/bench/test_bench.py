@@ -383,5 +383,7 @@ def test_bench_env_id_picks_that_ids_suites(monkeypatch):
     with pytest.raises(SystemExit):
         cli.main(["--env-id", "cepam_gym/CEPAMLength-v2"])
     assert asked == ["length-v2"]
-    with pytest.raises(SystemExit, match="2"):
+    from cepam_gym.errors import InputError
+
+    with pytest.raises(InputError, match="no suite runs it"):  # the command line: one line, exit 2
         cli.main(["--env-id", "cepam_gym/Nope-v9"])

@@ -262,7 +262,7 @@ FOLDER_LAYERS = (
     "rig",  # a rig's protocol and transport, the safety supervisor, deployment, the emulated rig
     "integrations",  # adapters to SB3 and RLlib
 )
-ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "versions", "viewer", "_cli_errors"}
+ROOT_FOUNDATION = {"_jit", "errors", "units", "registration", "versions", "viewer", "_cli_errors", "progress"}
 ROOT_TOP = {"cli", "demo", "video", "rllib"}
 LAYERS = ["foundation", *FOLDER_LAYERS, "top"]
 # the package's face (``cepam_gym/__init__``: the PlantParams re-export and the registration)

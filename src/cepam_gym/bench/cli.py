@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import sys
 from pathlib import Path
 
 from .. import versions
+from .._cli_errors import CommandParser
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
 from .headline import BASELINE, ORACLE, headline_score
@@ -88,6 +88,25 @@ def expand_version(name: str) -> list[str]:
         n = int(name[1:])
         return [s for s, suite in SUITES.items() if versions.get(suite.env_id).version == n] or [name]
     return [name]
+
+
+def default_suites(controllers: list[str], env_id: str | None) -> list[str]:
+    """The suites ``bench`` runs without ``--suite``: the suites of ``--env-id``; else the headline
+    suites of the ids the trained agents among ``controllers`` were trained on (their records,
+    :func:`cepam_gym.control.registry.agent_env_id`), as ``cepam-gym eval`` scores them; else
+    every suite (``all``)."""
+    from ..control.registry import agent_env_id
+    from ..errors import InputError
+    from .suites import headline_suites
+
+    if env_id is not None:
+        suites = [s for s in SUITES if SUITES[s].env_id == env_id]
+        if not suites:
+            ids = sorted({v.env_id for v in SUITES.values()})
+            raise InputError(f"--env-id {env_id}: no suite runs it; suites run {ids}")
+        return suites
+    trained = [i for i in (agent_env_id(c) for c in controllers) if i is not None]
+    return list(dict.fromkeys(s for i in trained for s in headline_suites(i))) or ["all"]
 
 
 def _oracle_drives(suite: str) -> bool:
@@ -191,7 +210,7 @@ def _run_suites(args, controllers: list[str], suites: list[str], rows: list, tra
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="cepam-gym bench", description=__doc__)
+    ap = CommandParser(prog="cepam-gym bench", description=__doc__)
     ap.add_argument(
         "--controller",
         action="append",
@@ -203,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
         action="append",
         default=None,
         help=f"one of {list(SUITES)}, 'all', or a version such as 'v2' (the suites of its ids) (repeatable; "
-        "default all)",
+        "default: a trained agent's headline suites, those of its env id, else all)",
     )
     ap.add_argument(
         "--episodes", type=int, default=None, help="episodes per suite (default: the suite's, 20)"
@@ -229,12 +248,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     controllers = args.controller or ["baseline"]
-    suites = args.suite or ["all"]
-    if args.env_id is not None and not args.suite:
-        suites = [s for s in SUITES if SUITES[s].env_id == args.env_id]
-        if not suites:
-            ids = sorted({v.env_id for v in SUITES.values()})
-            ap.error(f"--env-id {args.env_id}: no suite runs it; suites run {ids}")
+    for c in controllers:
+        check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
+    suites = args.suite or default_suites(controllers, args.env_id)
     if "all" in suites:  # every suite whose extra is installed (the joint suite needs mujoco)
         suites = [s for s in SUITES if available(s)]
     suites = list(dict.fromkeys(n for s in suites for n in expand_version(s)))
@@ -261,12 +277,13 @@ def main(argv: list[str] | None = None) -> int:
                     flush=True,
                 )
         return 0
-    for c in controllers:
-        check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
     check_agents_fit(controllers, suites)
 
+    from ..progress import runs
+
     rows, traces = [], {}
-    _run_suites(args, controllers, suites, rows, traces)
+    with runs(len(suites) * len(controllers), "cepam-gym bench"):
+        _run_suites(args, controllers, suites, rows, traces)
     # a normalized score needs both ends measured on these episodes: run the missing ones, or say so
     missing = missing_ends(rows)
     for s in dict.fromkeys(s for s, _ in missing):

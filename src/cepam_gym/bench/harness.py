@@ -7,6 +7,7 @@ import numpy as np
 from ..control import make_controller
 from ..control.trivial import RandomController, ZeroController  # noqa: F401  (their old home)
 from ..envs.model import NoModelError, model_of
+from ..progress import advance
 from ..tasks.window import INFO_KEY as WINDOW_KEY
 from .metrics import RIG, TraceSpec, score_traces
 from .suites import SUITES, Suite
@@ -86,6 +87,7 @@ def record(
         alive &= ~term
         if (term | trunc).any():
             policy.reset(np.flatnonzero(term | trunc))
+        advance(1 / steps)
     tr["failed"] = ~alive
     tr["dt"] = control_dt
     venv.close()

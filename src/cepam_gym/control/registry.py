@@ -183,6 +183,21 @@ def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:
     return loaders[loader_name].load()(agent_spec, env)
 
 
+def agent_env_id(spec: str | Path) -> str | None:
+    """The env id the trained agent ``spec`` was trained on, where its loader can tell (a loader
+    may carry ``env_id_of(spec)``, reading the run's record); None for a registered controller,
+    or an agent whose record names no id."""
+    name = str(spec)
+    if name in CONTROLLERS:
+        return None
+    loaders = agent_loaders()
+    loader_name, agent_spec = _split_loader(name, loaders)
+    if loader_name is None:
+        raise InputError(_unknown(name, loaders))
+    env_id_of = getattr(loaders[loader_name].load(), "env_id_of", None)
+    return None if env_id_of is None else env_id_of(agent_spec)
+
+
 def _batched(env) -> bool:
     """Whether ``env`` runs on the batched kernel (it has an ``EnvModel``): what agents train on."""
     from ..envs.model import NoModelError, model_of

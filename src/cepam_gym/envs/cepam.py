@@ -126,7 +126,7 @@ class CEPAMEnv(gym.Env, EzPickle):
             else:
                 info = self._info(scored=True)
         else:
-            core.step(core.check_actions(action))
+            core.step(core.check_actions(action, single=True))
             reward, reason = float(core.rewards[0]), int(core.reasons[0])
             info = self._info(scored=True)
         info["termination_reason"] = reason

@@ -93,29 +93,26 @@ def check_threads(num_threads) -> int | None:
     return int(num_threads)
 
 
-def _expected_shape(num_envs: int) -> tuple[int, ...]:
-    return (2,) if num_envs == 1 else (num_envs, 2)
-
-
-def as_actions(actions, num_envs: int) -> np.ndarray:
-    """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array (a single env's may have
-    any shape of 2 elements); ``InputError`` on anything but real numbers of that shape, NaN or
-    inf (naming the envs, not printing the batch). Not clipped."""
-    shape = _expected_shape(num_envs)
+def as_actions(actions, num_envs: int, single: bool | None = None) -> np.ndarray:
+    """``actions`` of ``num_envs`` envs as a float64 (num_envs, 2) array; ``InputError`` on
+    anything but real numbers of the expected shape, NaN or inf (naming the envs, not printing the
+    batch). The shape is exact, never broadcast: a single env's action is ``(2,)`` (``single``;
+    by default when ``num_envs`` is 1), a batch's ``(num_envs, 2)``; ``(1, 2)``, ``(2, 1)`` or
+    ``(1, 1, 2)`` on a single env is refused, naming the expected shape. Not clipped."""
+    single = num_envs == 1 if single is None else single
+    shape = (2,) if single else (num_envs, 2)
     raw = np.asarray(actions) if not isinstance(actions, (str, bytes, Mapping)) else None
     if raw is None or raw.dtype.kind not in "biuf":
         kind = type(actions).__name__ if raw is None else f"{type(actions).__name__} of {raw.dtype}"
         raise InputError(f"action must be real numbers of shape {shape} in [-1, 1], got a {kind}")
-    a = raw.astype(np.float64, copy=False)
-    if a.shape != (num_envs, 2):
-        if a.size == 2 and num_envs == 1:
-            a = a.reshape(1, 2)
-        else:
-            raise InputError(f"action must have shape {shape}, got {np.shape(actions)}")
+    if raw.shape != shape:
+        what = "a single env's action" if single else f"the actions of {num_envs} envs"
+        raise InputError(f"{what} must have shape {shape} (one command per chamber), got {raw.shape}")
+    a = raw.astype(np.float64, copy=False).reshape(num_envs, 2)
     bad = ~np.isfinite(a).all(axis=1)
     if bad.any():
         envs = np.flatnonzero(bad)
-        where = "" if num_envs == 1 else f" in env(s) {envs[:8].tolist()}{' ...' if envs.size > 8 else ''}"
+        where = "" if single else f" in env(s) {envs[:8].tolist()}{' ...' if envs.size > 8 else ''}"
         raise InputError(f"action contains NaN or inf{where} (of {num_envs}); actions must be finite")
     return a
 

@@ -311,13 +311,14 @@ class CEPAMBatch:
             return z[:, tk.N_NOISE]
         return None
 
-    def check_actions(self, actions) -> np.ndarray:
-        """A float64 (N, 2) copy of ``actions``; ``ValueError`` on a wrong shape, NaN or inf.
+    def check_actions(self, actions, single: bool = False) -> np.ndarray:
+        """A float64 (N, 2) copy of ``actions``; ``InputError`` on a wrong shape (exactly (2,) for
+        a ``single`` env, (N, 2) for a batch: :func:`~.checks.as_actions`), NaN or inf.
         Out-of-range values are clipped by the step kernel."""
-        if self.num_envs == 1 and isinstance(actions, np.ndarray) and actions.shape == (2,):
+        if single and isinstance(actions, np.ndarray) and actions.shape == (2,):
             # the single env's hot path: no temporary arrays
             if actions.dtype.kind not in "biuf":
-                as_actions(actions, 1)  # raises, naming the dtype
+                as_actions(actions, 1, single=True)  # raises, naming the dtype
             x0, x1 = float(actions[0]), float(actions[1])
             if not (math.isfinite(x0) and math.isfinite(x1)):
                 raise InputError(f"action contains NaN or inf: {actions.tolist()}; actions must be finite")
@@ -325,7 +326,7 @@ class CEPAMBatch:
             a[0, 0] = x0
             a[0, 1] = x1
             return a
-        self.s.prev_action[:] = as_actions(actions, self.num_envs)
+        self.s.prev_action[:] = as_actions(actions, self.num_envs, single=single)
         return self.s.prev_action
 
     def step(self, actions: np.ndarray, active: np.ndarray | None = None) -> None:

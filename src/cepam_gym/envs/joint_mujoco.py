@@ -214,7 +214,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
     def step(self, action):
         if not self._reset_done:
             raise RuntimeError("call reset() before step()")
-        a = np.clip(as_actions(action, 1)[0], -1.0, 1.0)
+        a = np.clip(as_actions(action, 1, single=True)[0], -1.0, 1.0)
         k = min(self.t_idx, self.n_steps - 1)
         inp = self.link.inp
         inp[pl.I_CMD_C], inp[pl.I_CMD_E] = valve_commands(self.mode, a[0], a[1], self.setpoint_max)

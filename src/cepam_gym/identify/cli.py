@@ -6,6 +6,7 @@ import argparse
 import shlex
 from pathlib import Path
 
+from .._cli_errors import CommandParser
 from ..errors import InputError
 from ..plant import MODES
 from ..plant.params import PlantParams, preset, preset_names
@@ -25,7 +26,7 @@ def _bounds(text: str) -> dict[str, tuple[float, float]]:
 
 def identify_main(argv: list[str] | None = None) -> int:
     """``cepam-gym identify``: fit, report, fitted YAML (and with --report, plots and JSON)."""
-    ap = argparse.ArgumentParser(
+    ap = CommandParser(
         prog="cepam-gym identify",
         description="fit the plant's dynamics (valves, volumes, heat, friction, damping) and the "
         "sensors to a rig's logs (format: docs/identify.md)",
@@ -109,7 +110,7 @@ def identify_main(argv: list[str] | None = None) -> int:
 
 def excite_parser() -> argparse.ArgumentParser:
     """The options of ``cepam-gym excite`` (:mod:`cepam_gym.rig.cli` adds ``--rig``)."""
-    ap = argparse.ArgumentParser(
+    ap = CommandParser(
         prog="cepam-gym excite",
         description="write an excitation command schedule (steps, chirps, PRBS on both valves, a few "
         "loads) in the log format; --simulate adds what a plant's sensors would measure",

@@ -3,15 +3,15 @@ benchmark suite; the dataset id is the last line printed."""
 
 from __future__ import annotations
 
-import argparse
 import sys
 
+from .._cli_errors import CommandParser
 from ..bench.suites import SUITES
 from ..control import controller_names
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="cepam-gym dataset", description=__doc__)
+    ap = CommandParser(prog="cepam-gym dataset", description=__doc__)
     ap.add_argument("--suite", required=True, help=f"one of {', '.join(SUITES)}")
     ap.add_argument(
         "--controller",
@@ -37,16 +37,19 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError as e:
         print(f"cepam-gym dataset: error: {e}", file=sys.stderr)
         return 2
-    out = record_dataset(
-        args.suite,
-        args.controller,
-        args.episodes,
-        seed=args.seed,
-        max_steps=args.max_steps,
-        name=args.name,
-        dataset_version=args.dataset_version,
-        overwrite=args.overwrite,
-    )
+    from ..progress import runs
+
+    with runs(1, "cepam-gym dataset"):
+        out = record_dataset(
+            args.suite,
+            args.controller,
+            args.episodes,
+            seed=args.seed,
+            max_steps=args.max_steps,
+            name=args.name,
+            dataset_version=args.dataset_version,
+            overwrite=args.overwrite,
+        )
     if not store.reference_scores(SUITES[out["suite"]]):
         from ..bench.cli import _oracle_drives
 

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import numpy as np
 
+from .._cli_errors import CommandParser
 from ..plant.params import PlantParams, preset
 from .calibrate_v2 import calibrate_v2
 from .crossval import cross_validate, format_cross_validation
@@ -21,7 +21,7 @@ from .table import base_params, format_headline, format_table, geometry_lines, j
 
 def validate_main(argv: list[str] | None = None) -> int:
     """``cepam-gym validate``: the table, its JSON and the plots."""
-    ap = argparse.ArgumentParser(
+    ap = CommandParser(
         prog="cepam-gym validate",
         description="the paper's reported numbers beside the model's (computed, never stored)",
     )
@@ -65,7 +65,7 @@ def validate_main(argv: list[str] | None = None) -> int:
 
 def calibrate_main(argv: list[str] | None = None) -> int:
     """``cepam-gym calibrate``: fit, report, fitted YAML and residual plot."""
-    ap = argparse.ArgumentParser(
+    ap = CommandParser(
         prog="cepam-gym calibrate",
         description="fit unknown plant parameters to measured static data (format: docs/calibration.md)",
     )

@@ -1,0 +1,45 @@
+"""The long commands' progress bar (cepam_gym.progress): shown on a terminal with the time left,
+silent on a pipe, and moved by the harness's rollout loop step by step."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+pytest.importorskip("tqdm")
+
+from cepam_gym import progress  # noqa: E402
+from cepam_gym.bench.harness import run_suite  # noqa: E402
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_a_terminal_shows_the_bar_with_the_time_left(monkeypatch):
+    err = _Terminal()
+    monkeypatch.setattr("sys.stderr", err)
+    with progress.runs(2, "cepam-gym bench") as bar:
+        for _ in range(4):
+            progress.advance(0.5)
+        assert bar.n == pytest.approx(2.0)
+    text = err.getvalue()
+    assert "cepam-gym bench: 0.0/2 runs" in text and "elapsed" in text and " left" in text
+    progress.advance(1.0)  # no bar open: nothing happens
+
+
+def test_a_pipe_gets_no_bar(monkeypatch):
+    err = io.StringIO()
+    monkeypatch.setattr("sys.stderr", err)
+    with progress.runs(1, "cepam-gym eval"):
+        progress.advance(1.0)
+    assert err.getvalue() == ""
+
+
+def test_the_rollout_loop_advances_the_bar_by_one_run(monkeypatch):
+    monkeypatch.setattr("sys.stderr", _Terminal())
+    with progress.runs(2, "cepam-gym bench") as bar:
+        run_suite("zero", "nominal-v2", episodes=1, max_steps=20)
+        assert bar.n == pytest.approx(1.0)
