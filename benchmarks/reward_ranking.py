@@ -76,6 +76,32 @@ def agree(rows) -> bool:
     return by_score == by_return
 
 
+def markdown(stored: dict) -> str:
+    """The ranking as docs/results/benchmark.md prints it (a test checks the page holds exactly this)."""
+    lines = [
+        f"cepam-gym {stored['version']} at {stored['commit']}; 20 episodes per suite; mean return per "
+        "episode, score (lower is better), rank by each.",
+        "",
+    ]
+    for name, entry in stored["suites"].items():
+        rows = entry["rows"]
+        by_score = sorted(range(len(rows)), key=lambda i: rows[i]["score"])
+        by_return = sorted(range(len(rows)), key=lambda i: -rows[i]["mean_return"])
+        lines += [
+            f"`{name}` (the return ranks as the score: {'yes' if entry['agree'] else 'NO'}):",
+            "",
+            "| controller | score | rank | mean return | rank |",
+            "|---|---|---|---|---|",
+        ]
+        for i, r in enumerate(rows):
+            lines.append(
+                f"| {r['controller']} | {r['score']:.4g} | {by_score.index(i) + 1} | "
+                f"{r['mean_return']:.4g} | {by_return.index(i) + 1} |"
+            )
+        lines.append("")
+    return "\n".join(lines)
+
+
 def headline_v3() -> list[str]:
     return [s for row in versions.VERSIONS.values() if row.version == 3 for s in row.suites]
 
@@ -86,7 +112,12 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's)")
     ap.add_argument("--agent", default=None, help="a trained agent's run directory to rank too")
     ap.add_argument("--json", default=None, help="write the rows to this file")
+    ap.add_argument("--markdown", default=None, help="print the stored file FILE as the docs' tables, and exit")
     args = ap.parse_args()
+    if args.markdown:
+        with open(args.markdown) as f:
+            print(markdown(json.load(f)))
+        return
     out = {
         "version": cepam_gym.__version__,
         "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import cepam_gym  # noqa: F401
+from cepam_gym import RECOMMENDED_ID
 
 
 @pytest.mark.parametrize(
@@ -62,7 +63,7 @@ def test_supply_above_burst_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         # the newest id's plant: no warning (an older id warns that a newer version exists)
-        gym.make("cepam_gym/CEPAM-v2")
+        gym.make(RECOMMENDED_ID)
 
 
 def test_joint_env_zero_stiffness_target_refused():
