@@ -53,7 +53,9 @@ def _stored_oracle(suite_name: str, episodes: int | None, max_steps: int | None)
     return None if entry is None else {"score": entry["oracle"], "mean_return": entry["oracle_return"]}
 
 
-def rank(suite_name: str, episodes: int | None, agent: str | None = None, max_steps: int | None = None) -> list:
+def rank(
+    suite_name: str, episodes: int | None, agent: str | None = None, max_steps: int | None = None
+) -> list:
     """Each controller's score and mean return on the suite's first ``episodes`` episodes
     (``max_steps``: the first steps only); the oracle's from the stored references where they
     hold the same episodes."""
@@ -63,9 +65,17 @@ def rank(suite_name: str, episodes: int | None, agent: str | None = None, max_st
         stored = _stored_oracle(suite_name, episodes, max_steps) if label == "oracle" else None
         m = stored or run_suite(controller, suite_name, episodes, max_steps, **options)[0]
         rows.append(
-            {"controller": label, "score": m["score"], "mean_return": m["mean_return"], "seconds": time.perf_counter() - t0}
+            {
+                "controller": label,
+                "score": m["score"],
+                "mean_return": m["mean_return"],
+                "seconds": time.perf_counter() - t0,
+            }
         )
-        print(f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}  ({rows[-1]['seconds']:.0f} s)", flush=True)
+        print(
+            f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}  ({rows[-1]['seconds']:.0f} s)",
+            flush=True,
+        )
     return rows
 
 
@@ -112,7 +122,9 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's)")
     ap.add_argument("--agent", default=None, help="a trained agent's run directory to rank too")
     ap.add_argument("--json", default=None, help="write the rows to this file")
-    ap.add_argument("--markdown", default=None, help="print the stored file FILE as the docs' tables, and exit")
+    ap.add_argument(
+        "--markdown", default=None, help="print the stored file FILE as the docs' tables, and exit"
+    )
     args = ap.parse_args()
     if args.markdown:
         with open(args.markdown) as f:
@@ -120,13 +132,19 @@ def main() -> None:
         return
     out = {
         "version": cepam_gym.__version__,
-        "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),
+        "commit": subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True
+        ).stdout.strip(),
         "suites": {},
     }
     for name in args.suite or headline_v3():
         print(f"{name}:", flush=True)
         rows = rank(name, args.episodes, args.agent)
-        out["suites"][name] = {"episodes": args.episodes or SUITES[name].episodes, "rows": rows, "agree": agree(rows)}
+        out["suites"][name] = {
+            "episodes": args.episodes or SUITES[name].episodes,
+            "rows": rows,
+            "agree": agree(rows),
+        }
         print(f"  return ranks as the score: {agree(rows)}", flush=True)
     if args.json:
         with open(args.json, "w") as f:
