@@ -238,3 +238,46 @@ def test_a_guess_is_caught():
     assert GUESSES["the plant's friction law"].search('nominal.friction_law == "contact_area"')
     assert GUESSES["a preview count"].search('if getattr(core, "preview_steps", 0) > 0:')
     assert GUESSES["'Joint' in an id"].search('if "Joint" in env_id:')
+
+
+# what parsing an id (or a suite's name) looks like: splitting off its version or namespace,
+# replacing or testing its suffix, a version pattern. Versions and suites come from the table
+# (cepam_gym.versions: each row's version, family, name and suites) and a suite's stem.
+ID_PARSING = {
+    "a suffix split off": re.compile(r"""\.r?(partition|split)\(\s*["']-(v\d*)?["']"""),
+    "a namespace split off": re.compile(r"""id\w*(\.\w+)*\.r?(partition|split)\(\s*["']/["']"""),
+    "a version replaced": re.compile(r"""\.replace\(\s*f?["'][^"']*-v"""),
+    "a suffix tested": re.compile(r"""(ends|starts)with\(\s*\(?\s*f?["'][^"']*-v"""),
+    "a suffix searched": re.compile(r"""["']-v\d*["']\s+(not\s+)?in\b"""),
+    "a version pattern": re.compile(r"""-v\\d"""),
+}
+# a dataset name the user gives must not end as a version (Minari appends its own): not an id
+ID_PARSING_ALLOWED = {("src/cepam_gym/offline/naming.py", "a version pattern")}
+
+
+def test_no_id_string_is_parsed():
+    bad = []
+    for top in ("src", "agents"):
+        for path in (ROOT / top).rglob("*.py"):
+            rel = path.relative_to(ROOT).as_posix()
+            for n, line in enumerate(path.read_text().splitlines(), 1):
+                for what, pattern in ID_PARSING.items():
+                    if pattern.search(line) and (rel, what) not in ID_PARSING_ALLOWED:
+                        bad.append(f"{rel}:{n}: {what}: {line.strip()}")
+    assert not bad, "\n".join(bad)
+
+
+def test_an_id_parse_is_caught():
+    """Each pattern above matches the parse it is for (so the test above can fail)."""
+    caught = {
+        "a suffix split off": ('stem, _, version = suite.name.rpartition("-")', 'env_id.split("-v")'),
+        "a namespace split off": ('suite.env_id.rpartition("/")[2]', 'env_id.split("/")'),
+        "a version replaced": ('v1.env_id.replace("-v1", "-v2")', "name.replace(f'-v{n}', '')"),
+        "a suffix tested": ('env_id.endswith("-v1")', 'name.endswith(("-v1", "-v2"))'),
+        "a suffix searched": ('if "-v2" in env_id:',),
+        "a version pattern": (r're.search(r"-v\d+$", env_id)',),
+    }
+    for what, lines in caught.items():
+        for line in lines:
+            assert ID_PARSING[what].search(line), (what, line)
+    assert not any(p.search('f"cepam_gym/{self.family}-v{self.version}"') for p in ID_PARSING.values())
