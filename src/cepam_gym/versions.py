@@ -56,7 +56,7 @@ JOINT_SENSOR_NOISE = (("angle_mrad", 1.2), ("angular_velocity_mrad_s", 48.0), ("
 
 NAMESPACE = "cepam_gym"
 _RIG = ("cepam_gym.envs.cepam:CEPAMEnv", "cepam_gym.envs.cepam:CEPAMVectorEnv")
-_JOINT = ("cepam_gym.envs.joint:CEPAMJointV1Env", "cepam_gym.envs.joint:CEPAMJointVectorEnv")
+_JOINT = ("cepam_gym.envs.joint:CEPAMJointKernelEnv", "cepam_gym.envs.joint:CEPAMJointVectorEnv")
 _MUJOCO_JOINT = ("cepam_gym.envs.joint_mujoco:CEPAMJointEnv", None)
 
 

@@ -20,7 +20,7 @@ from cepam_gym.bench.suites import SUITES, version_suites
 from cepam_gym.control.objective import spec_of_core, version_of_core
 from cepam_gym.control.oracle import ORACLE_CONFIGS, oracle_config
 from cepam_gym.control.registry import is_joint_env
-from cepam_gym.envs.joint import CEPAMJointV1Env
+from cepam_gym.envs.joint import CEPAMJointKernelEnv
 from cepam_gym.plant.params import PlantParams, preset
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -133,9 +133,13 @@ def test_version_follows_the_task_and_plant_not_the_preview_or_friction_law():
 
 
 def test_joint_envs_are_known_by_the_tables_entry_points():
-    class MyJoint(CEPAMJointV1Env):
+    from cepam_gym.envs.joint import CEPAMJointV1Env
+
+    class MyJoint(CEPAMJointKernelEnv):
         pass
 
+    assert CEPAMJointV1Env is CEPAMJointKernelEnv  # the former name, an alias
+    assert is_joint_env(CEPAMJointV1Env())
     assert is_joint_env(MyJoint()) and is_joint_env(gym.make("cepam_gym/CEPAMJoint-v2"))
     assert is_joint_env(gym.make_vec("cepam_gym/CEPAMJoint-v1", num_envs=2))
     assert not is_joint_env(gym.make_vec("cepam_gym/CEPAM-v2", num_envs=2))
