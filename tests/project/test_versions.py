@@ -250,7 +250,7 @@ def test_a_guess_is_caught():
 ID_PARSING = {
     "a suffix split off": re.compile(r"""\.r?(partition|split)\(\s*["']-(v\d*)?["']"""),
     "a namespace split off": re.compile(r"""id\w*(\.\w+)*\.r?(partition|split)\(\s*["']/["']"""),
-    "a version replaced": re.compile(r"""\.replace\(\s*f?["'][^"']*-v"""),
+    "a version replaced": re.compile(r"""\.(replace|removesuffix|removeprefix)\(\s*f?["'][^"']*(-v|_v\d)"""),
     "a suffix tested": re.compile(r"""(ends|starts)with\(\s*\(?\s*f?["'][^"']*-v"""),
     "a suffix searched": re.compile(r"""["']-v\d*["']\s+(not\s+)?in\b"""),
     "a version pattern": re.compile(r"""-v\\d"""),
@@ -276,7 +276,11 @@ def test_an_id_parse_is_caught():
     caught = {
         "a suffix split off": ('stem, _, version = suite.name.rpartition("-")', 'env_id.split("-v")'),
         "a namespace split off": ('suite.env_id.rpartition("/")[2]', 'env_id.split("/")'),
-        "a version replaced": ('v1.env_id.replace("-v1", "-v2")', "name.replace(f'-v{n}', '')"),
+        "a version replaced": (
+            'v1.env_id.replace("-v1", "-v2")',
+            "name.replace(f'-v{n}', '')",
+            'v1.name.removesuffix("_v1") + "_v3"',
+        ),
         "a suffix tested": ('env_id.endswith("-v1")', 'name.endswith(("-v1", "-v2"))'),
         "a suffix searched": ('if "-v2" in env_id:',),
         "a version pattern": (r're.search(r"-v\d+$", env_id)',),
