@@ -289,3 +289,21 @@ def test_an_id_parse_is_caught():
         for line in lines:
             assert ID_PARSING[what].search(line), (what, line)
     assert not any(p.search('f"cepam_gym/{self.family}-v{self.version}"') for p in ID_PARSING.values())
+
+
+def test_the_suites_are_made_from_the_rows_that_name_them():
+    """Each suite is named by one row (headline or other) and runs on that row's id; a name no
+    scenario makes is refused; a suite keeps its scenario's stem on every version."""
+    import dataclasses
+
+    from cepam_gym.bench import suites
+
+    named = [n for row in versions.VERSIONS.values() for n in (*row.suites, *row.other_suites)]
+    assert sorted(named) == sorted(SUITES)
+    for row in versions.VERSIONS.values():
+        assert all(SUITES[n].env_id == row.env_id for n in (*row.suites, *row.other_suites)), row.env_id
+    typo = dataclasses.replace(versions.get("cepam_gym/CEPAM-v2"), other_suites=("tracking-v3",))
+    with pytest.raises(ImportError, match="tracking-v3"):
+        suites._suites_of_version([typo])
+    assert {SUITES[n].stem for n in ("nominal", "nominal-v1", "nominal-v3")} == {"nominal"}
+    assert suites.with_id_window(SUITES["randomized-v2"], 5.0).name == "randomized-id-v2"
