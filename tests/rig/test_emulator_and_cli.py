@@ -95,7 +95,15 @@ def test_deploy_without_a_rig_answering_says_so_and_that_its_stop_is_not_confirm
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     s.bind(("127.0.0.1", 0))
     try:
-        argv = ["deploy", "--controller", "zero", "--rig", f"127.0.0.1:{s.getsockname()[1]}", "--seconds", "1"]
+        argv = [
+            "deploy",
+            "--controller",
+            "zero",
+            "--rig",
+            f"127.0.0.1:{s.getsockname()[1]}",
+            "--seconds",
+            "1",
+        ]
         assert cli.main([*argv, "--log", str(tmp_path / "run.csv")]) == EXIT_STOP_NOT_CONFIRMED
         kinds = [COMMAND.unpack(s.recv(64))[1] for _ in range(16)]  # what the host sent, in order
     finally:

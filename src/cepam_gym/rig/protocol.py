@@ -78,8 +78,10 @@ FAULTS = (
 
 
 # a reading numbered this many packets or more behind the newest is not a late datagram (the
-# loopback or a LAN reorders a few) but a rig that restarted and counts from zero again
+# loopback or a LAN reorders a few) but a rig that restarted and counts from zero again; so is a
+# run of RESTART_RUN readings behind it that count up among themselves (a rig restarted recently)
 RESTART_GAP = 1000
+RESTART_RUN = 3
 
 
 def seq_newer(seq: int, last: int) -> bool:

@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 from .leak import LeakMonitor
 from .limits import SafetyLimits
-from .protocol import SAFE_COMMANDS, Reading, seq_restarted
+from .protocol import SAFE_COMMANDS, Reading, seq_newer
 
 __all__ = ["REASONS", "SafetyLimits", "Supervisor", "Trip"]
 
@@ -154,7 +154,8 @@ class Supervisor:
         return found or self._check_valves(reading, now)
 
     def _check_link(self, reading: Reading, last: Reading | None) -> tuple[str, str] | None:
-        if last is not None and (seq_restarted(reading.seq, last.seq) or reading.time < last.time - 1.0):
+        went_back = reading.seq != last.seq and not seq_newer(reading.seq, last.seq) if last else False
+        if last is not None and (went_back or reading.time < last.time):
             return "rig_restarted", (
                 f"the rig's packet numbers began again ({last.seq} then {reading.seq}) or its clock "
                 f"ran back ({last.time:.3f} s then {reading.time:.3f} s): it restarted"

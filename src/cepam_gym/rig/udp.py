@@ -16,6 +16,7 @@ from .protocol import (
     KIND_COMMAND,
     KIND_FAULT,
     KIND_STOP,
+    RESTART_RUN,
     SAFE_COMMANDS,
     PacketError,
     Reading,
@@ -56,6 +57,7 @@ class UdpRig:
         self.received = 0
         self.restarts = 0  # times the rig's packet numbers began again (a reboot)
         self._last_seq: int | None = None
+        self._behind: list[int] = []  # the numbers of the readings just dropped as behind the newest
 
     def _send(self, kind: int, c: float = 0.0, e: float = 0.0, flags: int = 0) -> None:
         self.seq += 1
@@ -80,13 +82,23 @@ class UdpRig:
                 continue
             self.received += 1
             last = self._last_seq
-            if last is not None and seq_restarted(r.seq, last):
+            if last is not None and not seq_newer(r.seq, last):
+                if not self._restarted(r.seq, last):
+                    continue  # a late datagram older than one already read is dropped
                 self.restarts += 1
-            elif last is not None and not seq_newer(r.seq, last):
-                continue  # a late datagram older than one already read is dropped
-            self._last_seq = r.seq
+            self._last_seq, self._behind = r.seq, []
             newest = r
         return newest
+
+    def _restarted(self, seq: int, last: int) -> bool:
+        """Whether a reading numbered ``seq``, behind the newest ``last``, comes from a rig that
+        restarted: far behind, or the last of a run of readings behind that count up."""
+        if seq_restarted(seq, last):
+            return True
+        if self._behind and not seq_newer(seq, self._behind[-1]):
+            self._behind = []
+        self._behind.append(seq)
+        return len(self._behind) >= RESTART_RUN
 
     def write(self, command_c: float, command_e: float) -> None:
         self._send(KIND_COMMAND, float(command_c), float(command_e))
