@@ -74,7 +74,7 @@ ARGUMENTS = {
     "randomize": "`{plant key: [low, high]}` in the key's units, drawn per episode (checked when the "
     "env is built; a draw that fails is redrawn, counted in `info['redraws']`)",
     "sensor_noise": '`{"length_mm" (or "angle_mrad"), "velocity_mm_s" (or "angular_velocity_mrad_s"), '
-    '"pressure_kpa"}` standard deviations (v3: a rig's sensors by default; `None`: ideal sensors)',
+    '"pressure_kpa"}` standard deviations (v3: a rig\'s sensors by default; `None`: ideal sensors)',
     "action_latency_steps": "actions reach the valves this many control steps late",
     "supply_drift_kpa": "random-walk intensity of the supply pressure [kPa/sqrt(s)], clipped to +-20 %",
     "task_options": "override the task's fields (Starting state)",
@@ -307,7 +307,7 @@ def spec_page(f: dict) -> str:
         "kunit": _num(sc.stiffness_unit),
         "air": f"{sc.air_unit * 1e6:.3g} mg",
     }
-    score_form = getattr(task, "reward_form", "abs") == "score"
+    score_form = getattr(f["task"], "reward_form", "abs") == "score"
     if score_form:
         lines[-3:-3] = [
             "The reward is the benchmark score's per-step form: squared errors at the score's trade, "
