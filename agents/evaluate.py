@@ -125,6 +125,13 @@ def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict]
     lines = [f"# {run.name}: agent ({which} model) vs the model-based controllers"]
     if gaps:
         lines += _headline_lines(gaps)
+    unknown = [s for s in dict.fromkeys(c["suite"] for c in cmp) if s not in {g["suite"] for g in gaps}]
+    if unknown:
+        lines += [
+            "",
+            f"No headline on {', '.join(unknown)}: no stored reference scores of these episodes; "
+            "`--against baseline --against oracle` measures both ends in this run.",
+        ]
     lines += [
         "",
         "| suite | reference | agent score | reference score | agent / reference | headline "

@@ -13,8 +13,8 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# an agent trained on nominal plants only, scored where the plant varies (fast_ppo on nominal-v2,
-# then bench on randomized-v2: the headline score, baseline 0 and oracle 100)
+# an agent trained on nominal plants only, scored where the plant varies: an agent trained on
+# nominal-v2, scored on randomized-v2 (the headline score: baseline 0, oracle 100)
 NOMINAL_ONLY_WARNING = (
     "trained on the nominal plant only: expect it to fail where the plant differs (a rig, the "
     "randomized suites). An agent trained on `nominal-v2` only scored a headline of **-477** on "

@@ -291,6 +291,7 @@ def test_the_agents_headline_beside_the_baseline_the_mpc_and_the_oracle():
     assert "| nominal-v1 | **83** | 0 | 77 | 100 | 0.75 | this run |" in md
     assert "| randomized-v1 | **50** | 0 | not run (--against mpc) | 100 | - | this run |" in md
     assert "goal" not in md and "| met |" not in md
+    assert "No headline on stress: no stored reference scores" in md
 
 
 def test_the_headline_from_the_stored_references_when_the_oracle_did_not_run():
