@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cepam_gym._cli_errors import CommandParser
+from cepam_gym.cli_errors import CommandParser
 from cepam_gym.errors import InputError
 
 from .bc_policy import STD_FLOOR, BCPolicy, make_mlp, save
@@ -197,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    from cepam_gym._cli_errors import debug_requested, run_guarded
+    from cepam_gym.cli_errors import debug_requested, run_guarded
 
     debug, rest = debug_requested(sys.argv[1:])
     raise SystemExit(run_guarded("cepam_gym_agents.bc", main, rest, debug))

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cepam_gym._cli_errors import guarded_load
+from cepam_gym.cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
 from .features import obs_batch

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from cepam_gym._cli_errors import guarded_load
+from cepam_gym.cli_errors import guarded_load
 
 from .provenance import now, write_json
 

@@ -28,7 +28,7 @@ import sys
 import time
 from pathlib import Path
 
-from cepam_gym._cli_errors import CommandParser
+from cepam_gym.cli_errors import CommandParser
 
 SUITES = ("nominal-v1", "randomized-v1")
 CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")

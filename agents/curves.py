@@ -31,13 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-from cepam_gym._cli_errors import CommandParser
-from cepam_gym.versions import VERSIONS
+from cepam_gym import versions
+from cepam_gym.cli_errors import CommandParser
 
 from .config import ConfigError, dump_config, load_config
 
-# each v1 id and the suite it is trained and scored on: its first headline suite (the version table)
-SUITE_OF = {row.env_id: row.suites[0] for row in VERSIONS.values() if row.version == 1}
+# the version the study's configs (v1_*) were tuned and its curves measured on
+STUDY_VERSION = 1
+# each id of that version and the suite it is trained and scored on: its first headline suite
+SUITE_OF = {env_id: versions.get(env_id).suites[0] for env_id in versions.ids(version=STUDY_VERSION)}
 CONFIG_OF = {"PPO": "v1_ppo", "SAC": "v1_sac", "TD3": "v1_td3", "RecurrentPPO": "v1_recurrentppo"}
 # scored beside the agents in table.md (the MPC plans through the rig's kernel only)
 MODEL_CONTROLLERS = {"joint-v1": ("baseline",)}
@@ -67,7 +69,7 @@ def run_config(algorithm: str, env_id: str, seed: int, minutes: float):
 
 
 def run_dir(out: Path, algorithm: str, env_id: str, seed: int) -> Path:
-    return out / algorithm / env_id.split("/")[-1] / f"seed{seed}"
+    return out / algorithm / versions.short_name(env_id) / f"seed{seed}"
 
 
 def train_all(runs: list[tuple], out: Path, minutes: float, jobs: int) -> None:
@@ -137,7 +139,7 @@ def read_curves(out: Path) -> list[dict]:
     rows = []
     for algo in CONFIG_OF:
         for env_id, suite in SUITE_OF.items():
-            for d in sorted((out / algo / env_id.split("/")[-1]).glob("seed*")):
+            for d in sorted((out / algo / versions.short_name(env_id)).glob("seed*")):
                 ev = d / "evaluations.json"
                 if not d.is_dir() or not ev.is_file():
                     continue
@@ -227,7 +229,7 @@ def plot_curves(rows: list[dict], docs: Path) -> list[Path]:
         axes[0].legend(loc="lower right")
         fig.suptitle(f"{env_id} (trained and scored on {SUITE_OF[env_id]}): mean and min-max over seeds")
         fig.tight_layout()
-        p = docs / f"{env_id.split('/')[-1]}.png"
+        p = docs / f"{versions.short_name(env_id)}.png"
         fig.savefig(p, dpi=110)
         plt.close(fig)
         paths.append(p)
@@ -241,7 +243,7 @@ def final_scores(out: Path, episodes: int | None) -> list[dict]:
     rows = []
     for algo in CONFIG_OF:
         for env_id, suite in SUITE_OF.items():
-            for d in sorted((out / algo / env_id.split("/")[-1]).glob("seed*")):
+            for d in sorted((out / algo / versions.short_name(env_id)).glob("seed*")):
                 if not (d / "summary.json").is_file():
                     continue
                 summary = json.loads((d / "summary.json").read_text())
@@ -286,7 +288,7 @@ def table_markdown(finals: list[dict], episodes: int | None) -> str:
             steps = np.mean([r["steps"] for r in mine])
             wall = np.mean([r["wall_s"] for r in mine]) / 60
             lines.append(
-                f"| {algo} | {env_id.split('/')[-1]} ({suite}) | {len(mine)} | "
+                f"| {algo} | {versions.short_name(env_id)} ({suite}) | {len(mine)} | "
                 f"{'-' if ends is None else f'**{n.mean():.1f}** +- {n.std():.1f}'} | "
                 f"{s.mean():.3f} +- {s.std():.3f} | "
                 f"{steps / 1e6:.2f} M | {wall:.1f} | {n_eval} |"
@@ -296,7 +298,7 @@ def table_markdown(finals: list[dict], episodes: int | None) -> str:
                 m, _ = run_suite(c, suite, episodes=episodes)
                 nc = "-" if ends is None else f"{norm(m['score']):.1f}"
                 lines.append(
-                    f"| *{c}* | {env_id.split('/')[-1]} ({suite}) | - | {nc} | {m['score']:.3f} "
+                    f"| *{c}* | {versions.short_name(env_id)} ({suite}) | - | {nc} | {m['score']:.3f} "
                     f"| - | - | {n_eval} |"
                 )
     return "\n".join(lines) + "\n"

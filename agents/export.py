@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cepam_gym._cli_errors import CommandParser
+from cepam_gym.cli_errors import CommandParser
 from cepam_gym.errors import InputError
 
 OPSET = 17
@@ -126,7 +126,7 @@ def export(run: str | Path, out: str | Path, which: str = "auto") -> dict:
     file ``out``; returns the metadata written into it."""
     import torch
 
-    from cepam_gym._cli_errors import guarded_load
+    from cepam_gym.cli_errors import guarded_load
 
     from .config import algorithm_class
     from .model_files import algorithm_of

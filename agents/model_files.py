@@ -21,7 +21,7 @@ from typing import Any
 
 import yaml
 
-from cepam_gym._cli_errors import guarded_load
+from cepam_gym.cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
 # the names the statistics beside a model go by, in the order they are looked for

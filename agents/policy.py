@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cepam_gym._cli_errors import guarded_load
+from cepam_gym.cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
 from .bc_policy import BCPolicy, is_bc_run, load_bc_policy

@@ -34,7 +34,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from cepam_gym._cli_errors import CommandParser, debug_on, report, user_error_types
+from cepam_gym.cli_errors import CommandParser, debug_on, report, user_error_types
 
 # the session's parts, importable from here as before the split into modules
 from .algorithm import ALGORITHMS, steps_per_collection

@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from cepam_gym._cli_errors import guarded_load
+from cepam_gym.cli_errors import guarded_load
 from cepam_gym.envs.model import model_of
 
 from .algorithm import collection_why, hyperparameters, policy, steps_per_collection, training_class

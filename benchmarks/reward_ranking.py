@@ -42,17 +42,40 @@ def controllers_for(suite_name: str, agent: str | None = None) -> list[tuple[str
     return [*out, ("oracle", {}, "oracle"), NEAR_ORACLE]
 
 
-def rank(suite_name: str, episodes: int | None, agent: str | None = None, max_steps: int | None = None) -> list:
+def _stored_oracle(suite_name: str, episodes: int | None, max_steps: int | None) -> dict | None:
+    """The oracle's score and mean return from the stored references (``cepam-gym bench
+    --update-references`` measured them on the same episodes), so the ranking does not re-run
+    the most expensive controller; None for other episodes."""
+    from cepam_gym.bench.references import stored_entry
+
+    suite = SUITES[suite_name]
+    entry = None if max_steps else stored_entry(suite_name, episodes or suite.episodes, suite.seed)
+    return None if entry is None else {"score": entry["oracle"], "mean_return": entry["oracle_return"]}
+
+
+def rank(
+    suite_name: str, episodes: int | None, agent: str | None = None, max_steps: int | None = None
+) -> list:
     """Each controller's score and mean return on the suite's first ``episodes`` episodes
-    (``max_steps``: the first steps only)."""
+    (``max_steps``: the first steps only); the oracle's from the stored references where they
+    hold the same episodes."""
     rows = []
     for controller, options, label in controllers_for(suite_name, agent):
         t0 = time.perf_counter()
-        m, _ = run_suite(controller, suite_name, episodes, max_steps, **options)
+        stored = _stored_oracle(suite_name, episodes, max_steps) if label == "oracle" else None
+        m = stored or run_suite(controller, suite_name, episodes, max_steps, **options)[0]
         rows.append(
-            {"controller": label, "score": m["score"], "mean_return": m["mean_return"], "seconds": time.perf_counter() - t0}
+            {
+                "controller": label,
+                "score": m["score"],
+                "mean_return": m["mean_return"],
+                "seconds": time.perf_counter() - t0,
+            }
         )
-        print(f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}  ({rows[-1]['seconds']:.0f} s)", flush=True)
+        print(
+            f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}  ({rows[-1]['seconds']:.0f} s)",
+            flush=True,
+        )
     return rows
 
 
@@ -61,6 +84,32 @@ def agree(rows) -> bool:
     by_score = sorted(range(len(rows)), key=lambda i: rows[i]["score"])
     by_return = sorted(range(len(rows)), key=lambda i: -rows[i]["mean_return"])
     return by_score == by_return
+
+
+def markdown(stored: dict) -> str:
+    """The ranking as docs/results/benchmark.md prints it (a test checks the page holds exactly this)."""
+    lines = [
+        f"cepam-gym {stored['version']} at {stored['commit']}; 20 episodes per suite; mean return per "
+        "episode, score (lower is better), rank by each.",
+        "",
+    ]
+    for name, entry in stored["suites"].items():
+        rows = entry["rows"]
+        by_score = sorted(range(len(rows)), key=lambda i: rows[i]["score"])
+        by_return = sorted(range(len(rows)), key=lambda i: -rows[i]["mean_return"])
+        lines += [
+            f"`{name}` (the return ranks as the score: {'yes' if entry['agree'] else 'NO'}):",
+            "",
+            "| controller | score | rank | mean return | rank |",
+            "|---|---|---|---|---|",
+        ]
+        for i, r in enumerate(rows):
+            lines.append(
+                f"| {r['controller']} | {r['score']:.4g} | {by_score.index(i) + 1} | "
+                f"{r['mean_return']:.4g} | {by_return.index(i) + 1} |"
+            )
+        lines.append("")
+    return "\n".join(lines)
 
 
 def headline_v3() -> list[str]:
@@ -73,16 +122,29 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=None, help="episodes per suite (default: the suite's)")
     ap.add_argument("--agent", default=None, help="a trained agent's run directory to rank too")
     ap.add_argument("--json", default=None, help="write the rows to this file")
+    ap.add_argument(
+        "--markdown", default=None, help="print the stored file FILE as the docs' tables, and exit"
+    )
     args = ap.parse_args()
+    if args.markdown:
+        with open(args.markdown) as f:
+            print(markdown(json.load(f)))
+        return
     out = {
         "version": cepam_gym.__version__,
-        "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip(),
+        "commit": subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True
+        ).stdout.strip(),
         "suites": {},
     }
     for name in args.suite or headline_v3():
         print(f"{name}:", flush=True)
         rows = rank(name, args.episodes, args.agent)
-        out["suites"][name] = {"episodes": args.episodes or SUITES[name].episodes, "rows": rows, "agree": agree(rows)}
+        out["suites"][name] = {
+            "episodes": args.episodes or SUITES[name].episodes,
+            "rows": rows,
+            "agree": agree(rows),
+        }
         print(f"  return ranks as the score: {agree(rows)}", flush=True)
     if args.json:
         with open(args.json, "w") as f:

@@ -248,9 +248,12 @@ def _obs_rows(columns, preview_steps: int) -> list[str]:
 
 def spec_page(f: dict) -> str:
     """The Gymnasium-style spec page of one id, from :func:`env_facts`."""
-    name, version = f["id"].split("/")[-1].rsplit("-", 1)
-    sc = f["scales"]
-    joint = name == "CEPAMJoint"
+    from cepam_gym import versions
+
+    row = versions.get(f["id"])
+    name, version = row.family, f"v{row.version}"
+    sc, task = f["scales"], f["task"]
+    joint = row.mechanism == "hinge"
     unit = (
         f"{sc.tracking_unit * 180 / 3.141592653589793:.3g} deg"
         if joint
@@ -307,7 +310,7 @@ def spec_page(f: dict) -> str:
         "kunit": _num(sc.stiffness_unit),
         "air": f"{sc.air_unit * 1e6:.3g} mg",
     }
-    score_form = getattr(f["task"], "reward_form", "abs") == "score"
+    score_form = getattr(task, "reward_form", "abs") == "score"
     if score_form:
         lines[-3:-3] = [
             "The reward is the benchmark score's per-step form: squared errors at the score's trade, "
@@ -370,10 +373,9 @@ def spec_page(f: dict) -> str:
 
 
 def registered_ids() -> list[str]:
-    from cepam_gym.registration import ENV_IDS, JOINT_ENV_IDS, MUJOCO_ENV_IDS
+    from cepam_gym import versions
 
-    ids = [*ENV_IDS, *JOINT_ENV_IDS, *MUJOCO_ENV_IDS]
-    return sorted(ids, key=lambda i: (-int(i[-1]), i))  # newest version first
+    return sorted(versions.ids(), key=lambda i: (-versions.get(i).version, i))  # newest version first
 
 
 def index_page(ids: list[str]) -> str:
@@ -381,10 +383,9 @@ def index_page(ids: list[str]) -> str:
 
     rows = []
     for env_id in ids:
-        name, version = env_id.split("/")[-1].rsplit("-", 1)
-        status = versions.get(env_id).status
+        row = versions.get(env_id)
         rows.append(
-            f"| [`{env_id}`]({name}-{version}.md) | {status} | {DESCRIPTIONS[name].split('Task: ')[-1]} |"
+            f"| [`{env_id}`]({row.name}.md) | {row.status} | {DESCRIPTIONS[row.family].split('Task: ')[-1]} |"
         )
     return "\n".join(
         [
@@ -405,9 +406,14 @@ def reference_tables() -> str:
     """The stored references of every suite: the zero controller's, the baseline's and the oracle's
     scores, the zero controller's headline (``cepam_gym.bench.headline``), and the mean episode
     returns that are a Minari dataset's ``ref_min_score`` / ``ref_max_score``."""
+    from cepam_gym import versions
     from cepam_gym.bench.headline import headline_score
+    from cepam_gym.bench.suites import SUITES
 
     refs = json.loads((ROOT / "src/cepam_gym/data/reference_scores.json").read_text())
+
+    def version_of(suite: str) -> int:  # a stored suite no longer defined goes first
+        return versions.get(SUITES[suite].env_id).version if suite in SUITES else -1
 
     def cell(r, key, fmt):
         return format(r[key], fmt) if key in r else "-"
@@ -417,7 +423,7 @@ def reference_tables() -> str:
         f"| {r['oracle']:.4f} | "
         + (f"{headline_score(r['zero'], r['baseline'], r['oracle']):.0f}" if "baseline" in r else "-")
         + f" | {cell(r, 'zero_return', '.1f')} | {cell(r, 'oracle_return', '.1f')} |"
-        for suite, r in sorted(refs.items(), key=lambda kv: (kv[0].rsplit("-", 1)[-1], kv[0]))
+        for suite, r in sorted(refs.items(), key=lambda kv: (version_of(kv[0]), kv[0]))
     ]
     head = (
         "| suite | seed | episodes | zero | baseline (headline 0) | oracle (headline 100, normalized 100) "
@@ -429,8 +435,10 @@ def reference_tables() -> str:
 def on_files(files, config):
     from mkdocs.structure.files import File
 
+    from cepam_gym import versions
+
     ids = registered_ids()
-    pages = {f"envs/{i.split('/')[-1]}.md": spec_page(env_facts(i)) for i in ids}
+    pages = {f"envs/{versions.get(i).name}.md": spec_page(env_facts(i)) for i in ids}
     pages["envs/index.md"] = index_page(ids)
     configs = (ROOT / "configs/README.md").read_text()
     pages["configs.md"] = configs.replace("# Training configs", "# Training configs (`configs/`)", 1)

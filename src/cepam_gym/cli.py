@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 
-from ._cli_errors import CommandParser
+from .cli_errors import CommandParser
 
 # commands of other packages, found by name: the training package's run (the main job, with its
 # default config and summary), train, eval and export (a trained agent as an ONNX file)
@@ -83,7 +83,7 @@ def _version() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from ._cli_errors import debug_requested, run_guarded
+    from .cli_errors import debug_requested, run_guarded
 
     debug, argv = debug_requested(list(sys.argv[1:] if argv is None else argv))
     if argv[:1] == ["--version"]:

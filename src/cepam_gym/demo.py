@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import plant
-from ._cli_errors import CommandParser
+from .cli_errors import CommandParser
 from .plant.params import PlantParams, preset, preset_names
 
 DT = 5e-4  # s, plant sub-step

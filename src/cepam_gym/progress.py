@@ -1,5 +1,5 @@
-"""The progress bar of the long commands (``bench``, ``eval``, ``dataset``, ``compare``, ``identify``): tqdm's, on
-stderr, with its estimate of the time left. Shown only when stderr is a terminal (tqdm's
+"""The progress bar of the long commands (``bench``, ``eval``, ``dataset``, ``compare``,
+``identify``): tqdm's, on stderr, with its estimate of the time left. Shown only when stderr is a terminal (tqdm's
 ``disable=None``), so logs and pipes get none; absent when tqdm is not installed (it comes with
 the ``[train]`` extra).
 

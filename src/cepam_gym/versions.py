@@ -54,8 +54,9 @@ RIG_SENSOR_NOISE = (("length_mm", 0.03), ("velocity_mm_s", 1.2), ("pressure_kpa"
 # 0.03 mm / 25 mm = 1.2 mrad, 1.2 mm/s / 25 mm = 48 mrad/s
 JOINT_SENSOR_NOISE = (("angle_mrad", 1.2), ("angular_velocity_mrad_s", 48.0), ("pressure_kpa", 0.2))
 
+NAMESPACE = "cepam_gym"
 _RIG = ("cepam_gym.envs.cepam:CEPAMEnv", "cepam_gym.envs.cepam:CEPAMVectorEnv")
-_JOINT = ("cepam_gym.envs.joint:CEPAMJointV1Env", "cepam_gym.envs.joint:CEPAMJointVectorEnv")
+_JOINT = ("cepam_gym.envs.joint:CEPAMJointKernelEnv", "cepam_gym.envs.joint:CEPAMJointVectorEnv")
 _MUJOCO_JOINT = ("cepam_gym.envs.joint_mujoco:CEPAMJointEnv", None)
 
 
@@ -67,7 +68,9 @@ class Version:
     task only and takes no ``task`` kwarg); ``plant`` the preset it passes (None: the default
     plant, :data:`DEFAULT_PRESET`); ``observation`` names the observation layout (ids with the
     same name observe the same columns); ``suites`` are its headline benchmark suites (the
-    default of ``cepam-gym eval`` for an agent trained on it; empty: none measures it);
+    default of ``cepam-gym eval`` for an agent trained on it; empty: none measures it),
+    ``other_suites`` the other suites that run on it: :mod:`cepam_gym.bench.suites` makes each
+    suite from the row that names it, so a suite's env id is its row's;
     ``oracle`` names the oracle's shipped setting on it (:data:`cepam_gym.control.oracle.ORACLE_CONFIGS`;
     None: the oracle cannot drive it); ``extra`` is the pip extra it needs."""
 
@@ -87,10 +90,16 @@ class Version:
     fixed_task: bool = False
     extra: str = ""
     sensor_noise: tuple[tuple[str, float], ...] = ()  # the default sensor_noise kwarg (v3: a rig's)
+    other_suites: tuple[str, ...] = ()
+
+    @property
+    def name(self) -> str:
+        """The id without its namespace (``CEPAM-v1``)."""
+        return f"{self.family}-v{self.version}"
 
     @property
     def env_id(self) -> str:
-        return f"cepam_gym/{self.family}-v{self.version}"
+        return f"{NAMESPACE}/{self.name}"
 
     @property
     def plant(self) -> str | None:
@@ -115,7 +124,7 @@ class Version:
         return out
 
 
-def _rig(family, version, task, observation, suites, status) -> Version:
+def _rig(family, version, task, observation, suites, status, other_suites=()) -> Version:
     task_version = min(version, 1) if version < 3 else 2
     return Version(
         family,
@@ -132,6 +141,7 @@ def _rig(family, version, task, observation, suites, status) -> Version:
         entry_point=_RIG[0],
         vector_entry_point=_RIG[1],
         sensor_noise=RIG_SENSOR_NOISE if version >= 3 else (),
+        other_suites=other_suites,
     )
 
 
@@ -155,7 +165,7 @@ def _joint(version, suites, status) -> Version:
 
 
 _ROWS = (
-    _rig("CEPAM", 0, "cepam", "rig", ("nominal", "randomized"), "legacy"),
+    _rig("CEPAM", 0, "cepam", "rig", ("nominal", "randomized"), "legacy", ("stress",)),
     _rig("CEPAMLength", 0, "length", "length", (), "legacy"),
     _rig("CEPAMStiffness", 0, "stiffness", "rig", ("stiffness-at-fixed-length",), "legacy"),
     # the v0 hinge in MuJoCo (the [mujoco] extra): no batched kernel, so no oracle or agent
@@ -176,15 +186,39 @@ _ROWS = (
         fixed_task=True,
         extra="mujoco",
     ),
-    _rig("CEPAM", 1, "cepam_v1", "rig", ("nominal-v1", "randomized-v1"), "supported"),
+    _rig(
+        "CEPAM",
+        1,
+        "cepam_v1",
+        "rig",
+        ("nominal-v1", "randomized-v1"),
+        "supported",
+        ("tracking-v1", "stress-v1"),
+    ),
     _rig("CEPAMLength", 1, "length_v1", "length", ("length-v1",), "supported"),
     _rig("CEPAMStiffness", 1, "stiffness_v1", "rig", ("stiffness-at-fixed-length-v1",), "supported"),
     _joint(1, ("joint-v1",), "supported"),
-    _rig("CEPAM", 2, "cepam_v1", "rig", ("nominal-v2", "randomized-v2"), "supported"),
+    _rig(
+        "CEPAM",
+        2,
+        "cepam_v1",
+        "rig",
+        ("nominal-v2", "randomized-v2"),
+        "supported",
+        ("tracking-v2", "stress-v2", "randomized-id-v2"),
+    ),
     _rig("CEPAMLength", 2, "length_v1", "length", ("length-v2",), "supported"),
     _rig("CEPAMStiffness", 2, "stiffness_v1", "rig", ("stiffness-at-fixed-length-v2",), "supported"),
     _joint(2, ("joint-v2",), "supported"),
-    _rig("CEPAM", 3, "cepam_v3", "rig", ("nominal-v3", "randomized-v3", "randomized-id-v3"), "recommended"),
+    _rig(
+        "CEPAM",
+        3,
+        "cepam_v3",
+        "rig",
+        ("nominal-v3", "randomized-v3", "randomized-id-v3"),
+        "recommended",
+        ("tracking-v3", "stress-v3"),
+    ),
     _rig("CEPAMLength", 3, "length_v3", "length", ("length-v3",), "recommended"),
     _rig("CEPAMStiffness", 3, "stiffness_v3", "rig", ("stiffness-at-fixed-length-v3",), "recommended"),
     _joint(3, ("joint-v3",), "recommended"),
@@ -202,6 +236,18 @@ def get(env_id: str) -> Version:
         return VERSIONS[env_id]
     except KeyError:
         raise InputError(f"{env_id!r} is not a cepam_gym id; registered: {list(VERSIONS)}") from None
+
+
+def short_name(env_id: str) -> str:
+    """``env_id`` without its namespace (for file names and tables): a registered id's name in the
+    table (``CEPAM-v1``); any other id's as Gymnasium reads it, not guessed here."""
+    row = VERSIONS.get(env_id)
+    if row is not None:
+        return row.name
+    from gymnasium.envs.registration import get_env_id, parse_env_id
+
+    _, name, version = parse_env_id(env_id)
+    return get_env_id(None, name, version)
 
 
 def id_of(family: str, version: int) -> str:
@@ -242,12 +288,14 @@ def of_kwargs(task, plant=None) -> Version | None:
     )
 
 
-def ids(status: str | None = None, mechanism: str | None = None) -> list[str]:
-    """The registered ids, in the table's order, optionally of one status or mechanism."""
+def ids(status: str | None = None, mechanism: str | None = None, version: int | None = None) -> list[str]:
+    """The registered ids, in the table's order, optionally of one status, mechanism or version."""
     return [
         row.env_id
         for row in _ROWS
-        if (status is None or row.status == status) and (mechanism is None or row.mechanism == mechanism)
+        if (status is None or row.status == status)
+        and (mechanism is None or row.mechanism == mechanism)
+        and (version is None or row.version == version)
     ]
 
 

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ._cli_errors import CommandParser
+from .cli_errors import CommandParser
 from .control import controller_names, make_controller
 from .errors import InputError
-from .versions import RECOMMENDED_ID
+from .versions import RECOMMENDED_ID, short_name
 
 JOINT_ID = "cepam_gym/CEPAMJoint-v0"
 
@@ -232,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.env_id is None:
         args.env_id = _run_env_id(Path(controller)) or RECOMMENDED_ID
     if args.out is None:
-        stem = args.env_id.split("/")[-1] + "_" + Path(controller).name
+        stem = short_name(args.env_id) + "_" + Path(controller).name
         out = Path("runs/video") / f"{stem}.mp4"
     else:
         out = Path(args.out)

@@ -29,7 +29,7 @@ V2_IDS = [i for i in (*ENV_IDS, *JOINT_ENV_IDS) if i.endswith("-v2")]
 def test_every_v2_id_has_suites_mirroring_v1():
     assert set(V2_IDS) == {s.env_id for s in map(SUITES.get, V2_SUITES)}
     assert expand_version("v2") == V2_SUITES + ID_SUITES
-    seeds = [s.seed for name, s in SUITES.items() if name not in ID_SUITES]
+    seeds = [s.seed for name, s in SUITES.items() if "-id-" not in name]  # a window runs its suite's seed
     assert len(seeds) == len(set(seeds)), "two suites share a seed"
     for name in V2_SUITES:
         v1, v2 = SUITES[name.replace("-v2", "-v1")], SUITES[name]

@@ -11,7 +11,7 @@ import pytest
 from gymnasium.error import ResetNeeded
 
 import cepam_gym  # noqa: F401
-from cepam_gym._cli_errors import run_guarded
+from cepam_gym.cli_errors import run_guarded
 from cepam_gym.envs import CEPAMEnv
 from cepam_gym.envs.cepam import CEPAMVectorEnv
 from cepam_gym.errors import InputError

@@ -6,7 +6,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import cepam_gym  # noqa: F401
+import cepam_gym
 
 
 @pytest.mark.parametrize(
@@ -62,7 +62,7 @@ def test_supply_above_burst_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         # the newest id's plant: no warning (an older id warns that a newer version exists)
-        gym.make("cepam_gym/CEPAM-v2")
+        gym.make(cepam_gym.RECOMMENDED_ID)
 
 
 def test_joint_env_zero_stiffness_target_refused():

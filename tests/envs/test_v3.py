@@ -70,7 +70,8 @@ def test_reward_is_minus_the_scores_squared_error_on_the_steps_it_counts(suite, 
 def test_a_burst_is_charged_as_an_episode_scoring_the_failure_weight_at_every_step():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # supply above burst: the point of the test
-        env = gym.make("cepam_gym/CEPAM-v3", plant={"supply_pressure_kpa": 400.0, "burst_pressure_kpa": 300.0})
+        plant = {"supply_pressure_kpa": 400.0, "burst_pressure_kpa": 300.0}
+        env = gym.make("cepam_gym/CEPAM-v3", plant=plant)
     env.reset(seed=0)
     for _ in range(200):
         _, r, term, _, info = env.step(np.array([1.0, 1.0]))

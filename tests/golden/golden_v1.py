@@ -45,40 +45,52 @@ def _info_row(info: dict) -> list[float]:
 def env_trajectories() -> dict[str, np.ndarray]:
     """Each v1 id and action mode: a single env and a 12-env vector env, seeded, random actions,
     short episodes; the rig ids also with the randomized-v1 spread, noise, drift and latency."""
-    import gymnasium as gym
+    return record_envs(RIG_IDS, JOINT_ID, "randomized-v1")
 
+
+def record_envs(rig_ids, joint_id: str, randomized_suite: str) -> dict[str, np.ndarray]:
+    """Each id of ``rig_ids`` and ``joint_id`` and action mode: a single env and a 12-env vector
+    env, seeded, random actions, short episodes; the rig ids also with the spread, noise and drift
+    of ``randomized_suite``, and :data:`ROBUST`'s noise, drift and a latency (shared by the v1, v2
+    and v3 records)."""
     import cepam_gym  # noqa: F401
     from cepam_gym.bench.suites import SUITES
 
-    randomized = dict(SUITES["randomized-v1"].env_kwargs)
+    randomized = dict(SUITES[randomized_suite].env_kwargs)
     out = {}
-    for env_id in (*RIG_IDS, JOINT_ID):
+    for env_id in (*rig_ids, joint_id):
         variants = {"nominal": dict(SHORT)}
-        if env_id != JOINT_ID:
+        if env_id != joint_id:
             variants["robust"] = {**SHORT, **randomized, **ROBUST, "action_latency_steps": 1}
         for variant, kwargs in variants.items():
             for mode in MODES:
-                env = gym.make(env_id, action_mode=mode, max_episode_steps=EPISODE_STEPS, **kwargs)
-                obs, info = env.reset(seed=7)
-                rng = np.random.default_rng(99)
-                rows = []
-                for _ in range(N_STEPS):
-                    obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
-                    rows.append(np.concatenate([obs, [r, float(term), float(trunc)], _info_row(info)]))
-                    if term or trunc:
-                        obs, info = env.reset()
-                        rows.append(np.concatenate([obs, [0.0, 0.0, 0.0], _info_row(info)]))
-                out[f"single/{env_id}/{variant}/{mode}"] = np.array(rows)
-                venv = gym.make_vec(
-                    env_id, num_envs=12, action_mode=mode, max_episode_steps=EPISODE_STEPS, **kwargs
-                )
-                obs, _ = venv.reset(seed=11)
-                rows = []
-                for _ in range(N_STEPS):
-                    obs, r, term, trunc, info = venv.step(rng.uniform(-1, 1, (12, 2)).astype(np.float32))
-                    rows.append(np.concatenate([obs, r[:, None], term[:, None], trunc[:, None]], axis=1))
-                out[f"vector/{env_id}/{variant}/{mode}"] = np.stack(rows)
-                venv.close()
+                out.update(_record_mode(env_id, variant, mode, kwargs))
+    return out
+
+
+def _record_mode(env_id: str, variant: str, mode: str, kwargs: dict) -> dict[str, np.ndarray]:
+    """The single env, then the vector env, on one stream of random actions."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, action_mode=mode, max_episode_steps=EPISODE_STEPS, **kwargs)
+    obs, info = env.reset(seed=7)
+    rng = np.random.default_rng(99)
+    rows = []
+    for _ in range(N_STEPS):
+        obs, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+        rows.append(np.concatenate([obs, [r, float(term), float(trunc)], _info_row(info)]))
+        if term or trunc:
+            obs, info = env.reset()
+            rows.append(np.concatenate([obs, [0.0, 0.0, 0.0], _info_row(info)]))
+    out = {f"single/{env_id}/{variant}/{mode}": np.array(rows)}
+    venv = gym.make_vec(env_id, num_envs=12, action_mode=mode, max_episode_steps=EPISODE_STEPS, **kwargs)
+    obs, _ = venv.reset(seed=11)
+    rows = []
+    for _ in range(N_STEPS):
+        obs, r, term, trunc, info = venv.step(rng.uniform(-1, 1, (12, 2)).astype(np.float32))
+        rows.append(np.concatenate([obs, r[:, None], term[:, None], trunc[:, None]], axis=1))
+    out[f"vector/{env_id}/{variant}/{mode}"] = np.stack(rows)
+    venv.close()
     return out
 
 

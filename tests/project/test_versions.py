@@ -20,7 +20,7 @@ from cepam_gym.bench.suites import SUITES, version_suites
 from cepam_gym.control.objective import spec_of_core, version_of_core
 from cepam_gym.control.oracle import ORACLE_CONFIGS, oracle_config
 from cepam_gym.control.registry import is_joint_env
-from cepam_gym.envs.joint import CEPAMJointV1Env
+from cepam_gym.envs.joint import CEPAMJointKernelEnv
 from cepam_gym.plant.params import PlantParams, preset
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -133,9 +133,13 @@ def test_version_follows_the_task_and_plant_not_the_preview_or_friction_law():
 
 
 def test_joint_envs_are_known_by_the_tables_entry_points():
-    class MyJoint(CEPAMJointV1Env):
+    from cepam_gym.envs.joint import CEPAMJointV1Env
+
+    class MyJoint(CEPAMJointKernelEnv):
         pass
 
+    assert CEPAMJointV1Env is CEPAMJointKernelEnv  # the former name, an alias
+    assert is_joint_env(CEPAMJointV1Env())
     assert is_joint_env(MyJoint()) and is_joint_env(gym.make("cepam_gym/CEPAMJoint-v2"))
     assert is_joint_env(gym.make_vec("cepam_gym/CEPAMJoint-v1", num_envs=2))
     assert not is_joint_env(gym.make_vec("cepam_gym/CEPAM-v2", num_envs=2))
@@ -238,3 +242,68 @@ def test_a_guess_is_caught():
     assert GUESSES["the plant's friction law"].search('nominal.friction_law == "contact_area"')
     assert GUESSES["a preview count"].search('if getattr(core, "preview_steps", 0) > 0:')
     assert GUESSES["'Joint' in an id"].search('if "Joint" in env_id:')
+
+
+# what parsing an id (or a suite's name) looks like: splitting off its version or namespace,
+# replacing or testing its suffix, a version pattern. Versions and suites come from the table
+# (cepam_gym.versions: each row's version, family, name and suites) and a suite's stem.
+ID_PARSING = {
+    "a suffix split off": re.compile(r"""\.r?(partition|split)\(\s*["']-(v\d*)?["']"""),
+    "a namespace split off": re.compile(r"""id\w*(\.\w+)*\.r?(partition|split)\(\s*["']/["']"""),
+    "a version replaced": re.compile(r"""\.(replace|removesuffix|removeprefix)\(\s*f?["'][^"']*(-v|_v\d)"""),
+    "a suffix tested": re.compile(r"""(ends|starts)with\(\s*\(?\s*f?["'][^"']*-v"""),
+    "a suffix searched": re.compile(r"""["']-v\d*["']\s+(not\s+)?in\b"""),
+    "a version pattern": re.compile(r"""-v\\d"""),
+}
+# a dataset name the user gives must not end as a version (Minari appends its own): not an id
+ID_PARSING_ALLOWED = {("src/cepam_gym/offline/naming.py", "a version pattern")}
+
+
+def test_no_id_string_is_parsed():
+    bad = []
+    for top in ("src", "agents"):
+        for path in (ROOT / top).rglob("*.py"):
+            rel = path.relative_to(ROOT).as_posix()
+            for n, line in enumerate(path.read_text().splitlines(), 1):
+                for what, pattern in ID_PARSING.items():
+                    if pattern.search(line) and (rel, what) not in ID_PARSING_ALLOWED:
+                        bad.append(f"{rel}:{n}: {what}: {line.strip()}")
+    assert not bad, "\n".join(bad)
+
+
+def test_an_id_parse_is_caught():
+    """Each pattern above matches the parse it is for (so the test above can fail)."""
+    caught = {
+        "a suffix split off": ('stem, _, version = suite.name.rpartition("-")', 'env_id.split("-v")'),
+        "a namespace split off": ('suite.env_id.rpartition("/")[2]', 'env_id.split("/")'),
+        "a version replaced": (
+            'v1.env_id.replace("-v1", "-v2")',
+            "name.replace(f'-v{n}', '')",
+            'v1.name.removesuffix("_v1") + "_v3"',
+        ),
+        "a suffix tested": ('env_id.endswith("-v1")', 'name.endswith(("-v1", "-v2"))'),
+        "a suffix searched": ('if "-v2" in env_id:',),
+        "a version pattern": (r're.search(r"-v\d+$", env_id)',),
+    }
+    for what, lines in caught.items():
+        for line in lines:
+            assert ID_PARSING[what].search(line), (what, line)
+    assert not any(p.search('f"cepam_gym/{self.family}-v{self.version}"') for p in ID_PARSING.values())
+
+
+def test_the_suites_are_made_from_the_rows_that_name_them():
+    """Each suite is named by one row (headline or other) and runs on that row's id; a name no
+    scenario makes is refused; a suite keeps its scenario's stem on every version."""
+    import dataclasses
+
+    from cepam_gym.bench import suites
+
+    named = [n for row in versions.VERSIONS.values() for n in (*row.suites, *row.other_suites)]
+    assert sorted(named) == sorted(SUITES)
+    for row in versions.VERSIONS.values():
+        assert all(SUITES[n].env_id == row.env_id for n in (*row.suites, *row.other_suites)), row.env_id
+    typo = dataclasses.replace(versions.get("cepam_gym/CEPAM-v2"), other_suites=("tracking-v3",))
+    with pytest.raises(ImportError, match="tracking-v3"):
+        suites._suites_of_version([typo])
+    assert {SUITES[n].stem for n in ("nominal", "nominal-v1", "nominal-v3")} == {"nominal"}
+    assert suites.with_id_window(SUITES["randomized-v2"], 5.0).name == "randomized-id-v2"

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from .. import versions
-from .._cli_errors import CommandParser
+from ..cli_errors import CommandParser
 from ..control import check_controller_spec, controller_names
 from .harness import run_suite
 from .headline import BASELINE, ORACLE, headline_score
@@ -85,8 +85,8 @@ def expand_version(name: str) -> list[str]:
     one command re-measures exactly one version's references after its plant changes; any other
     name as is."""
     if re.fullmatch(r"v\d+", name):
-        n = int(name[1:])
-        return [s for s, suite in SUITES.items() if versions.get(suite.env_id).version == n] or [name]
+        ids = set(versions.ids(version=int(name[1:])))
+        return [s for s, suite in SUITES.items() if suite.env_id in ids] or [name]
     return [name]
 
 

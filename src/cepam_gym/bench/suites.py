@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 from ..errors import InputError
 from .metrics import JOINT, JOINT_V1, RIG, RIG_V1, TraceSpec
@@ -90,6 +90,9 @@ class Suite:
     doc: str = ""
     traces: TraceSpec = RIG  # what the trace columns hold and how they are scored
     extra: str = ""  # the pip extra the env needs ("mujoco"); left out of 'all' without it
+    # the scenario the suite runs, the same on every version (``nominal`` of ``nominal-v2``): the
+    # dataset ids' task (cepam_gym.offline.naming); empty for a suite made by hand (its name)
+    stem: str = ""
 
     @property
     def reference(self) -> tuple[float, float] | None:
@@ -100,147 +103,133 @@ class Suite:
         return stored_ends(self.name, self.episodes, self.seed)
 
 
-_SUITES_V0_V1 = (
-    Suite(
-        "nominal",
-        "cepam_gym/CEPAM-v0",
-        {"task_options": {"load_kinds": ["step"]}},
-        seed=1000,
-        doc="default parameters, no noise, load steps",
+class Scenario(NamedTuple):
+    """What a suite runs, before a version row places it on its id (the row gives the env id, the
+    trace spec and the extra): kwargs, seed and a line of doc."""
+
+    env_kwargs: dict[str, Any]
+    seed: int
+    doc: str
+
+
+# the v0 ids' scenarios: the suites are named by the stem alone (they predate versioned names)
+_V0: dict[str, Scenario] = {
+    "nominal": Scenario(
+        {"task_options": {"load_kinds": ["step"]}}, 1000, "default parameters, no noise, load steps"
     ),
-    Suite(
-        "randomized",
-        "cepam_gym/CEPAM-v0",
+    "randomized": Scenario(
         {
             "randomize": RANDOMIZE,
             "supply_drift_kpa": 5.0,
             "sensor_noise": {"length_mm": 0.2, "velocity_mm_s": 5.0, "pressure_kpa": 1.0},
         },
-        seed=2000,
-        doc="domain-randomized plant, sensor noise, supply drift, all load profiles",
+        2000,
+        "domain-randomized plant, sensor noise, supply drift, all load profiles",
     ),
-    Suite(
-        "stiffness-at-fixed-length",
-        "cepam_gym/CEPAMStiffness-v0",
-        {},
-        seed=3000,
-        doc="paper section XII: 17.5 cm, changing stiffness",
+    "stiffness-at-fixed-length": Scenario({}, 3000, "paper section XII: 17.5 cm, changing stiffness"),
+    "stress": Scenario(
+        {"task_options": STRESS_TASK}, 4000, "large load steps, near-limit targets, fast target changes"
     ),
-    Suite(
-        "stress",
-        "cepam_gym/CEPAM-v0",
-        {"task_options": STRESS_TASK},
-        seed=4000,
-        doc="large load steps, near-limit targets, fast target changes",
+    "joint": Scenario(
+        {}, 5000, "MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques"
     ),
-    Suite(
-        "joint",
-        "cepam_gym/CEPAMJoint-v0",
-        {},
-        seed=5000,
-        traces=JOINT,
-        extra="mujoco",
-        doc="MuJoCo hinge driven by the CE-PAM: joint angle and joint stiffness under external torques",
-    ),
-    # v1: planned references announced 0.2 s ahead; the headline error leaves out 0.5 s after a
-    # jump of the target (RIG_V1); seeds fixed per suite
-    Suite(
-        "nominal-v1",
-        "cepam_gym/CEPAM-v1",
+}
+# The planned-reference versions' scenarios (v1 and later), as on v1: references announced 0.2 s
+# ahead; the headline error leaves out 0.5 s after a jump of the target (RIG_V1). Version N runs
+# them on its own seeds (v1's + 10000 (N - 1)); a randomized scenario spreads its plant version's
+# parameters (RANDOMIZE_BY_PLANT). The order is the stored references'.
+_PLANNED: dict[str, Scenario] = {
+    "nominal": Scenario(
         {"task_options": {"load_kinds": ["step"]}},
-        seed=11000,
-        traces=RIG_V1,
-        doc="v1 references with preview, default parameters, no noise, load steps",
+        11000,
+        "v1 references with preview, default parameters, no noise, load steps",
     ),
-    Suite(
-        "randomized-v1",
-        "cepam_gym/CEPAM-v1",
+    "randomized": Scenario(
         {"randomize": RANDOMIZE_V1, "supply_drift_kpa": 5.0, "sensor_noise": NOISE},
-        seed=12000,
-        traces=RIG_V1,
-        doc="v1 references with preview, domain-randomized plant, sensor noise, supply drift",
+        12000,
+        "v1 references with preview, domain-randomized plant, sensor noise, supply drift",
     ),
-    Suite(
-        "tracking-v1",
-        "cepam_gym/CEPAM-v1",
+    "tracking": Scenario(
         {"task_options": {"references": ["sine", "chirp", "min_jerk"], "load_kinds": ["constant"]}},
-        seed=13000,
-        traces=RIG_V1,
-        doc="smooth references only (sines, chirps, minimum-jerk moves), constant load",
+        13000,
+        "smooth references only (sines, chirps, minimum-jerk moves), constant load",
     ),
-    Suite(
-        "stiffness-at-fixed-length-v1",
-        "cepam_gym/CEPAMStiffness-v1",
-        {},
-        seed=14000,
-        traces=RIG_V1,
-        doc="paper section XII: 17.5 cm, stiffness ramps and moves",
+    "stiffness-at-fixed-length": Scenario({}, 14000, "paper section XII: 17.5 cm, stiffness ramps and moves"),
+    "stress": Scenario(
+        {"task_options": STRESS_TASK}, 15000, "v1 with large load steps, near-limit targets, fast changes"
     ),
-    Suite(
-        "length-v1",
-        "cepam_gym/CEPAMLength-v1",
+    "length": Scenario(
         {"task_options": {"load_kinds": ["step"]}},
-        seed=16000,
-        traces=RIG_V1,
-        doc="the length-only v1 task: v1 length references with preview, load steps",
+        16000,
+        "the length-only v1 task: v1 length references with preview, load steps",
     ),
-    Suite(
-        "joint-v1",
-        "cepam_gym/CEPAMJoint-v1",
-        {},
-        seed=17000,
-        traces=JOINT_V1,
-        doc="the batched hinge driven by the CE-PAM: v1 angle and joint-stiffness references, preview",
+    "joint": Scenario(
+        {}, 17000, "the batched hinge driven by the CE-PAM: v1 angle and joint-stiffness references, preview"
     ),
-    Suite(
-        "stress-v1",
-        "cepam_gym/CEPAM-v1",
-        {"task_options": STRESS_TASK},
-        seed=15000,
-        traces=RIG_V1,
-        doc="v1 with large load steps, near-limit targets, fast changes",
-    ),
-)
+}
+RANDOMIZE_BY_PLANT = {0: RANDOMIZE, 1: RANDOMIZE_V1, 2: RANDOMIZE_V2}
+# how a version's suites describe themselves after v1's words; the randomized suites of plant v2
+# say what their spread adds
+_DOC_PREFIX = {1: "", 2: "v2 plant: "}
+_RANDOMIZED_DOC = {2: "domain-randomized (contact-area friction included), sensor noise, supply drift"}
+# the trace spec of a row's suites: its mechanism and whether its task plans references
+_TRACES = {("rig", False): RIG, ("hinge", False): JOINT, ("rig", True): RIG_V1, ("hinge", True): JOINT_V1}
+# the stem of a randomized scenario with an identification window in front (with_id_window)
+ID_WINDOW_STEM = "id"
 
 
-def _on_plant_v2(v1: Suite) -> Suite:
-    """A v1 suite on the v2 ids: the v1 task on plant v2 (preset balloon_v2), same options, its own
-    seed (the v1 seed + 10000); a randomized suite spreads :data:`RANDOMIZE_V2` instead."""
-    kwargs = copy.deepcopy(v1.env_kwargs)
-    doc = f"v2 plant: {v1.doc}"
-    if "randomize" in kwargs:
-        kwargs["randomize"] = RANDOMIZE_V2
-        doc = "v2 plant: domain-randomized (contact-area friction included), sensor noise, supply drift"
-    return replace(
-        v1,
-        name=v1.name.replace("-v1", "-v2"),
-        env_id=v1.env_id.replace("-v1", "-v2"),
-        env_kwargs=kwargs,
-        seed=v1.seed + 10000,
-        doc=doc,
-    )
+def suite_name(stem: str, version: int) -> str:
+    """A suite's name: the stem alone on v0 (the names published first), ``<stem>-v<N>`` after."""
+    return stem if version == 0 else f"{stem}-v{version}"
 
 
-_V1 = {s.name: s for s in _SUITES_V0_V1}
-# the v2 suites, in their order since they were written out by hand (the stored references' order)
-# the stems of the suites every planned-reference version runs, in the stored references' order
-_STEMS = ("nominal", "randomized", "tracking", "stiffness-at-fixed-length", "stress", "length", "joint")
-_SUITES_V2 = tuple(_on_plant_v2(_V1[f"{stem}-v1"]) for stem in _STEMS)
+def _scenarios(row) -> dict[str, Scenario]:
+    """The scenarios a version row can run, by stem: v0's as written, a planned-reference
+    version's from v1's (its seeds, its plant's spread and doc)."""
+    if row.task_version == 0:
+        return _V0
+    out = {}
+    prefix = _DOC_PREFIX.get(row.version, f"v{row.version}: ")
+    for stem, sc in _PLANNED.items():
+        kwargs, doc = copy.deepcopy(sc.env_kwargs), f"{prefix}{sc.doc}"
+        if "randomize" in kwargs:
+            kwargs["randomize"] = RANDOMIZE_BY_PLANT[row.plant_version]
+            doc = f"{prefix}{_RANDOMIZED_DOC.get(row.plant_version, sc.doc)}"
+        out[stem] = Scenario(kwargs, sc.seed + 10000 * (row.version - 1), doc)
+    return out
 
-def _on_v3(stem: str) -> Suite:
-    """The v2 suite ``<stem>-v2`` on the v3 ids (same plant, the score's reward, a rig's sensors by
-    default): same options, its own seed (the v2 seed + 10000)."""
-    from .. import versions
 
-    v2 = _V2[f"{stem}-v2"]
-    row = versions.get(v2.env_id)
-    return replace(
-        v2,
-        name=f"{stem}-v3",
-        env_id=versions.id_of(row.family, 3),
-        seed=v2.seed + 10000,
-        doc=v2.doc.replace("v2 plant: ", "v3: ", 1),
-    )
+def _suites_of_version(rows) -> list[Suite]:
+    """The suites the version rows of one version name (``suites``, ``other_suites``): in the
+    order of the scenarios, each on the row that names it, then those with an identification
+    window. A name no scenario makes is an error (a typo in the table)."""
+    out, windowed = [], []
+    for row in rows:
+        named = (*row.suites, *row.other_suites)
+        traces = _TRACES[row.mechanism, row.task_version > 0]
+        mine = [
+            Suite(
+                suite_name(stem, row.version),
+                row.env_id,
+                sc.env_kwargs,
+                sc.seed,
+                doc=sc.doc,
+                traces=traces,
+                extra=row.extra,
+                stem=stem,
+            )
+            for stem, sc in _scenarios(row).items()
+            if suite_name(stem, row.version) in named
+        ]
+        windowed += [w for w in map(with_id_window, mine) if w.name in named]
+        missing = set(named) - {s.name for s in mine} - {w.name for w in windowed}
+        if missing:
+            raise ImportError(
+                f"{row.env_id}: the version table names suites no scenario makes: {sorted(missing)}"
+            )
+        out += mine
+    order = {stem: k for k, stem in enumerate(_scenarios(rows[0]))}
+    return sorted(out, key=lambda s: order[s.stem]) + windowed
 
 
 # The identification window's default length [s] (tasks.window): the measured trade-off of
@@ -248,27 +237,36 @@ def _on_v3(stem: str) -> Suite:
 ID_WINDOW_S = 10.0
 
 
-def with_id_window(suite: Suite, seconds: float = ID_WINDOW_S) -> Suite:
+def with_id_window(suite: Suite, seconds: float = ID_WINDOW_S, name: str | None = None) -> Suite:
     """``suite`` with an unscored identification window of ``seconds`` before each episode's
-    tracking (:mod:`cepam_gym.tasks.window`), named ``<name without -vN>-id-vN``. The same seed:
-    its scored episodes are the suite's own plants, references and loads."""
+    tracking (:mod:`cepam_gym.tasks.window`), named ``name`` (default: ``<stem>-id-vN``, the stem
+    and version of the suite's scenario and id). The same seed: its scored episodes are the suite's
+    own plants, references and loads."""
+    from .. import versions
+
     kwargs = copy.deepcopy(suite.env_kwargs)
     kwargs["task_options"] = {**kwargs.get("task_options", {}), "id_window_s": float(seconds)}
-    stem, _, version = suite.name.rpartition("-")
+    stem = f"{suite.stem or suite.name}-{ID_WINDOW_STEM}"
     return replace(
         suite,
-        name=f"{stem}-id-{version}",
+        name=name or suite_name(stem, versions.get(suite.env_id).version),
         env_kwargs=kwargs,
         doc=f"{suite.doc}; each episode starts with an unscored {seconds:g} s identification window",
+        stem=stem,
     )
 
 
-_V2 = {s.name: s for s in _SUITES_V2}
-_SUITES_V3 = tuple(_on_v3(stem) for stem in _STEMS)
-_SUITES_ID = (with_id_window(_SUITES_V2[1]), with_id_window(_SUITES_V3[1]))
-SUITES: dict[str, Suite] = {
-    s.name: s for s in (*_SUITES_V0_V1, *_SUITES_V2, *_SUITES_ID[:1], *_SUITES_V3, *_SUITES_ID[1:])
-}
+def _generate() -> dict[str, Suite]:
+    """Every suite, from the version table, version by version."""
+    from .. import versions
+
+    by_version: dict[int, list] = {}
+    for row in versions.VERSIONS.values():
+        by_version.setdefault(row.version, []).append(row)
+    return {s.name: s for rows in by_version.values() for s in _suites_of_version(rows)}
+
+
+SUITES: dict[str, Suite] = _generate()
 
 
 def headline_suites(env_id: str) -> list[str]:

@@ -7,7 +7,8 @@ build controllers only through :func:`make_controller`.
 Three kinds of names:
 
 * **registered names** (:data:`CONTROLLERS`), each a lazy ``"module:attr"`` string or a callable,
-  so that listing them imports nothing heavy;
+  so that listing them imports nothing heavy; those of higher layers (``identify_mpc``) are
+  declared in the entry-point group :data:`CONTROLLER_ENTRY_POINTS_GROUP`;
 * **joint variants** (:data:`JOINT_VARIANTS`): on the MuJoCo joint env (``cepam_gym/CEPAMJoint-v0``)
   a name is replaced by its joint variant (``baseline`` -> ``joint_baseline``);
 * **trained agents**: a run directory or model file (``runs/quick-s0``) goes to a loader that an
@@ -49,9 +50,22 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     # the same observer in the baseline's load estimate; mpc_friction given the true parameters
     "baseline_friction": "cepam_gym.control.baseline:FrictionAwareBaseline",
     "mpc_friction_known_params": "cepam_gym.control.mpc:KnownParamsFrictionMPC",
-    # sensor-only: the MPC on the plant it fits to the episode's identification window
-    "identify_mpc": "cepam_gym.identify.identify_mpc:IdentifyMPC",
 }
+# Controllers of the layers above control (identify's ``identify_mpc``: the MPC on the plant it fits
+# to the episode's identification window) register themselves: their distribution declares them
+# in this entry-point group (pyproject.toml), read once here, so that no module of control names a
+# module above it (a lazy string would be a runtime import cycle the layer test could not see).
+CONTROLLER_ENTRY_POINTS_GROUP = "cepam_gym.registered_controllers"
+
+
+def _entry_point_controllers() -> dict[str, str]:
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep.value for ep in entry_points(group=CONTROLLER_ENTRY_POINTS_GROUP)}
+
+
+for _name, _target in _entry_point_controllers().items():
+    CONTROLLERS.setdefault(_name, _target)
 # name -> the controller used instead on the joint env; names absent here serve both kinds of env
 JOINT_VARIANTS: dict[str, str] = {"baseline": "joint_baseline"}
 # the joint env's classes, as the version table's entry points of the hinge ids ("module:Class")

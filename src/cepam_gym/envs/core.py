@@ -106,7 +106,11 @@ class CEPAMBatch:
         self.task_params = self.task.params
         self.obs_dim = self.obs_layout.size
         self.settings = build(StepSettings, mech=self.mech, mode=self.mode, dt=self.sub_dt, n_sub=self.n_sub)
-        # --- arrays
+        self._allocate(n)
+
+    def _allocate(self, n: int) -> None:
+        """The env state's arrays for ``n`` envs at the nominal plant, the latency queue, the
+        random streams and the bound kernels (the end of construction)."""
         self._nominal_row = nominal_row = self.nominal.to_array()
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call

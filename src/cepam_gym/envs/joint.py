@@ -1,4 +1,4 @@
-"""``cepam_gym/CEPAMJoint-v1``: the CE-PAM hinge on the batched kernel (single and vector env).
+"""``cepam_gym/CEPAMJoint-v1`` to ``-v3``: the CE-PAM hinge on the batched kernel (single and vector env).
 
 The same hinge as ``cepam_gym/CEPAMJoint-v0`` (:mod:`cepam_gym.envs.joint_mujoco`, which MuJoCo
 integrates), here integrated by the plant's own block kernel: :func:`cepam_gym.plant.advance_block_hinge`
@@ -16,7 +16,14 @@ from __future__ import annotations
 from ..tasks.hinge_task import INFO_KEYS, JOINT_TASKS, REWARD_TERMS
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
 
-__all__ = ["INFO_KEYS", "JOINT_TASKS", "REWARD_TERMS", "CEPAMJointV1Env", "CEPAMJointVectorEnv"]
+__all__ = [
+    "INFO_KEYS",
+    "JOINT_TASKS",
+    "REWARD_TERMS",
+    "CEPAMJointKernelEnv",
+    "CEPAMJointV1Env",
+    "CEPAMJointVectorEnv",
+]
 
 
 _DOC = """
@@ -28,7 +35,7 @@ _DOC = """
 """
 
 
-class CEPAMJointV1Env(CEPAMEnv):
+class CEPAMJointKernelEnv(CEPAMEnv):
     __doc__ = "A hinge driven by a CE-PAM on the batched kernel: joint angle and stiffness references." + _DOC
     metadata = {
         "render_modes": ["rgb_array", "human"],
@@ -36,6 +43,10 @@ class CEPAMJointV1Env(CEPAMEnv):
         "termination_reasons": TERMINATION_NAMES,
     }
     default_task = "joint_v1"
+
+
+# the class's former name, kept for code that imports it
+CEPAMJointV1Env = CEPAMJointKernelEnv
 
 
 class CEPAMJointVectorEnv(CEPAMVectorEnv):

@@ -6,7 +6,7 @@ import argparse
 import shlex
 from pathlib import Path
 
-from .._cli_errors import CommandParser
+from ..cli_errors import CommandParser
 from ..errors import InputError
 from ..plant import MODES
 from ..plant.params import PlantParams, preset, preset_names

@@ -92,10 +92,10 @@ def valid_keys(env_id: str) -> tuple[str, ...]:
         raise InputError(f"env_config['id']: unknown id {env_id!r}; valid: {known}")
     if env_id in JOINT_ENV_IDS:
         from ..envs.core import CEPAMBatch
-        from ..envs.joint import CEPAMJointV1Env
+        from ..envs.joint import CEPAMJointKernelEnv
 
         # as the rig's: the env forwards **kwargs to CEPAMBatch (the joint's geometry included)
-        sources = (CEPAMJointV1Env.__init__, CEPAMBatch.__init__)
+        sources = (CEPAMJointKernelEnv.__init__, CEPAMBatch.__init__)
         fixed = {"task", "num_envs"}
     elif env_id in ENV_IDS:
         from ..envs.cepam import CEPAMEnv

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import sys
 
-from .._cli_errors import CommandParser
 from ..bench.suites import SUITES
+from ..cli_errors import CommandParser
 from ..control import controller_names
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from .. import versions
 from ..bench.suites import Suite
 from ..errors import InputError
 
@@ -22,13 +23,14 @@ _NAME = re.compile(r"^[-_A-Za-z0-9]+$")
 
 
 def task_name(suite: Suite) -> str:
-    """The suite's name without the env version it ends with (``nominal-v1`` -> ``nominal``)."""
-    version = suite.env_id.rpartition("-")[2]  # "v1"
-    return re.sub(rf"-{re.escape(version)}$", "", suite.name)
+    """The suite's scenario, the same on every version (``nominal-v1`` -> ``nominal``); a suite
+    made by hand without one by its name."""
+    return suite.stem or suite.name
 
 
 def env_name(suite: Suite) -> str:
-    return suite.env_id.rpartition("/")[2]
+    """The suite's id without its namespace, as the version table names it."""
+    return versions.get(suite.env_id).name
 
 
 def controller_label(spec: str) -> str:

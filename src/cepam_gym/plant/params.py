@@ -40,6 +40,64 @@ def _f(default, unit: str, doc: str, calibrate: bool = False):
     return field(default=default, metadata={"unit": unit, "doc": doc, "calibrate": calibrate})
 
 
+# parameters that must be > 0 and >= 0 (validate)
+_POSITIVE = (
+    "cpam_rest_length",
+    "cpam_rest_diameter",
+    "epam_sleeve_free_length",
+    "epam_sleeve_free_diameter",
+    "min_length",
+    "atmospheric_pressure",
+    "supply_temperature",
+    "ambient_temperature",
+    "spool_time_constant",
+    "onoff_switch_time",
+    "pwm_frequency",
+    "end_mass",
+    "burst_pressure",
+    "polytropic_exponent",
+    "slack_width",
+    "epam_bladder_length",
+    "friction_presliding",
+)
+_NONNEG = (
+    "bladder_thickness",
+    "sleeve_thickness",
+    "kr_high",
+    "kr_low",
+    "elastic_stiffness",
+    "supply_pressure",
+    "valve_conductance",
+    "leak_conductance",
+    "onoff_conductance",
+    "dead_volume_cpam",
+    "dead_volume_epam",
+    "heat_transfer",
+    "damping",
+    "coulomb_friction",
+    "regulator_gain",
+    "spool_damping",
+    "bladder_shear_modulus",
+    "tube_shear_modulus",
+    "heat_transfer_coefficient",
+    "onoff_open_delay",
+    "onoff_close_delay",
+    "friction_coefficient",
+    "friction_mu",
+    "epam_thread_compliance",
+    "cpam_thread_compliance",
+)
+# the settings that name a model or option, and the names each may take
+_CHOICES = (
+    ("force_model", FORCE_MODELS),
+    ("force_form", FORCE_FORMS),
+    ("braid_tension", BRAID_TENSIONS),
+    ("bladder_model", BLADDER_MODELS),
+    ("friction_law", FRICTION_LAWS),
+    ("pwm_timing", PWM_TIMINGS),
+)
+
+
 @dataclass(frozen=True)
 class PlantParams:
     """Physical parameters of one CE-PAM rig (SI units). Defaults: the paper's balloon CE-PAM,
@@ -235,18 +293,9 @@ class PlantParams:
             v = getattr(self, f.name)
             if isinstance(v, float) and not math.isfinite(v):
                 raise InputError(f"parameter {f.name} is not finite: {v}")
-        if self.force_model not in FORCE_MODELS:
-            raise InputError(f"force_model must be one of {FORCE_MODELS}, got {self.force_model!r}")
-        if self.force_form not in FORCE_FORMS:
-            raise InputError(f"force_form must be one of {FORCE_FORMS}, got {self.force_form!r}")
-        if self.braid_tension not in BRAID_TENSIONS:
-            raise InputError(f"braid_tension must be one of {BRAID_TENSIONS}, got {self.braid_tension!r}")
-        if self.bladder_model not in BLADDER_MODELS:
-            raise InputError(f"bladder_model must be one of {BLADDER_MODELS}, got {self.bladder_model!r}")
-        if self.friction_law not in FRICTION_LAWS:
-            raise InputError(f"friction_law must be one of {FRICTION_LAWS}, got {self.friction_law!r}")
-        if self.pwm_timing not in PWM_TIMINGS:
-            raise InputError(f"pwm_timing must be one of {PWM_TIMINGS}, got {self.pwm_timing!r}")
+        for name, allowed in _CHOICES:
+            if getattr(self, name) not in allowed:
+                raise InputError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if not 0.0 <= self.collapse_seal_diameter <= self.cpam_bladder_diameter:
             raise InputError(
                 "collapse_seal_diameter must lie between 0 and the CPAM bladder's diameter "
@@ -254,56 +303,10 @@ class PlantParams:
             )
         if self.spool_order not in (1, 2):
             raise InputError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
-        positive = (
-            "cpam_rest_length",
-            "cpam_rest_diameter",
-            "epam_sleeve_free_length",
-            "epam_sleeve_free_diameter",
-            "min_length",
-            "atmospheric_pressure",
-            "supply_temperature",
-            "ambient_temperature",
-            "spool_time_constant",
-            "onoff_switch_time",
-            "pwm_frequency",
-            "end_mass",
-            "burst_pressure",
-            "polytropic_exponent",
-            "slack_width",
-            "epam_bladder_length",
-            "friction_presliding",
-        )
-        nonneg = (
-            "bladder_thickness",
-            "sleeve_thickness",
-            "kr_high",
-            "kr_low",
-            "elastic_stiffness",
-            "supply_pressure",
-            "valve_conductance",
-            "leak_conductance",
-            "onoff_conductance",
-            "dead_volume_cpam",
-            "dead_volume_epam",
-            "heat_transfer",
-            "damping",
-            "coulomb_friction",
-            "regulator_gain",
-            "spool_damping",
-            "bladder_shear_modulus",
-            "tube_shear_modulus",
-            "heat_transfer_coefficient",
-            "onoff_open_delay",
-            "onoff_close_delay",
-            "friction_coefficient",
-            "friction_mu",
-            "epam_thread_compliance",
-            "cpam_thread_compliance",
-        )
-        for name in positive:
+        for name in _POSITIVE:
             if not getattr(self, name) > 0.0:
                 raise InputError(f"parameter {name} must be > 0, got {getattr(self, name)}")
-        for name in nonneg:
+        for name in _NONNEG:
             if not getattr(self, name) >= 0.0:
                 raise InputError(f"parameter {name} must be >= 0, got {getattr(self, name)}")
         for name in ("cpam_rest_angle", "epam_sleeve_free_angle"):

@@ -32,8 +32,8 @@ The mean return of a suite is then minus the number of scored steps times the su
 RMS terms, which orders controllers as the score does (tests/bench/test_reward_ranking.py
 checks it on every v3 headline suite). The earlier ids keep the reward below.
 
-The reward of the earlier ids of a step is the sum of its terms, among them ``r_x = -w_x min(|e_x| / u, clip_x)``
-(``e_x`` the position error, ``u`` the task's ``tracking_unit``) and
+The reward of the earlier ids of a step is the sum of its terms, among them
+``r_x = -w_x min(|e_x| / u, clip_x)`` (``e_x`` the position error, ``u`` the task's ``tracking_unit``) and
 ``r_K = -w_K min(|K / K* - 1|, clip_K)``. The score of a suite is
 ``RMS(e_x) / x_norm + RMS(K / K* - 1) / 0.2 + 2 x failure rate`` over the steps it counts. The
 default weights make the same trade as the score (:meth:`TaskContract.score_factor`):

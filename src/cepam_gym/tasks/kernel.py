@@ -215,7 +215,9 @@ def _env_block(lo, n, s, c, task, W):
         pos, vel, K = mechanism_view(x, ax[pl.A_STIFF], p, h, mech)
         terms = row_of(s.terms, i)
         counted = task.score_form == 0 or scored(row_of(tl, i), row_of(tk, i), k, task)
-        reward = reward_terms(pos, tl[i, k], K, tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms, counted)
+        reward = reward_terms(
+            pos, tl[i, k], K, tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, task, terms, counted
+        )
         rz = row_of(noise, 0 if noise.shape[0] == 1 else i)
         write_obs(pos, vel, ax, tl[i, k1], tk[i, k1], a, p, task, rz, row_of(obs, i))
         write_preview(row_of(tl, i), row_of(tk, i), t_idx[i] + 1, task, row_of(obs, i))

@@ -61,7 +61,9 @@ class RigTask(Task):
         elif not isinstance(task, TaskSpec):
             raise TypeError(f"task must be a task name or a TaskSpec, got {type(task).__name__}")
         if task_options:
-            opts = check_kwargs(TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales", "reward_form"))
+            opts = check_kwargs(
+                TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales", "reward_form")
+            )
             opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)
         if reward_weights:

@@ -150,9 +150,8 @@ SCORE_SCALES = TaskScales(tracking_unit=0.005, tracking_clip=30.0, stiffness_uni
 SCORE_WEIGHTS = RewardWeights(length=1.0, stiffness=1.0, effort=1e-4, air=1e-4, burst=2000.0)
 
 
-def _v3(v1: TaskSpec) -> TaskSpec:
-    """The v3 task of a v1 task: the same references and loads, the score's reward."""
-    name = v1.name.removesuffix("_v1") + "_v3"
+def _v3(v1: TaskSpec, name: str) -> TaskSpec:
+    """The v3 task ``name`` of a v1 task: the same references and loads, the score's reward."""
     return replace(v1, name=name, weights=SCORE_WEIGHTS, scales=SCORE_SCALES, reward_form="score")
 
 
@@ -170,4 +169,6 @@ TASKS = {
     ),
 }
 # v3: the v1 tasks paying the score's per-step form
-TASKS.update({t.name: t for t in map(_v3, (TASKS["cepam_v1"], TASKS["length_v1"], TASKS["stiffness_v1"]))})
+TASKS.update(
+    {f"{stem}_v3": _v3(TASKS[f"{stem}_v1"], f"{stem}_v3") for stem in ("cepam", "length", "stiffness")}
+)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._cli_errors import CommandParser
+from ..cli_errors import CommandParser
 from ..plant.params import PlantParams, preset
 from .calibrate_v2 import calibrate_v2
 from .crossval import cross_validate, format_cross_validation
