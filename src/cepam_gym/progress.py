@@ -1,7 +1,7 @@
 """The progress bar of the long commands (``bench``, ``eval``, ``dataset``, ``compare``,
-``identify``): tqdm's, on stderr, with its estimate of the time left. Shown only when stderr is a terminal (tqdm's
-``disable=None``), so logs and pipes get none; absent when tqdm is not installed (it comes with
-the ``[train]`` extra).
+``identify``): tqdm's, on stderr, with its estimate of the time left. Shown only when stderr is a
+terminal (tqdm's ``disable=None``), so logs and pipes get none; absent when tqdm is not installed
+(it comes with the ``[train]`` extra).
 
 A command opens one bar over its runs (``with runs(total, "bench")``); the harness's rollout loop
 (:func:`cepam_gym.bench.harness.record`) advances the open bar by a fraction of a run per control
