@@ -73,7 +73,8 @@ def rank(
             }
         )
         print(
-            f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}  ({rows[-1]['seconds']:.0f} s)",
+            f"  {label:32s} score {m['score']:9.4f}  return {m['mean_return']:12.3f}"
+            f"  ({rows[-1]['seconds']:.0f} s)",
             flush=True,
         )
     return rows

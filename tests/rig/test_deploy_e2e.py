@@ -253,7 +253,8 @@ def test_deploy_stops_cleanly_on_sigterm_and_leaves_the_rig_safe(emulator, tmp_p
     assert proc.returncode == 0, err
     summary = json.loads(log.with_suffix(".json").read_text())
     assert summary["stopped_by"] == "signal" and 10 <= summary["steps"] < summary["planned_steps"]
-    assert "safe state" in out
+    assert "stopped (confirmed at" in out
+    assert summary["stop"]["confirmed"] and summary["exit_code"] == 0
     emulator.wait_for("stop", after=start)
 
 

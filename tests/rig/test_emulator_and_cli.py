@@ -11,7 +11,8 @@ from cepam_gym import plant as pl
 from cepam_gym.errors import InputError
 from cepam_gym.plant.params import preset
 from cepam_gym.rig.emulator import EmulatedPlant, RigImperfections
-from cepam_gym.rig.protocol import SAFE_COMMANDS
+from cepam_gym.rig.protocol import COMMAND, KIND_ARM, KIND_COMMAND, SAFE_COMMANDS
+from cepam_gym.rig.stop import EXIT_STOP_NOT_CONFIRMED
 
 PLANT = preset("balloon_v2")
 
@@ -60,8 +61,10 @@ def test_faults_change_what_the_rig_does_and_a_stop_vents_and_shuts_the_supply()
 @pytest.mark.parametrize(
     "argv, match",
     [
-        (["rig-emulator", "--fault", "gremlins@1"], "--fault must be NAME@SECONDS"),
-        (["rig-emulator", "--fault", "leak@-1"], "--fault must be NAME@SECONDS"),
+        (["rig-emulator", "--fault", "gremlins@1"], "--fault must be NAME[.CHANNEL]@SECONDS"),
+        (["rig-emulator", "--fault", "leak@-1"], "--fault must be NAME[.CHANNEL]@SECONDS"),
+        (["rig-emulator", "--fault", "channel_value.torque@1:0"], "CHANNEL in pressure_c"),
+        (["rig-emulator", "--link-fault", "gremlins"], "unknown link fault 'gremlins'"),
         (["rig-emulator", "--drop", "1.5"], "drop must be below 1"),
         (["deploy", "--controller", "baseline", "--rig", "nohost"], "host:port"),
         (["deploy", "--controller", "baseline", "--suite", "nope"], "unknown suite 'nope'"),
@@ -83,11 +86,14 @@ def test_usage_errors_are_one_line(argv, match, capsys):
     assert match in err and "Traceback" not in err
 
 
-def test_deploy_without_a_rig_answering_is_one_line(capsys):
+def test_deploy_without_a_rig_answering_says_so_and_that_its_stop_is_not_confirmed(capsys, tmp_path):
+    """A port that is bound but never answers: no reading to arm on, none to confirm the stop with
+    (the rig may be live for all the host knows): exit code 5, in words, no traceback."""
+    import json
     import socket
 
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))  # a port that is bound but never answers
+    s.bind(("127.0.0.1", 0))
     try:
         argv = [
             "deploy",
@@ -98,11 +104,16 @@ def test_deploy_without_a_rig_answering_is_one_line(capsys):
             "--seconds",
             "1",
         ]
-        assert cli.main([*argv, "--log", "/dev/null/never.csv"]) == 2
+        assert cli.main([*argv, "--log", str(tmp_path / "run.csv")]) == EXIT_STOP_NOT_CONFIRMED
+        kinds = [COMMAND.unpack(s.recv(64))[1] for _ in range(16)]  # what the host sent, in order
     finally:
         s.close()
-    err = capsys.readouterr().err
-    assert "no reading from the rig" in err and "Traceback" not in err
+    out, err = capsys.readouterr()
+    assert "no reading from the rig" in out and "STOP NOT CONFIRMED" in out and "Traceback" not in err
+    assert kinds[:15] == [KIND_ARM] * 15 and kinds[15] == KIND_COMMAND  # then the safe command, then stops
+    summary = json.loads((tmp_path / "run.json").read_text())
+    assert summary["stopped_by"] == "connect" and not summary["stop"]["confirmed"]
+    assert summary["exit_code"] == EXIT_STOP_NOT_CONFIRMED
 
 
 def test_the_emulated_rig_maps_a_pressure_command_as_the_env_does_not_by_its_own_supply():

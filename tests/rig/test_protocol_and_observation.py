@@ -55,12 +55,24 @@ def test_the_udp_rig_reads_the_newest_reading_and_sends_commands():
         r = rig.read()
         assert r is not None and r.seq == 3 and rig.bad_packets == 1
         assert rig.read() is None
-        rig.stop()
-        kinds = {rp.unpack_command(peer.recvfrom(64)[0])[0] for _ in range(3)}
-        assert kinds == {rp.KIND_STOP}
+        rig.stop()  # one packet: the stop protocol repeats it (cepam_gym.rig.stop)
+        assert rp.unpack_command(peer.recvfrom(64)[0])[0] == rp.KIND_STOP
+        # the packet numbers wrap around (newer), and a rig that restarts counts from 1 again
+        for seq in (2**31, 2**32 - 1, 2, 5000, 1):
+            peer.sendto(rp.pack_reading(rp.Reading(seq * 1e-9, 1e3, 2e3, 0.16, 2e5, seq=seq)), host)
+            time.sleep(0.02)
+            assert (r := rig.read()) is not None and r.seq == seq
+        assert rig.restarts == 1
     finally:
         rig.close()
         peer.close()
+
+
+def test_packet_numbers_compare_modulo_two_to_the_32():
+    assert rp.seq_newer(5, 4) and not rp.seq_newer(4, 5) and not rp.seq_newer(4, 4)
+    assert rp.seq_newer(3, 2**32 - 2)  # across the wrap-around
+    assert not rp.seq_restarted(4, 5)  # a late datagram
+    assert rp.seq_restarted(1, 50_000) and not rp.seq_restarted(50_001, 50_000)
 
 
 def test_the_observer_builds_the_envs_observation_with_its_own_kernel():

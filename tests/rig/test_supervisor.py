@@ -9,8 +9,8 @@ import pytest
 
 from cepam_gym.errors import InputError
 from cepam_gym.plant.params import preset
-from cepam_gym.rig.protocol import FLAG_STOPPED, SAFE_COMMANDS, Reading
-from cepam_gym.rig.supervisor import SafetyLimits, Supervisor
+from cepam_gym.rig.protocol import CHANNELS, FLAG_STOPPED, FLAG_WATCHDOG, SAFE_COMMANDS, Reading
+from cepam_gym.rig.supervisor import FILL, REASONS, SafetyLimits, Supervisor
 
 PLANT = preset("balloon_v2")
 LIM = SafetyLimits.from_plant(PLANT)
@@ -20,10 +20,11 @@ DT = 0.02
 def _ok(t: float, **changes) -> Reading:
     v = dict(
         time=t,
+        seq=5000 + int(round(t / DT)),
         pressure_c=100e3 + t,
         pressure_e=80e3 - t,
         length=0.17 + 1e-6 * t,
-        supply=PLANT.supply_pressure,
+        supply=PLANT.supply_pressure - t,
     )
     v.update(changes)
     return Reading(**v)
@@ -52,8 +53,15 @@ def test_healthy_readings_pass_the_command_through_clipped():
         ({"length": PLANT.min_length - 0.005}, "length_limit"),
         ({"supply": 0.3 * PLANT.supply_pressure}, "supply_loss"),
         ({"flags": FLAG_STOPPED}, "stopped"),
-        ({"pressure_c": math.nan}, "pressure_limit"),
-    ],
+        ({"flags": FLAG_STOPPED | FLAG_WATCHDOG}, "stopped"),
+        ({"supply": 1.3 * PLANT.supply_pressure}, "supply_high"),
+        ({"pressure_c": -50e3}, "pressure_floor"),
+        ({"pressure_e": -50e3}, "pressure_floor"),
+        ({"seq": 0}, "rig_restarted"),  # its packet numbers began again
+        ({"time": -1.0}, "rig_restarted"),  # its clock too
+    ]
+    + [({name: v}, "nonfinite_reading") for name in CHANNELS for v in (math.nan, math.inf, -math.inf)]
+    + [({"time": math.nan}, "nonfinite_reading")],
 )
 def test_each_limit_trips_on_the_step_it_is_seen_and_latches(changes, reason):
     sup = Supervisor(LIM, DT)
@@ -61,7 +69,9 @@ def test_each_limit_trips_on_the_step_it_is_seen_and_latches(changes, reason):
         assert sup.filter(_ok(k * DT), (0.5, 0.5), now=k * DT)[1] is None
     cmd, trip = sup.filter(_ok(5 * DT, **changes), (0.5, 0.5), now=5 * DT)
     assert cmd == SAFE_COMMANDS and trip is not None and trip.reason == reason and trip.detail
-    assert trip.rig_time == pytest.approx(5 * DT)
+    assert trip.reason in REASONS
+    if "time" not in changes:
+        assert trip.rig_time == pytest.approx(5 * DT)
     # healthy readings afterwards do not re-arm it
     cmd, again = sup.filter(_ok(6 * DT), (0.5, 0.5), now=6 * DT)
     assert cmd == SAFE_COMMANDS and again is None and sup.trip is trip
@@ -97,10 +107,43 @@ def test_a_chamber_that_does_not_vent_when_told_to_trips_and_one_that_vents_does
             sup.filter(r, (-1.0, 0.0), now=t)
         return sup.trip
 
-    stuck = run(lambda t: 240e3)
+    stuck = run(lambda t: 240e3 + 10 * t)  # (a sensor's noise moves it: not a frozen channel)
     assert stuck is not None and stuck.reason == "valve_fault" and "CPAM" in stuck.detail
     assert stuck.host_time == pytest.approx(DT + LIM.valve_check_s, abs=DT)
-    assert run(lambda t: 200e3 * math.exp(-t / 0.05)) is None
+    assert run(lambda t: 200e3 * math.exp(-t / 0.05) + t) is None
+
+
+def _fill(pressure_of_t, supply=PLANT.supply_pressure):
+    sup = Supervisor(LIM, DT)
+    for k in range(40):
+        t = k * DT
+        sup.filter(_ok(t, pressure_e=pressure_of_t(t), supply=supply - t), (0.0, FILL), now=t)
+    return sup.trip
+
+
+def test_a_chamber_told_to_fill_that_still_reads_empty_trips_and_one_that_fills_does_not():
+    """A pressure sensor failing low (noisy about 0) while its valve fills the chamber."""
+    low = _fill(lambda t: 1e3 * math.sin(100 * t))
+    assert low is not None and low.reason == "fill_fault" and "EPAM" in low.detail
+    assert low.host_time == pytest.approx(DT + LIM.valve_check_s, abs=DT)
+    assert _fill(lambda t: 200e3 * (1 - math.exp(-t / 0.05)) + t) is None
+    # without a supply there is nothing to fill from: the supply check speaks instead
+    assert (
+        _fill(lambda t: 1e3 * math.sin(100 * t), supply=0.3 * PLANT.supply_pressure).reason == "supply_loss"
+    )
+
+
+@pytest.mark.parametrize("channel", range(len(CHANNELS)))
+def test_a_single_frozen_channel_trips_and_is_named(channel):
+    sup = Supervisor(LIM, DT)
+    k = 0
+    frozen = _ok(0.0).channels()[channel]
+    while not sup.tripped and k < 50:
+        sup.filter(_ok(k * DT, **{CHANNELS[channel]: frozen}), (0, 0), now=k * DT)
+        k += 1
+    assert sup.trip.reason == "frozen_sensor"
+    assert sup.trip.detail.startswith(("CPAM pressure", "EPAM pressure", "length", "supply")[channel])
+    assert LIM.frozen_after_s < (k - 1) * DT <= LIM.frozen_after_s + DT
 
 
 def test_a_non_finite_command_trips():

@@ -126,7 +126,7 @@ def deploy_main(argv: list[str] | None = None) -> int:
         help="run the loop under the real-time scheduler (SCHED_FIFO, 1-99; needs root or CAP_SYS_NICE)",
     )
     args = ap.parse_args(argv)
-    from .deploy import run, set_realtime
+    from .deploy import DeployAborted, run, set_realtime
     from .supervisor import Supervisor
     from .udp import UdpRig, parse_address
 
@@ -164,32 +164,55 @@ def deploy_main(argv: list[str] | None = None) -> int:
             should_stop=lambda: stop["signal"] is not None,
             log_path=args.log,
         )
+    except DeployAborted as e:
+        return report_aborted(e, args.log)
     finally:
         rig.close()
         for sig, handler in old.items():
             signal.signal(sig, handler)
+    return report(result, args.log)
+
+
+def report(result, log) -> int:
+    """Print a run's summary and where its log is; its exit code (docs/deploy.md, "Exit codes")."""
+    from .stop import EXIT_MEANING
+
     print(result.summary())
-    print(f"wrote {args.log} and {Path(args.log).with_suffix('.json')}")
-    return 0
+    if log:
+        print(f"wrote {log} and {Path(log).with_suffix('.json')}")
+    if result.exit_code != 0:
+        print(f"exit code {result.exit_code}: {EXIT_MEANING[result.exit_code]}", file=sys.stderr)
+    return result.exit_code
 
 
-def _fault(text: str) -> tuple[str, float, float | None]:
-    from .protocol import FAULTS
+def report_aborted(e, log) -> int:
+    """A loop that raised: its traceback (a bug), then the summary and the stop's outcome."""
+    import traceback
 
-    name, sep, rest = text.partition("@")
+    traceback.print_exception(e.__cause__, file=sys.stderr)
+    return report(e.result, log)
+
+
+def _fault(text: str) -> tuple[str, float, float | None, int]:
+    """``NAME[.CHANNEL]@SECONDS[:SIZE]`` as ``(name, seconds, size, channel number)``."""
+    from .protocol import CHANNELS, FAULTS
+
+    head, sep, rest = text.partition("@")
+    name, dot, channel = head.partition(".")
     when, _, size = rest.partition(":")
     try:
-        if name not in FAULTS or not sep:
+        if name not in FAULTS or not sep or (dot and channel not in CHANNELS):
             raise ValueError
         t = float(when)
         s = float(size) if size else None
-        if t < 0:
+        if not t >= 0:
             raise ValueError
     except ValueError:
         raise InputError(
-            f"--fault must be NAME@SECONDS[:SIZE] with NAME in {', '.join(FAULTS)}; got {text!r}"
+            f"--fault must be NAME[.CHANNEL]@SECONDS[:SIZE] with NAME in {', '.join(FAULTS)} and "
+            f"CHANNEL in {', '.join(CHANNELS)}; got {text!r}"
         ) from None
-    return name, t, s
+    return name, t, s, CHANNELS.index(channel) if dot else 0
 
 
 def env_setpoint_max(env_id: str, plant: str | None = None) -> float:
@@ -244,8 +267,16 @@ def emulator_main(argv: list[str] | None = None) -> int:
         "--fault",
         action="append",
         default=[],
-        help="NAME@SECONDS[:SIZE]: inject a fault that long after arming "
-        "(frozen_sensor, supply_drop, leak, stuck_valve); repeatable",
+        help="NAME[.CHANNEL]@SECONDS[:SIZE]: inject a fault that long after arming (the plant's: "
+        "frozen_sensor, supply_drop, leak, stuck_valve; one channel's, CHANNEL one of pressure_c, "
+        "pressure_e, length, supply: channel_value (it reads SIZE, SI, e.g. nan), frozen_channel; the "
+        "link's: silent, lose_stops, no_watchdog, reboot); repeatable",
+    )
+    ap.add_argument(
+        "--link-fault",
+        action="append",
+        default=[],
+        help="a fault of the link from the start: silent, ignore_arm, lose_stops, no_watchdog; repeatable",
     )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--seconds", type=float, help="exit after this long (default: until SIGINT/SIGTERM)")
@@ -278,7 +309,9 @@ def emulator_main(argv: list[str] | None = None) -> int:
     )
     events = open(args.events, "a") if args.events else None  # noqa: SIM115 (held for the process)
     try:
-        return serve(plant, args.port, imp, args.seed, faults, args.seconds, events)
+        return serve(
+            plant, args.port, imp, args.seed, faults, args.seconds, events, link_faults=tuple(args.link_fault)
+        )
     finally:
         if events is not None:
             events.close()
@@ -298,9 +331,15 @@ def excite_main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--env", default=DEFAULT_ENV, help="with --rig: the env whose plant and limits apply")
     ap.add_argument("--limits", help="with --rig: a YAML file that tightens the supervisor's limits")
+    ap.add_argument(
+        "--plant",
+        help="with --rig: the rig's plant YAML (e.g. identify's fit): its limits, and the model-based "
+        "leak balance (without it, only the model-free checks run: the first contact with a rig)",
+    )
     args = ap.parse_args(argv)
     if args.rig is None:
         return schedule_main(args=args)
+    from .deploy import DeployAborted
     from .excitation import excite
     from .supervisor import SafetyLimits
     from .udp import UdpRig, parse_address
@@ -318,16 +357,33 @@ def excite_main(argv: list[str] | None = None) -> int:
         if not 50 <= args.rate <= 2000:
             raise InputError(f"--rate must lie in [50, 2000] Hz, got {args.rate:g}")
         kwargs["control_dt"] = 1.0 / args.rate
+    if args.plant:
+        from ..plant.params import PlantParams
+
+        kwargs["plant"] = PlantParams.from_yaml(args.plant)
     _env, model, _tl, _tk = _episode(args.env, kwargs, 0, 0, 1)
     limits = SafetyLimits.from_plant(model.nominal)
     if args.limits:
         limits = limits.tightened(args.limits)
+    checks = "with the leak balance on --plant" if args.plant else "model-free checks (no --plant)"
     rig = UdpRig(address)
     try:
-        print(f"exciting the rig at {args.rig}: {args.seconds:g} s at {1 / model.control_dt:g} Hz")
-        result = excite(rig, model, args.seconds, loads[0] * 1e-3, args.out, args.seed, limits)
+        print(f"exciting the rig at {args.rig}: {args.seconds:g} s at {1 / model.control_dt:g} Hz, {checks}")
+        result = excite(
+            rig,
+            model,
+            args.seconds,
+            loads[0] * 1e-3,
+            args.out,
+            args.seed,
+            limits,
+            model_based=bool(args.plant),
+        )
+    except DeployAborted as e:
+        return report_aborted(e, args.out)
     finally:
         rig.close()
-    print(result.summary())
-    print(f"wrote {args.out}: the rig's log, for cepam-gym identify --data")
-    return 0 if result.trip is None else 1
+    code = report(result, args.out)
+    if code == 0:
+        print(f"{args.out} is the rig's log, for cepam-gym identify --data")
+    return code

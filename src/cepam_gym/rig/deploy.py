@@ -28,16 +28,27 @@ from __future__ import annotations
 
 import copy
 import gc
-import json
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
-from .protocol import SAFE_COMMANDS, Reading
+from .protocol import Reading
+from .steplog import StepLog
+from .stop import (
+    EXIT_CLEAN,
+    EXIT_CONNECT,
+    EXIT_CRASH,
+    EXIT_STOP_NOT_CONFIRMED,
+    EXIT_TRIP,
+    ConnectError,
+    StopReport,
+    connect,
+    stop_and_confirm,
+)
 from .supervisor import Supervisor, Trip
 
 SPIN_S = 0.0015  # the last stretch before a release is busy-waited: sleep() overshoots by ~0.1-1 ms
@@ -58,10 +69,14 @@ class DeployResult:
     compute_p99: float
     capacity_hz: float
     rate_hz: float
-    stopped_by: str  # "end", "trip", "signal"
+    stopped_by: str  # "end", "trip", "signal", "connect" (the rig did not arm), "exception"
     trip: dict | None
     missing_readings: int
-    length_rmse_mm: float
+    length_rmse_mm: float  # over the steps whose readings were finite
+    stop: dict  # the rig's stop (:class:`~cepam_gym.rig.stop.StopReport`)
+    error: str | None = None  # why the rig did not arm, or the exception that ended the loop
+    nonfinite_rows: int = 0  # logged steps with a measured value that is not finite
+    exit_code: int = EXIT_CLEAN
 
     def summary(self) -> str:
         head = (
@@ -71,11 +86,26 @@ class DeployResult:
             f"max {self.lateness_max * 1e3:.3f} ms, compute p99 {self.compute_p99 * 1e3:.3f} ms "
             f"(capacity {self.capacity_hz:.0f} Hz), length RMSE {self.length_rmse_mm:.2f} mm"
         )
+        if self.nonfinite_rows:
+            head += f" over the finite steps ({self.nonfinite_rows} steps read a non-finite value)"
         if self.trip:
-            return (
-                f"{head}\nSAFETY TRIP {self.trip['reason']}: {self.trip['detail']} (rig stopped, safe state)"
-            )
-        return f"{head}\nstopped: {self.stopped_by} (rig stopped, safe state)"
+            why = f"SAFETY TRIP {self.trip['reason']}: {self.trip['detail']}"
+        elif self.stopped_by == "connect":
+            why = f"RIG NOT ARMED: {self.error}"
+        elif self.stopped_by == "exception":
+            why = f"LOOP FAILED: {self.error}"
+        else:
+            why = f"ended: {self.stopped_by}"
+        return f"{head}\n{why}\n{StopReport(**self.stop).sentence()} (exit code {self.exit_code})"
+
+
+class DeployAborted(RuntimeError):
+    """The loop raised; the rig was stopped first (``result.stop`` says whether it confirmed) and
+    the summary written. The exception is the ``__cause__``."""
+
+    def __init__(self, result: DeployResult):
+        super().__init__(f"{result.error}; {StopReport(**result.stop).sentence()}")
+        self.result = result
 
 
 def set_realtime(priority: int) -> str:
@@ -109,22 +139,6 @@ def sleep_until(t: float) -> None:
             time.sleep(left - SPIN_S)
 
 
-def connect(rig, timeout_s: float = 3.0):
-    """Arm the rig and wait for its first reading that is not stopped; ``InputError`` if none
-    comes within ``timeout_s``. Returns that reading."""
-    deadline = time.perf_counter() + timeout_s
-    last_arm = -math.inf
-    while time.perf_counter() < deadline:
-        if time.perf_counter() - last_arm > 0.2:
-            rig.arm()
-            last_arm = time.perf_counter()
-        r = rig.read()
-        if r is not None and not r.stopped:
-            return r
-        time.sleep(0.002)
-    raise InputError(f"no reading from the rig at {getattr(rig, 'address', rig)} within {timeout_s:g} s")
-
-
 def warm_up(controller, observer, supervisor: Supervisor) -> None:
     """Compile or load what a step needs before the rig is armed, so the first step comes one
     period after the rig answers and no step of the timed loop stalls: the controller acts on
@@ -148,6 +162,69 @@ def warm_up(controller, observer, supervisor: Supervisor) -> None:
     controller.reset()
 
 
+@dataclass
+class _Loop:
+    """The timed loop's state over ``n`` steps of ``dt``."""
+
+    n: int
+    dt: float
+    lateness: np.ndarray = field(init=False)
+    compute: np.ndarray = field(init=False)
+    missing: int = 0
+    misses: int = 0
+    skipped: int = 0
+    trip: Trip | None = None
+
+    def __post_init__(self):
+        self.lateness, self.compute = np.full(self.n, np.nan), np.full(self.n, np.nan)
+
+
+def _steps(loop: _Loop, rig, controller, observer, supervisor, log: StepLog, latest, should_stop, on_step):
+    """The timed loop (the module docstring); returns how it ended: "end", "trip" or "signal"."""
+    dt, n = loop.dt, loop.n
+    prev = np.zeros(2)
+    t0 = time.perf_counter() + dt
+    k = 0
+    while k < n:
+        release = t0 + k * dt
+        sleep_until(release)
+        wake = time.perf_counter()
+        if should_stop():
+            return "signal"
+        if wake - release > dt:  # a whole period late: skip to the step now due
+            behind = int((wake - release) // dt)
+            loop.skipped += behind
+            loop.misses += behind
+            k += behind
+            if k >= n:
+                break
+            release = t0 + k * dt
+        new = rig.read()
+        if new is None:
+            loop.missing += 1
+        else:
+            latest = new
+        obs = observer.observe(latest, k, prev)
+        action = np.asarray(controller.act(obs), dtype=float).reshape(2)
+        command, tripped = supervisor.filter(new, (float(action[0]), float(action[1])), now=wake)
+        rig.write(*command)
+        if tripped is not None:
+            rig.stop()  # at once; the stop's confirmation follows the loop
+        sent = time.perf_counter()
+        loop.lateness[k], loop.compute[k] = wake - release, sent - wake
+        if sent > release + dt:
+            loop.misses += 1
+        prev = np.asarray(command)
+        log.step(wake - t0, command, latest, observer.targets(k)[0])
+        if on_step is not None:
+            on_step(k)
+        k += 1
+        if tripped is not None:
+            loop.trip = tripped
+            return "trip"
+    return "end"
+
+
 def run(
     rig,
     controller,
@@ -160,118 +237,70 @@ def run(
     on_step=None,
 ) -> DeployResult:
     """Drive ``rig`` with ``controller`` for ``n_steps`` control steps (default: the observer's
-    episode) at the observer's control period; always ends with the rig stopped. ``on_step(k)``
-    is called once per step after the command is sent (tests inject faults there)."""
-    dt = observer.dt
+    episode) at the observer's control period, logging each step to ``log_path``; every way out
+    stops the rig and waits for its confirmation (the result's ``stop``). A rig that does not arm
+    ends the run (``stopped_by == "connect"``); an exception in the loop is raised again as
+    :class:`DeployAborted` (KeyboardInterrupt as itself) once the rig is stopped and the summary
+    written. ``on_step(k)`` is called once per step after the command is sent (tests inject
+    faults there)."""
     n = observer.n_steps if n_steps is None else int(n_steps)
-    warm_up(controller, observer, supervisor)
-    latest = connect(rig)
-    prev = np.zeros(2)
-    lateness, compute = np.full(n, np.nan), np.full(n, np.nan)
-    rows = np.full((n, 8), np.nan)  # time, command c/e, pressure c/e, length, supply, target length
-    missing = misses = skipped = 0
-    stopped_by = "end"
-    trip: Trip | None = None
-    t0 = time.perf_counter() + dt
-    k = 0
+    warm_up(controller, observer, supervisor)  # before the rig is armed
+    loop = _Loop(n, observer.dt)
+    log = StepLog(log_path, load_kg)
+    log.summary({"stopped_by": "running", "planned_steps": n, "rate_hz": 1.0 / loop.dt})
+    stopped_by, error, raised = "end", None, None
     gc_was_on = gc.isenabled()
-    gc.disable()  # a collection's pause would land in some step; refcounting frees the loop's garbage
     try:
-        while k < n:
-            release = t0 + k * dt
-            sleep_until(release)
-            wake = time.perf_counter()
-            if should_stop():
-                stopped_by = "signal"
-                break
-            if wake - release > dt:  # a whole period late: skip to the step now due
-                behind = int((wake - release) // dt)
-                skipped += behind
-                misses += behind
-                k += behind
-                if k >= n:
-                    break
-                release = t0 + k * dt
-            new = rig.read()
-            if new is None:
-                missing += 1
-            else:
-                latest = new
-            obs = observer.observe(latest, k, prev)
-            action = np.asarray(controller.act(obs), dtype=float).reshape(2)
-            command, tripped = supervisor.filter(new, (float(action[0]), float(action[1])), now=wake)
-            rig.write(*command)
-            if tripped is not None:
-                rig.stop()
-            sent = time.perf_counter()
-            lateness[k], compute[k] = wake - release, sent - wake
-            if sent > release + dt:
-                misses += 1
-            prev = np.asarray(command)
-            rows[k] = (
-                wake - t0,
-                command[0],
-                command[1],
-                latest.pressure_c,
-                latest.pressure_e,
-                latest.length,
-                latest.supply,
-                observer.targets(k)[0],
-            )
-            if on_step is not None:
-                on_step(k)
-            k += 1
-            if tripped is not None:
-                trip, stopped_by = tripped, "trip"
-                break
+        latest = connect(rig)
+        gc.disable()  # a collection's pause would land in some step; refcounting frees the garbage
+        stopped_by = _steps(loop, rig, controller, observer, supervisor, log, latest, should_stop, on_step)
+    except ConnectError as e:
+        stopped_by, error = "connect", str(e)
+    except BaseException as e:  # noqa: BLE001 (the rig is stopped first, then it is raised again)
+        stopped_by = "signal" if isinstance(e, KeyboardInterrupt) else "exception"
+        error, raised = f"{type(e).__name__}: {e}", e
     finally:
-        rig.write(*SAFE_COMMANDS)
-        rig.stop()
+        stop = stop_and_confirm(rig)
         if gc_was_on:
             gc.enable()
-    done = ~np.isnan(lateness)
-    rows = rows[~np.isnan(rows[:, 0])]
-    if log_path is not None and len(rows) >= 1:
-        write_deploy_log(log_path, rows, load_kg)
-    lat, comp = lateness[done], compute[done]
+        log.close()
+    result = _result(loop, log, stopped_by, error, stop)
+    log.summary(asdict(result))
+    if isinstance(raised, Exception):
+        raise DeployAborted(result) from raised
+    if raised is not None:
+        raise raised
+    return result
+
+
+def _result(loop: _Loop, log: StepLog, stopped_by: str, error, stop: StopReport) -> DeployResult:
+    done = ~np.isnan(loop.lateness)
+    lat, comp = loop.lateness[done], loop.compute[done]
     p99c = float(np.percentile(comp, 99)) if comp.size else math.nan
-    err = rows[:, 5] - rows[:, 7]
-    result = DeployResult(
+    if not stop.confirmed:
+        code = EXIT_STOP_NOT_CONFIRMED
+    else:
+        code = {"trip": EXIT_TRIP, "connect": EXIT_CONNECT, "exception": EXIT_CRASH}.get(
+            stopped_by, EXIT_CLEAN
+        )
+    return DeployResult(
         steps=int(done.sum()),
-        planned_steps=n,
-        deadline_misses=misses,
-        skipped=skipped,
+        planned_steps=loop.n,
+        deadline_misses=loop.misses,
+        skipped=loop.skipped,
         lateness_p50=float(np.percentile(lat, 50)) if lat.size else math.nan,
         lateness_p99=float(np.percentile(lat, 99)) if lat.size else math.nan,
         lateness_max=float(lat.max()) if lat.size else math.nan,
         compute_p50=float(np.percentile(comp, 50)) if comp.size else math.nan,
         compute_p99=p99c,
         capacity_hz=1.0 / p99c if p99c > 0 else math.inf,
-        rate_hz=1.0 / dt,
+        rate_hz=1.0 / loop.dt,
         stopped_by=stopped_by,
-        trip=asdict(trip) if trip is not None else None,
-        missing_readings=missing,
-        length_rmse_mm=float(np.sqrt(np.mean(err**2)) * 1e3) if err.size else math.nan,
-    )
-    if log_path is not None:
-        Path(log_path).with_suffix(".json").write_text(json.dumps(asdict(result), indent=2))
-    return result
-
-
-def write_deploy_log(path, rows: np.ndarray, load_kg: float) -> Path:
-    """The steps in ``identify``'s CSV format (edge units)."""
-    from ..identify.logs import write_log
-
-    return write_log(
-        path,
-        {
-            "time_s": rows[:, 0],
-            "command_c": rows[:, 1],
-            "command_e": rows[:, 2],
-            "pressure_c_kpa": rows[:, 3] / 1e3,
-            "pressure_e_kpa": rows[:, 4] / 1e3,
-            "length_cm": rows[:, 5] * 1e2,
-            "load_g": np.full(len(rows), load_kg * 1e3),
-            "supply_kpa": rows[:, 6] / 1e3,
-        },
+        trip=asdict(loop.trip) if loop.trip is not None else None,
+        missing_readings=loop.missing,
+        length_rmse_mm=log.length_rmse_m * 1e3,
+        stop=asdict(stop),
+        error=error,
+        nonfinite_rows=log.nonfinite_rows,
+        exit_code=code,
     )

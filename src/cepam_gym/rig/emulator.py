@@ -2,23 +2,23 @@
 what a real rig adds (latency, jitter, sensor noise and quantisation, lost packets) and faults to
 inject (``cepam-gym rig-emulator``, docs/deploy.md).
 
-The plant advances in ticks of ``n_sub`` sub-steps through its one block kernel
-(:func:`cepam_gym.plant.advance_block`; the commands become plant inputs by
-:func:`cepam_gym.plant.actions.plant_inputs`, as in the envs), in real time: one tick every
-``1 / rate_hz`` seconds of the wall clock. Each tick it sends a sensor packet (the plant's time,
-both gauge pressures, the length, the supply's gauge pressure) to the host that last wrote to it.
+The plant (:class:`~cepam_gym.rig.emulated_plant.EmulatedPlant`) advances in ticks of ``n_sub``
+sub-steps through its one block kernel (:func:`cepam_gym.plant.advance_block`), in real time: one
+tick every ``1 / rate_hz`` seconds of the wall clock. Each tick it sends a sensor packet (the
+rig's time, both gauge pressures, the length, the supply's gauge pressure) to the host that last
+wrote to it.
 
-Faults (:data:`~cepam_gym.rig.protocol.FAULTS`), each with a size:
+It follows the firmware's state machine of docs/deploy.md: it starts in the safe state; an arm
+packet (kind 4) restarts the plant at rest, vented, clears the plant's faults and arms it; a stop
+packet, or no command or arm packet for :data:`~cepam_gym.rig.protocol.WATCHDOG_S` (its
+watchdog), puts it back: both chambers vented and the supply shut off (a dump valve: the supply
+line at the atmosphere), flagged in every sensor packet until the next arm.
 
-* ``frozen_sensor``: the pressures and the length stop changing (packets keep coming);
-* ``supply_drop``: the supply falls to ``size`` times its nominal gauge pressure (default 0.2);
-* ``leak``: each chamber leaks to the atmosphere through ``size`` times the valve's conductance
-  (default 0.3);
-* ``stuck_valve``: the CPAM's valve stays at command ``size`` (default +1: open to the supply).
-
-It starts in the safe state. A stop packet puts it there: both chambers vented and the supply shut
-off (a dump valve: the supply line at the atmosphere), flagged in every sensor packet until an
-arm packet (kind 4), which restarts the plant at rest, vented, and clears the faults.
+The faults of the plant and of a sensor channel are :mod:`.emulated_plant`'s; the link's faults
+act here: ``silent`` (no more sensor packets), ``ignore_arm``, ``lose_stops`` (every stop packet
+lost), ``no_watchdog``, ``reboot`` (the rig restarts in its safe state: its packet numbers and its
+clock begin again, it forgets the host until the host writes again) and ``clear`` (the link's
+faults removed; an arm clears the plant's).
 """
 
 from __future__ import annotations
@@ -29,157 +29,30 @@ import math
 import signal
 import socket
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import plant as pl
 from ..errors import InputError
-from ..physics import layout as ix
-from ..plant.actions import check_action_mode, plant_inputs
+from .emulated_plant import DEFAULT_FAULT_SIZE, PLANT_FAULTS, EmulatedPlant, RigImperfections
 from .protocol import (
     FAULTS,
     FLAG_FAULT,
     FLAG_STOPPED,
+    FLAG_WATCHDOG,
     KIND_ARM,
     KIND_COMMAND,
     KIND_FAULT,
     KIND_STOP,
-    SAFE_COMMANDS,
+    WATCHDOG_S,
     PacketError,
     Reading,
     pack_reading,
     unpack_command,
 )
 
-DEFAULT_FAULT_SIZE = {"frozen_sensor": 0.0, "supply_drop": 0.2, "leak": 0.3, "stuck_valve": 1.0}
+__all__ = ["DEFAULT_FAULT_SIZE", "EmulatedPlant", "RigImperfections", "serve", "LINK_FAULTS"]
 
-
-@dataclass(frozen=True)
-class RigImperfections:
-    """What stands between the plant and the host: one-way ``latency_s`` plus a uniform
-    ``jitter_s`` per packet (each direction), Gaussian sensor noise (sd: ``noise_pressure`` [Pa],
-    ``noise_length`` [m]), quantisation steps (``quant_pressure`` [Pa], ``quant_length`` [m]) and
-    the fraction ``drop`` of packets lost (each direction)."""
-
-    latency_s: float = 0.001
-    jitter_s: float = 0.0005
-    noise_pressure: float = 200.0
-    noise_length: float = 3e-5
-    quant_pressure: float = 50.0
-    quant_length: float = 1e-5
-    drop: float = 0.0
-
-    def __post_init__(self):
-        for f, v in self.__dict__.items():
-            if not (math.isfinite(v) and v >= 0):
-                raise InputError(f"{f} must be finite and >= 0, got {v!r}")
-        if self.drop >= 1:
-            raise InputError(f"drop must be below 1, got {self.drop!r}")
-
-
-@dataclass
-class EmulatedPlant:
-    """The plant of the emulated rig, one tick at a time (no sockets: :func:`serve` adds them)."""
-
-    params: pl.PlantParams
-    mode: str = "valve"
-    load: float = 0.1  # the hanging mass [kg]
-    rate_hz: float = 500.0
-    sub_dt: float = 5e-4
-    # pressure mode: the gauge set-point of +1 [Pa]: the env's (``EnvModel.setpoint_max``; the
-    # command line's --env), as the controller expects; None: this plant's own pressure cap
-    setpoint_max: float | None = None
-    faults: dict = field(default_factory=dict)
-
-    def __post_init__(self):
-        self._mode = check_action_mode(self.mode)
-        if not (math.isfinite(self.load) and self.load >= 0):
-            raise InputError(f"the load must be a mass >= 0 kg, got {self.load!r}")
-        self.n_sub = max(1, int(round(1.0 / (self.rate_hz * self.sub_dt))))
-        self.tick_dt = self.n_sub * self.sub_dt
-        self.nominal_row = self.params.to_array()
-        pl.check_stability(self.nominal_row, self.sub_dt)
-        if self.setpoint_max is None:
-            self.setpoint_max = self.params.pressure_cap
-        self.W = np.empty(pl.W_SIZE)
-        self.restart()
-
-    def restart(self) -> None:
-        """At rest at the lower end stop, vented, supply on, no faults, not stopped."""
-        self.prow = self.nominal_row.copy()[None]
-        self.x = pl.initial_state(self.prow, self.params.min_length)
-        self.aux = pl.measure(self.x, self.prow)
-        self.inputs = np.zeros((1, pl.N_INPUT))
-        self.time = 0.0
-        self.command = SAFE_COMMANDS
-        self.stopped = False
-        self.faults = {}
-        self._frozen: tuple | None = None
-
-    def stop(self) -> None:
-        self.stopped = True
-        self.command = SAFE_COMMANDS
-        self.prow[0, ix.P_SUP] = self.prow[0, ix.P_ATM]  # the dump valve: supply line at the atmosphere
-
-    def inject(self, name: str, size: float | None = None) -> None:
-        if name not in FAULTS:
-            raise InputError(f"unknown fault {name!r}; the faults are {', '.join(FAULTS)}")
-        size = DEFAULT_FAULT_SIZE[name] if size is None else float(size)
-        self.faults[name] = size
-        if name == "supply_drop" and not self.stopped:
-            atm = self.prow[0, ix.P_ATM]
-            self.prow[0, ix.P_SUP] = atm + size * (self.nominal_row[ix.P_SUP] - atm)
-        elif name == "leak":
-            self.prow[0, ix.C_LEAK] = size * self.nominal_row[ix.C_PROP]
-        elif name == "frozen_sensor":
-            self._frozen = self.true_values()
-
-    def true_values(self) -> tuple[float, float, float]:
-        return float(self.aux[0, pl.A_PC]), float(self.aux[0, pl.A_PE]), float(self.x[0, pl.S_L])
-
-    def tick(self) -> None:
-        a0, a1 = self.command
-        if "stuck_valve" in self.faults:
-            a0 = self.faults["stuck_valve"]
-        plant_inputs(self.inputs[0], self._mode, pl.RIG, a0, a1, self.setpoint_max, self.load)
-        pl.advance_block(
-            self.x,
-            self.inputs,
-            self.prow,
-            0,
-            1,
-            self._mode,
-            self.sub_dt,
-            self.n_sub,
-            self.x,
-            self.aux,
-            self.W,
-        )
-        self.time += self.tick_dt
-
-    def sensed(self, imp: RigImperfections, rng) -> tuple[float, float, float, float]:
-        """``(pressure_c, pressure_e, length, supply)`` as the sensors report them now."""
-        if self._frozen is not None:
-            pc, pe, length = self._frozen
-        else:
-            pc, pe, length = self.true_values()
-            pc += imp.noise_pressure * rng.standard_normal()
-            pe += imp.noise_pressure * rng.standard_normal()
-            length += imp.noise_length * rng.standard_normal()
-        supply = self.prow[0, ix.P_SUP] - self.prow[0, ix.P_ATM] + imp.noise_pressure * rng.standard_normal()
-
-        def q(v, step):
-            return round(v / step) * step if step > 0 else v
-
-        return (
-            q(pc, imp.quant_pressure),
-            q(pe, imp.quant_pressure),
-            q(length, imp.quant_length),
-            q(supply, imp.quant_pressure),
-        )
-
-
+LINK_FAULTS = ("silent", "ignore_arm", "lose_stops", "no_watchdog")
 BEHIND_S = 0.01  # ticks this far behind the wall clock are reported (half a 50 Hz control period)
 RESYNC_S = 0.1  # and this far behind, the rig's clock skips ahead to the wall's
 
@@ -187,17 +60,24 @@ RESYNC_S = 0.1  # and this far behind, the rig's clock skips ahead to the wall's
 def serve(
     plant: EmulatedPlant,
     port: int,
-    imp: RigImperfections = RigImperfections(),
+    imp: RigImperfections | None = None,
     seed: int = 0,
-    scheduled: list[tuple[str, float, float | None]] = (),
+    scheduled: list[tuple] = (),
     duration_s: float | None = None,
     events=None,
     host: str = "127.0.0.1",
+    link_faults: tuple[str, ...] = (),
 ) -> int:
     """Run the emulated rig on UDP ``host:port`` until SIGINT/SIGTERM or ``duration_s``.
-    ``scheduled``: faults ``(name, seconds after arming, size)``. ``events``: a writable text file
-    for one JSON line per event (armed, fault, safe state, stop, and ``behind``: the ticks fell
-    more than :data:`BEHIND_S` behind the wall clock, so the rig's time ran slow), else stdout."""
+    ``scheduled``: faults ``(name, seconds after arming, size[, channel])``; ``link_faults``: the
+    link's faults active from the start (:data:`LINK_FAULTS`). ``events``: a writable text file
+    for one JSON line per event (armed, fault, stop, watchdog, safe, reboot, and ``behind``: the
+    ticks fell more than :data:`BEHIND_S` behind the wall clock, so the rig's time ran slow),
+    else stdout."""
+    for name in link_faults:
+        if name not in LINK_FAULTS:
+            raise InputError(f"unknown link fault {name!r}; they are {', '.join(LINK_FAULTS)}")
+    imp = RigImperfections() if imp is None else imp
     rng = np.random.default_rng(seed)
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
@@ -205,134 +85,205 @@ def serve(
     except OSError as e:
         raise InputError(f"cannot listen on {host}:{port}: {e.strerror}") from None
     sock.setblocking(False)
-    running = [True]
+    rig = _RigServer(plant, sock, imp, rng, scheduled, events, set(link_faults))
 
     def _quit(signum, frame):
-        running[0] = False
+        rig.running = False
 
     # the caller's handlers come back when the rig stops (a test or a host process calls serve)
     handlers = {sig: signal.signal(sig, _quit) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        return _serve(plant, sock, imp, rng, scheduled, duration_s, events, running)
+        return rig.run(duration_s)
     finally:
         sock.close()
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
 
 
-def _serve(plant, sock, imp, rng, scheduled, duration_s, events, running) -> int:
-    """The rig's loop (:func:`serve`), on a bound non-blocking socket."""
+class _RigServer:
+    """The rig's loop (:func:`serve`) on a bound non-blocking socket."""
 
-    def emit(**event) -> None:
-        line = json.dumps({"rig_time": round(plant.time, 6), **event})
-        if events is None:
+    def __init__(self, plant, sock, imp, rng, scheduled, events, link: set):
+        self.plant, self.sock, self.imp, self.rng, self.events = plant, sock, imp, rng, events
+        self.scheduled = sorted(scheduled, key=lambda f: f[1])
+        self.link = link  # the link's faults in force
+        self.running = True
+        self.peer = None
+        self.inbox: list = []  # (due time, order, packet) of received command packets (latency)
+        self.outbox: list = []  # (due time, order, bytes) of sensor packets
+        self.order = self.seq = self.ack = 0
+        self.clock_zero = 0.0  # the plant's time when the rig's clock last began (a reboot)
+        self.armed_at = None
+        self.pending: list = []
+        self.fault_time = None
+        self.safe_reported = False
+        self.by_watchdog = False
+        # wall time of the last command or arm packet received (a stall of the emulator itself,
+        # when the packets wait in the socket, must not read as a silent host)
+        self.last_heard = 0.0
+        self.behind = False
+
+    def emit(self, **event) -> None:
+        line = json.dumps({"rig_time": round(self.plant.time - self.clock_zero, 6), **event})
+        if self.events is None:
             print(line, flush=True)
         else:
-            events.write(line + "\n")
-            events.flush()
+            self.events.write(line + "\n")
+            self.events.flush()
 
-    peer = None
-    inbox: list = []  # (due time, order, packet) of received command packets, delayed by the latency
-    outbox: list = []  # (due time, order, bytes) of sensor packets
-    order = 0
-    seq = 0
-    ack = 0
-    armed_at = None
-    pending = sorted(scheduled, key=lambda f: f[1])
-    fault_time = None
-    safe_reported = False
-    behind = False
-    plant.stop()  # a rig starts in its safe state, until it is armed
-    start = time.perf_counter()
-    next_tick = start
-    emit(event="listening", port=sock.getsockname()[1], tick_s=plant.tick_dt)
+    def delay(self) -> float:
+        return self.imp.latency_s + self.imp.jitter_s * self.rng.random()
 
-    def delay() -> float:
-        return imp.latency_s + imp.jitter_s * rng.random()
+    def run(self, duration_s) -> int:
+        self.plant.stop()  # a rig starts in its safe state, until it is armed
+        start = time.perf_counter()
+        next_tick = start
+        self.emit(event="listening", port=self.sock.getsockname()[1], tick_s=self.plant.tick_dt)
+        while self.running:
+            now = time.perf_counter()
+            if duration_s is not None and now - start > duration_s:
+                break
+            self.receive(now)
+            while self.inbox and self.inbox[0][0] <= now:
+                self.handle(heapq.heappop(self.inbox)[2], now)
+            self.watchdog(now)
+            self.scheduled_faults()
+            if self.fault_time is not None and not self.safe_reported and self.plant.stopped:
+                self.safe_reported = True
+                self.emit(event="safe", after_fault_s=round(self.plant.time - self.fault_time, 6))
+            self.plant.tick()
+            self.send_reading(now)
+            next_tick = self.keep_time(next_tick)
+            self.flush_until(next_tick)
+        self.emit(event="exit")
+        return 0
 
-    while running[0]:
-        now = time.perf_counter()
-        if duration_s is not None and now - start > duration_s:
-            break
+    def receive(self, now: float) -> None:
         while True:
             try:
-                data, addr = sock.recvfrom(256)
-            except (BlockingIOError, InterruptedError):
-                break
-            except OSError:
-                break
+                data, addr = self.sock.recvfrom(256)
+            except OSError:  # nothing more (BlockingIOError), or an ICMP error reported here
+                return
             try:
                 packet = unpack_command(data)
             except PacketError:
                 continue
-            peer = addr
-            if rng.random() < imp.drop and packet[0] == KIND_COMMAND:
+            self.peer = addr
+            if self.rng.random() < self.imp.drop and packet[0] == KIND_COMMAND:
                 continue
-            order += 1
-            heapq.heappush(inbox, (now + delay(), order, packet))
-        while inbox and inbox[0][0] <= now:
-            _, _, (kind, flags, pseq, c, e) = heapq.heappop(inbox)
-            if kind == KIND_ARM:
-                if not plant.stopped:  # a repeated arm: the plant is running already
-                    continue
-                plant.restart()
-                armed_at, fault_time, safe_reported = plant.time, None, False
-                ack = pseq  # a new host numbers its packets from 1: its commands follow its arm
-                pending = sorted(scheduled, key=lambda f: f[1])
-                emit(event="armed")
-            elif kind == KIND_STOP:
-                if not plant.stopped:
-                    plant.stop()
-                    emit(event="stop")
-            elif kind == KIND_FAULT:
-                name = FAULTS[flags] if flags < len(FAULTS) else None
-                if name is not None:
-                    plant.inject(name, c if c > 0 else None)
-                    fault_time = plant.time
-                    emit(event="fault", fault=name)
-            elif kind == KIND_COMMAND and not plant.stopped and pseq > ack:
-                plant.command = (max(-1.0, min(1.0, c)), max(-1.0, min(1.0, e)))
-                ack = pseq
-        if armed_at is not None and not plant.stopped:
-            while pending and plant.time - armed_at >= pending[0][1]:
-                name, _t, size = pending.pop(0)
-                plant.inject(name, size)
-                fault_time = plant.time
-                emit(event="fault", fault=name)
-        if fault_time is not None and not safe_reported and plant.stopped:
-            safe_reported = True
-            emit(event="safe", after_fault_s=round(plant.time - fault_time, 6))
-        plant.tick()
-        if peer is not None:
-            pc, pe, length, supply = plant.sensed(imp, rng)
-            flags = (FLAG_STOPPED if plant.stopped else 0) | (FLAG_FAULT if plant.faults else 0)
-            seq += 1
-            packet = pack_reading(Reading(plant.time, pc, pe, length, supply, seq, ack, flags))
-            if rng.random() >= imp.drop:
-                order += 1
-                heapq.heappush(outbox, (now + delay(), order, packet))
+            if packet[0] == KIND_STOP and "lose_stops" in self.link:
+                continue
+            if packet[0] in (KIND_COMMAND, KIND_ARM):  # heard now, applied after the latency
+                self.last_heard = now
+            self.order += 1
+            heapq.heappush(self.inbox, (now + self.delay(), self.order, packet))
+
+    def handle(self, packet, now: float) -> None:
+        kind, flags, pseq, c, e = packet
+        plant = self.plant
+        if kind == KIND_ARM:
+            if "ignore_arm" in self.link:
+                return
+            if not plant.stopped:  # a repeated arm: the plant is running already
+                return
+            plant.restart()
+            self.clock_zero = 0.0
+            self.armed_at, self.fault_time, self.safe_reported, self.by_watchdog = (
+                plant.time,
+                None,
+                False,
+                False,
+            )
+            self.ack = pseq  # a new host numbers its packets from 1: its commands follow its arm
+            self.pending = list(self.scheduled)
+            self.emit(event="armed", ack=self.ack)
+        elif kind == KIND_STOP:
+            if not plant.stopped:
+                plant.stop()
+                self.emit(event="stop")
+        elif kind == KIND_FAULT:
+            if flags < len(FAULTS):
+                channel = int(e) if math.isfinite(e) else 0
+                self.inject(
+                    FAULTS[flags], c if (c > 0 or FAULTS[flags] == "channel_value") else None, channel
+                )
+        elif kind == KIND_COMMAND and not plant.stopped and pseq > self.ack:
+            plant.command = (max(-1.0, min(1.0, c)), max(-1.0, min(1.0, e)))
+            self.ack = pseq
+
+    def inject(self, name: str, size, channel: int = 0) -> None:
+        if name in PLANT_FAULTS:
+            try:
+                self.plant.inject(name, size, channel)
+            except InputError:
+                return  # a bad fault packet is ignored, as a rig ignores any bad packet
+        elif name in LINK_FAULTS:
+            self.link.add(name)
+        elif name == "clear":
+            self.link.clear()
+        elif name == "reboot":
+            self.plant.stop()
+            self.clock_zero = self.plant.time
+            self.seq = self.ack = 0
+            self.peer, self.inbox, self.outbox, self.link = None, [], [], set()
+            self.emit(event="reboot")
+        if name != "clear":
+            self.fault_time = self.plant.time
+        self.emit(event="fault", fault=name)
+
+    def watchdog(self, now: float) -> None:
+        """The rig's own watchdog: armed, no command or arm for WATCHDOG_S: the safe state."""
+        if self.plant.stopped or "no_watchdog" in self.link or now - self.last_heard <= WATCHDOG_S:
+            return
+        self.plant.stop()
+        self.by_watchdog = True
+        self.emit(event="watchdog", silent_s=round(now - self.last_heard, 4), ack=self.ack)
+
+    def scheduled_faults(self) -> None:
+        if self.armed_at is None or self.plant.stopped:
+            return
+        while self.pending and self.plant.time - self.armed_at >= self.pending[0][1]:
+            name, _t, size, *channel = self.pending.pop(0)
+            self.inject(name, size, *channel)
+
+    def send_reading(self, now: float) -> None:
+        if self.peer is None or "silent" in self.link:
+            return
+        plant = self.plant
+        pc, pe, length, supply = plant.sensed(self.imp, self.rng)
+        flags = (FLAG_STOPPED if plant.stopped else 0) | (FLAG_FAULT if plant.faults else 0)
+        flags |= FLAG_WATCHDOG if plant.stopped and self.by_watchdog else 0
+        self.seq += 1
+        reading = Reading(plant.time - self.clock_zero, pc, pe, length, supply, self.seq, self.ack, flags)
+        if self.rng.random() >= self.imp.drop:
+            self.order += 1
+            heapq.heappush(self.outbox, (now + self.delay(), self.order, pack_reading(reading)))
+
+    def keep_time(self, next_tick: float) -> float:
+        """The next tick's wall time; says when the ticks fell behind the wall clock."""
         lag = time.perf_counter() - next_tick  # how late the tick just run finished
-        next_tick += plant.tick_dt
-        if lag > BEHIND_S and not behind:
+        next_tick += self.plant.tick_dt
+        if lag > BEHIND_S and not self.behind:
             # the rig's time runs slow of the wall's: commands apply late, which a supervisor may
             # read as a fault (a stuck valve); said once per stall, until the ticks catch up
-            behind = True
-            emit(event="behind", seconds=round(lag, 4))
-        elif lag < plant.tick_dt:
-            behind = False
-        if lag > RESYNC_S + plant.tick_dt:  # far behind (a stalled machine): resynchronise
+            self.behind = True
+            self.emit(event="behind", seconds=round(lag, 4))
+        elif lag < self.plant.tick_dt:
+            self.behind = False
+        if lag > RESYNC_S + self.plant.tick_dt:  # far behind (a stalled machine): resynchronise
             next_tick = time.perf_counter()
-        # until the next tick: send each sensor packet when its latency has passed
+        return next_tick
+
+    def flush_until(self, next_tick: float) -> None:
+        """Until the next tick: send each sensor packet when its latency has passed."""
         while True:
             t = time.perf_counter()
-            while outbox and outbox[0][0] <= t:
-                _, _, packet = heapq.heappop(outbox)
+            while self.outbox and self.outbox[0][0] <= t:
+                _, _, packet = heapq.heappop(self.outbox)
                 try:
-                    sock.sendto(packet, peer)
-                except OSError:
+                    self.sock.sendto(packet, self.peer)
+                except (OSError, TypeError):  # TypeError: no peer (it rebooted)
                     pass
             if t >= next_tick:
-                break
-            time.sleep(min(next_tick, outbox[0][0] if outbox else next_tick) - t)
-    emit(event="exit")
-    return 0
+                return
+            time.sleep(min(next_tick, self.outbox[0][0] if self.outbox else next_tick) - t)

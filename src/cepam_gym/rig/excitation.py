@@ -41,10 +41,13 @@ def excite(
     log_path,
     seed: int = 0,
     limits: SafetyLimits | None = None,
+    model_based: bool = True,
 ) -> DeployResult:
     """Play ``seconds`` of the excitation schedule of ``model``'s action mode at its control rate
     (``model``: the env's :class:`~cepam_gym.envs.model.EnvModel`, a rig id) on ``rig`` under the
-    supervisor, the rig's hanging load ``load_kg`` written in the log ``log_path``."""
+    supervisor, the rig's hanging load ``load_kg`` written in the log ``log_path``.
+    ``model_based``: the supervisor's leak balance on ``model``'s nominal plant too (else only its
+    model-free checks: a rig whose model is not known yet, the one this excitation identifies)."""
     if not load_kg >= 0:
         raise InputError(f"the load must be a mass >= 0 kg, got {load_kg!r}")
     cols = schedule(seconds, 1.0 / model.control_dt, model.action_mode, (load_kg * 1e3,), seed)
@@ -54,5 +57,5 @@ def excite(
     rest = np.full(n, model.nominal.min_length)
     observer = RigObserver(model, rest, np.full(n, 100.0))
     limits = limits or SafetyLimits.from_plant(model.nominal)
-    supervisor = Supervisor(limits, model.control_dt, model=model)
+    supervisor = Supervisor(limits, model.control_dt, model=model if model_based else None)
     return run(rig, ScheduleController(commands), observer, supervisor, load_kg, n_steps=n, log_path=log_path)

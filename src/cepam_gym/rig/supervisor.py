@@ -1,157 +1,72 @@
 """The safety supervisor: below the policy, every command goes through it and it cannot be bypassed.
 
 Each control step the deploy loop hands it the newest reading (or None) and the command the policy
-wants; it returns the command to send. Checks, in this order:
+wants; it returns the command to send. Every reading is judged; a reading that cannot be judged is
+a trip. Checks, in this order (the trip's reason in brackets):
 
-* **stale sensor**: no new reading for ``stale_after_s`` (packets lost, a cable, a dead rig);
-* **frozen sensor**: readings keep coming but pressures and length are bit-identical for
-  ``frozen_after_s`` (a hung ADC; a real sensor's noise always moves its last bit);
-* **supply loss**: the supply's gauge pressure below ``supply_min``;
-* **pressure limit**: a chamber's gauge pressure above its limit (the balloon's burst pressure
-  with a margin);
-* **length limit**: the length outside ``[length_min, length_max]`` (the end stops with a margin:
-  beyond them the sensor or the mechanism has failed);
-* **stopped**: the rig says it is in its safe state (its own emergency stop);
-* **leak**: a chamber loses air the valves do not explain, judged by an energy balance of its air
-  on the plant's model over ``leak_window_s`` (:mod:`cepam_gym.rig.leak`): a leak larger than
-  ``leak_max_fraction`` of the valve's conductance trips, also one a controller compensates by
-  holding its supply valve open (needs the env's model: ``Supervisor(..., model=...)``); the same
-  balance calls a valve faulty when a chamber gains air its valve was not told to let in (a valve
-  stuck open to the supply);
-* **valve fault**: a chamber commanded to exhaust (command <= -0.9) for ``valve_check_s`` still
-  holds more than half its pressure and more than :data:`VENTED` (a valve stuck open to the
-  supply, a blocked exhaust);
-* **bad command**: the policy's command is not finite;
+* **stale sensor** [``stale_sensor``]: no new reading for ``stale_after_s`` (packets lost, a
+  cable, a dead rig);
+* **restart** [``rig_restarted``]: the rig's packet numbers began again or its clock ran backwards
+  (a reboot: whatever it was doing, it is no longer the run the controller started);
+* **stopped** [``stopped``]: the rig says it is in its safe state (its own emergency stop, or its
+  watchdog: its flag says which);
+* **non-finite** [``nonfinite_reading``]: any channel or the rig's time NaN or infinite;
+* **supply** [``supply_loss``, ``supply_high``]: the supply's gauge pressure below ``supply_min``,
+  or above ``supply_max`` (above its regulator's range);
+* **pressure** [``pressure_limit``, ``pressure_floor``]: a chamber's gauge pressure above its
+  limit (the balloon's burst pressure with a margin) or below its floor (a chamber vented to the
+  atmosphere cannot read much below it: a sensor failing low);
+* **length** [``length_limit``]: the length outside ``[length_min, length_max]`` (the end stops
+  with a margin: beyond them the sensor or the mechanism has failed);
+* **frozen sensor** [``frozen_sensor``]: readings keep coming but one channel (either pressure,
+  the length or the supply) is bit-identical for ``frozen_after_s`` (a hung ADC, a dead channel;
+  a real sensor's noise always moves its last bit);
+* **leak** [``leak``, ``valve_fault``]: a chamber loses air the valves do not explain, judged by an
+  energy balance of its air on the plant's model over ``leak_window_s``
+  (:mod:`cepam_gym.rig.leak`): a leak larger than ``leak_max_fraction`` of the valve's
+  conductance trips, also one a controller compensates by holding its supply valve open (needs
+  the env's model: ``Supervisor(..., model=...)``); the same balance calls a valve faulty when a
+  chamber gains air its valve was not told to let in (a valve stuck open to the supply);
+* **valve fault** [``valve_fault``]: a chamber commanded to exhaust (command <= -0.9) for
+  ``valve_check_s`` still holds more than half its pressure and more than :data:`VENTED` (a valve
+  stuck open to the supply, a blocked exhaust);
+* **fill fault** [``fill_fault``]: a chamber commanded to fill (command >= :data:`FILL`) for
+  ``valve_check_s`` from a supply above ``supply_min`` still reads below :data:`VENTED` (its
+  sensor failing low while the chamber fills, or a valve that does not open);
+* **bad command** [``bad_command``]: the policy's command is not finite;
 * **command rate**: each command moves at most ``command_rate_per_s`` per second (a clamp, not a
   trip; unlimited by default, as the envs train).
 
+The leak balance is the only check built on the plant's model; the others need only the limits
+(model-free: what ``excite --rig`` runs on a rig whose model is not known yet).
+
 A trip is latched: from the step it happens on, the command is :data:`SAFE_COMMANDS` (both
 chambers vented) and the loop stops the rig (:meth:`~cepam_gym.rig.protocol.Rig.stop`, which
-also shuts off the supply). So the safe state is reached on the step the fault is seen, within one
-control period. Why vented, not closed: a closed valve keeps a chamber's air, and with it the
-pressure that may be the fault (over-pressure, a stuck supply valve); venting takes both chambers
-to the atmosphere, where the balloon cannot burst and the muscle rests at its passive length
-under the load. Each trip is recorded (:class:`Trip`) with its reason.
+also shuts off the supply). So the safe state is asked for on the step the fault is seen. Why
+vented, not closed: a closed valve keeps a chamber's air, and with it the pressure that may be the
+fault (over-pressure, a stuck supply valve); venting takes both chambers to the atmosphere, where
+the balloon cannot burst and the muscle rests at its passive length under the load. Each trip is
+recorded (:class:`Trip`) with its reason.
 
-Limits (:class:`SafetyLimits`) come from the plant preset (:meth:`SafetyLimits.from_plant`) and a
-YAML file may only tighten them (:meth:`SafetyLimits.tightened`; unknown keys are refused), edge
-units with the unit in the key::
-
-    pressure_max_c_kpa: 200      # <= the preset's limit
-    pressure_max_e_kpa: 200
-    length_min_cm: 15.2          # >= the preset's
-    length_max_cm: 18.5          # <=
-    supply_min_kpa: 150          # >=
-    stale_after_s: 0.05          # <=
-    frozen_after_s: 0.05         # <=
-    valve_check_s: 0.1           # <=
-    command_rate_per_s: 20       # <=
-    leak_max_fraction: 0.05      # <=
-    leak_window_s: 0.1           # <=
+The limits are :class:`~cepam_gym.rig.limits.SafetyLimits` (from the plant preset; a YAML file may
+only tighten them).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
-from pathlib import Path
+from dataclasses import dataclass
 
-import yaml
-
-from ..errors import InputError
 from .leak import LeakMonitor
-from .protocol import SAFE_COMMANDS, Reading
+from .limits import SafetyLimits
+from .protocol import SAFE_COMMANDS, Reading, seq_newer
 
-BURST_MARGIN = 0.9  # default pressure limit: this fraction of the burst pressure
-LENGTH_MARGIN = 0.002  # m beyond each end stop before the length trips
-SUPPLY_MIN_FRACTION = 0.5  # of the nominal supply
+__all__ = ["REASONS", "SafetyLimits", "Supervisor", "Trip"]
+
 EXHAUST = -0.9  # a command at or below this asks a chamber to empty
+FILL = 0.5  # a command at or above this asks a chamber to fill
 VENTED = 20e3  # Pa: a chamber below this gauge pressure counts as emptied
-
-
-@dataclass(frozen=True)
-class SafetyLimits:
-    """The supervisor's limits, SI (gauge pressures [Pa], lengths [m], times [s])."""
-
-    pressure_max_c: float
-    pressure_max_e: float
-    length_min: float
-    length_max: float
-    supply_min: float
-    stale_after_s: float = 0.1
-    frozen_after_s: float = 0.1
-    valve_check_s: float = 0.2
-    command_rate_per_s: float = math.inf
-    leak_max_fraction: float = 0.1
-    leak_window_s: float = 0.2
-
-    @classmethod
-    def from_plant(cls, plant) -> SafetyLimits:
-        """The limits of a plant (:class:`~cepam_gym.plant.params.PlantParams`): pressures at
-        :data:`BURST_MARGIN` of its burst pressure, lengths :data:`LENGTH_MARGIN` beyond its end
-        stops, supply at :data:`SUPPLY_MIN_FRACTION` of its nominal supply."""
-        burst = BURST_MARGIN * plant.burst_pressure
-        return cls(
-            pressure_max_c=burst,
-            pressure_max_e=burst,
-            length_min=plant.min_length - LENGTH_MARGIN,
-            length_max=plant.max_length + LENGTH_MARGIN,
-            supply_min=SUPPLY_MIN_FRACTION * plant.supply_pressure,
-        )
-
-    def tightened(self, path: str | Path) -> SafetyLimits:
-        """These limits tightened by the YAML file ``path`` (see the module docstring)."""
-        path = Path(path)
-        if not path.is_file():
-            raise InputError(f"limits file {path} does not exist")
-        try:
-            data = yaml.safe_load(path.read_text()) or {}
-        except yaml.YAMLError as e:
-            raise InputError(f"{path}: not valid YAML: {e}") from None
-        if not isinstance(data, dict):
-            raise InputError(f"{path}: expected a mapping of limits, got {type(data).__name__}")
-        return self.tighten(data, str(path))
-
-    def tighten(self, values: dict, where: str = "limits") -> SafetyLimits:
-        changes = {}
-        for key, value in values.items():
-            if key not in _KEYS:
-                raise InputError(f"{where}: unknown key {key!r}; the keys are {', '.join(_KEYS)}")
-            name, scale, upper = _KEYS[key]
-            if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-                raise InputError(f"{where}: {key} must be a finite number, got {value!r}")
-            v = float(value) * scale
-            old = getattr(self, name)
-            if (v > old) if upper else (v < old):
-                raise InputError(
-                    f"{where}: {key} = {value:g} loosens the preset's limit ({old / scale:g}); "
-                    "a limits file may only tighten"
-                )
-            changes[name] = v
-        out = replace(self, **changes)
-        if out.length_min >= out.length_max:
-            raise InputError(f"{where}: length_min_cm must be below length_max_cm")
-        return out
-
-    def describe(self) -> str:
-        return ", ".join(f"{k} {getattr(self, n) / s:g}" for k, (n, s, _u) in _KEYS.items())
-
-
-# file key -> (field, factor to SI, whether the field is an upper bound)
-_KEYS = {
-    "pressure_max_c_kpa": ("pressure_max_c", 1e3, True),
-    "pressure_max_e_kpa": ("pressure_max_e", 1e3, True),
-    "length_min_cm": ("length_min", 1e-2, False),
-    "length_max_cm": ("length_max", 1e-2, True),
-    "supply_min_kpa": ("supply_min", 1e3, False),
-    "stale_after_s": ("stale_after_s", 1.0, True),
-    "frozen_after_s": ("frozen_after_s", 1.0, True),
-    "valve_check_s": ("valve_check_s", 1.0, True),
-    "command_rate_per_s": ("command_rate_per_s", 1.0, True),
-    "leak_max_fraction": ("leak_max_fraction", 1.0, True),
-    "leak_window_s": ("leak_window_s", 1.0, True),
-}
-assert set(n for n, _s, _u in _KEYS.values()) == {f.name for f in fields(SafetyLimits)}
+CHANNEL_NAMES = ("CPAM pressure", "EPAM pressure", "length", "supply")
 
 
 @dataclass(frozen=True)
@@ -167,13 +82,18 @@ class Trip:
 
 REASONS = (
     "stale_sensor",
-    "frozen_sensor",
-    "supply_loss",
-    "pressure_limit",
-    "length_limit",
-    "valve_fault",
-    "leak",
+    "rig_restarted",
     "stopped",
+    "nonfinite_reading",
+    "supply_loss",
+    "supply_high",
+    "pressure_limit",
+    "pressure_floor",
+    "length_limit",
+    "frozen_sensor",
+    "leak",
+    "valve_fault",
+    "fill_fault",
     "bad_command",
 )
 
@@ -181,7 +101,7 @@ REASONS = (
 class Supervisor:
     """The checks of the module docstring over the readings of one run, at control period ``dt``;
     ``model`` (the env's :class:`~cepam_gym.envs.model.EnvModel`: its nominal plant, action mode
-    and pressure set-point scale) enables the leak check."""
+    and pressure set-point scale) enables the leak check (the only one built on the model)."""
 
     def __init__(self, limits: SafetyLimits, dt: float, model=None):
         self.limits = limits
@@ -199,11 +119,12 @@ class Supervisor:
         self._fresh_before = False  # whether the last step had a new reading
         self.trip: Trip | None = None
         self._last_fresh: float | None = None  # host time of the last new reading
-        self._last_values: tuple | None = None
-        self._same_since: float | None = None
+        self._last_reading: Reading | None = None
+        self._same_since: list[float | None] = [None] * len(CHANNEL_NAMES)  # each channel's last change
         self._last_command = None
-        self._exhaust_since: list[float | None] = [None, None]  # host time each chamber began to exhaust
-        self._exhaust_from = [0.0, 0.0]  # its pressure then [Pa]
+        # host time each chamber began to exhaust (index 0, 1) or to fill (2, 3), and its pressure then
+        self._since: list[float | None] = [None] * 4
+        self._from = [0.0] * 4
         self.clamped = 0  # steps whose command the rate limit changed
 
     @property
@@ -214,9 +135,6 @@ class Supervisor:
         lim = self.limits
         if reading is not None:
             self._last_fresh = now
-            values = (reading.pressure_c, reading.pressure_e, reading.length)
-            if values != self._last_values:
-                self._last_values, self._same_since = values, now
         elif self._last_fresh is None:
             self._last_fresh = now  # the watchdog starts with the loop
         age = now - self._last_fresh
@@ -225,51 +143,106 @@ class Supervisor:
                 "stale_sensor",
                 f"no reading for {age * 1e3:.0f} ms (limit {lim.stale_after_s * 1e3:.0f} ms)",
             )
-        if self._same_since is not None and now - self._same_since > lim.frozen_after_s:
-            return "frozen_sensor", (
-                f"pressures and length unchanged for {(now - self._same_since) * 1e3:.0f} ms "
-                f"(limit {lim.frozen_after_s * 1e3:.0f} ms)"
-            )
         if reading is None:
             return None
+        last, self._last_reading = self._last_reading, reading
+        found = self._check_link(reading, last) or self._check_ranges(reading)
+        found = found or self._check_frozen(reading, last, now)
+        if found is None and self.leak is not None:
+            # the command sent last step was in force since the last reading if that was fresh too
+            found = self.leak.update(reading, self._last_command, self._fresh_before)
+        return found or self._check_valves(reading, now)
+
+    def _check_link(self, reading: Reading, last: Reading | None) -> tuple[str, str] | None:
+        went_back = reading.seq != last.seq and not seq_newer(reading.seq, last.seq) if last else False
+        if last is not None and (went_back or reading.time < last.time):
+            return "rig_restarted", (
+                f"the rig's packet numbers began again ({last.seq} then {reading.seq}) or its clock "
+                f"ran back ({last.time:.3f} s then {reading.time:.3f} s): it restarted"
+            )
         if reading.stopped:
+            if reading.by_watchdog:
+                return "stopped", "the rig's watchdog stopped it: no command reached it in time"
             return "stopped", "the rig reports it is stopped"
+        bad = [
+            n
+            for n, v in zip(("time", *CHANNEL_NAMES), (reading.time, *reading.channels()))
+            if not math.isfinite(v)
+        ]
+        if bad:
+            values = dict(zip(("time", *CHANNEL_NAMES), (reading.time, *reading.channels())))
+            return "nonfinite_reading", "the rig sent " + ", ".join(f"{n} = {values[n]}" for n in bad)
+        return None
+
+    def _check_ranges(self, reading: Reading) -> tuple[str, str] | None:
+        lim = self.limits
         if reading.supply < lim.supply_min:
             return "supply_loss", f"supply {reading.supply / 1e3:.1f} kPa < {lim.supply_min / 1e3:.1f} kPa"
-        for name, p, pmax in (
-            ("CPAM", reading.pressure_c, lim.pressure_max_c),
-            ("EPAM", reading.pressure_e, lim.pressure_max_e),
+        if reading.supply > lim.supply_max:
+            return "supply_high", (
+                f"supply {reading.supply / 1e3:.1f} kPa > {lim.supply_max / 1e3:.1f} kPa, above its "
+                "regulator's range"
+            )
+        for name, p, pmin, pmax in (
+            ("CPAM", reading.pressure_c, lim.pressure_min_c, lim.pressure_max_c),
+            ("EPAM", reading.pressure_e, lim.pressure_min_e, lim.pressure_max_e),
         ):
-            if not p <= pmax:
+            if p > pmax:
                 return "pressure_limit", f"{name} chamber at {p / 1e3:.1f} kPa > {pmax / 1e3:.1f} kPa"
+            if p < pmin:
+                return "pressure_floor", (
+                    f"{name} chamber reads {p / 1e3:.1f} kPa < {pmin / 1e3:.1f} kPa, below what a vented "
+                    "chamber can read: its sensor fails low"
+                )
         if not lim.length_min <= reading.length <= lim.length_max:
             return "length_limit", (
                 f"length {reading.length * 100:.2f} cm outside "
                 f"[{lim.length_min * 100:.2f}, {lim.length_max * 100:.2f}] cm"
             )
-        if self.leak is not None:
-            # the command sent last step was in force since the last reading if that was fresh too
-            found = self.leak.update(reading, self._last_command, self._fresh_before)
-            if found is not None:
-                return found
-        return self._check_exhaust(reading, now)
+        return None
 
-    def _check_exhaust(self, reading: Reading, now: float) -> tuple[str, str] | None:
+    def _check_frozen(self, reading: Reading, last: Reading | None, now: float) -> tuple[str, str] | None:
+        frozen = []
+        for i, v in enumerate(reading.channels()):
+            if last is None or v != last.channels()[i] or self._same_since[i] is None:
+                self._same_since[i] = now
+            elif now - self._same_since[i] > self.limits.frozen_after_s:
+                frozen.append(
+                    f"{CHANNEL_NAMES[i]} at {v:g} unchanged for {(now - self._same_since[i]) * 1e3:.0f} ms"
+                )
+        if frozen:
+            return "frozen_sensor", "; ".join(frozen) + f" (limit {self.limits.frozen_after_s * 1e3:.0f} ms)"
+        return None
+
+    def _check_valves(self, reading: Reading, now: float) -> tuple[str, str] | None:
+        """A chamber told to exhaust that does not empty, or told to fill that reads empty."""
         if self._last_command is None:
             return None
+        check_s = self.limits.valve_check_s
         for i, (name, p) in enumerate((("CPAM", reading.pressure_c), ("EPAM", reading.pressure_e))):
-            if self._last_command[i] > EXHAUST:
-                self._exhaust_since[i] = None
-            elif self._exhaust_since[i] is None:
-                self._exhaust_since[i], self._exhaust_from[i] = now, p
-            elif now - self._exhaust_since[i] >= self.limits.valve_check_s:
-                p0 = self._exhaust_from[i]
-                if p > max(0.5 * p0, VENTED):
-                    held = now - self._exhaust_since[i]
-                    return "valve_fault", (
-                        f"{name} chamber at {p / 1e3:.1f} kPa after {held * 1e3:.0f} ms "
-                        f"of exhaust (from {p0 / 1e3:.1f} kPa): its valve does not vent"
-                    )
+            for j, asked in ((i, self._last_command[i] <= EXHAUST), (i + 2, self._last_command[i] >= FILL)):
+                if not asked:
+                    self._since[j] = None
+                elif self._since[j] is None:
+                    self._since[j], self._from[j] = now, p
+            held = [None if s is None else now - s for s in (self._since[i], self._since[i + 2])]
+            p0 = self._from[i]
+            if held[0] is not None and held[0] >= check_s and p > max(0.5 * p0, VENTED):
+                return "valve_fault", (
+                    f"{name} chamber at {p / 1e3:.1f} kPa after {held[0] * 1e3:.0f} ms "
+                    f"of exhaust (from {p0 / 1e3:.1f} kPa): its valve does not vent"
+                )
+            if (
+                held[1] is not None
+                and held[1] >= check_s
+                and p < VENTED
+                and reading.supply >= self.limits.supply_min
+            ):
+                return "fill_fault", (
+                    f"{name} chamber reads {p / 1e3:.1f} kPa after {held[1] * 1e3:.0f} ms of its valve told "
+                    f"to fill it (command >= {FILL:g}) from a {reading.supply / 1e3:.0f} kPa supply: its "
+                    "sensor reads low or its valve does not open"
+                )
         return None
 
     def filter(self, reading: Reading | None, command, now: float) -> tuple[tuple[float, float], Trip | None]:

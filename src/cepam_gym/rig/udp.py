@@ -16,14 +16,15 @@ from .protocol import (
     KIND_COMMAND,
     KIND_FAULT,
     KIND_STOP,
+    RESTART_RUN,
     SAFE_COMMANDS,
     PacketError,
     Reading,
     pack_command,
+    seq_newer,
+    seq_restarted,
     unpack_reading,
 )
-
-STOP_REPEATS = 3  # a stop is sent this many times: one lost datagram must not leave the rig running
 
 
 def parse_address(text: str) -> tuple[str, int]:
@@ -54,7 +55,9 @@ class UdpRig:
         self.seq = 0
         self.bad_packets = 0
         self.received = 0
-        self._last_seq = -1
+        self.restarts = 0  # times the rig's packet numbers began again (a reboot)
+        self._last_seq: int | None = None
+        self._behind: list[int] = []  # the numbers of the readings just dropped as behind the newest
 
     def _send(self, kind: int, c: float = 0.0, e: float = 0.0, flags: int = 0) -> None:
         self.seq += 1
@@ -78,25 +81,41 @@ class UdpRig:
                 self.bad_packets += 1
                 continue
             self.received += 1
-            if r.seq > self._last_seq:  # a late datagram older than one already read is dropped
-                self._last_seq = r.seq
-                newest = r
+            last = self._last_seq
+            if last is not None and not seq_newer(r.seq, last):
+                if not self._restarted(r.seq, last):
+                    continue  # a late datagram older than one already read is dropped
+                self.restarts += 1
+            self._last_seq, self._behind = r.seq, []
+            newest = r
         return newest
+
+    def _restarted(self, seq: int, last: int) -> bool:
+        """Whether a reading numbered ``seq``, behind the newest ``last``, comes from a rig that
+        restarted: far behind, or the last of a run of readings behind that count up."""
+        if seq_restarted(seq, last):
+            return True
+        if self._behind and not seq_newer(seq, self._behind[-1]):
+            self._behind = []
+        self._behind.append(seq)
+        return len(self._behind) >= RESTART_RUN
 
     def write(self, command_c: float, command_e: float) -> None:
         self._send(KIND_COMMAND, float(command_c), float(command_e))
 
     def stop(self) -> None:
-        for _ in range(STOP_REPEATS):
-            self._send(KIND_STOP, *SAFE_COMMANDS)
+        """One stop packet (:func:`~cepam_gym.rig.stop.stop_and_confirm` repeats it until the rig's
+        readings say it is stopped)."""
+        self._send(KIND_STOP, *SAFE_COMMANDS)
 
     def arm(self) -> None:
         """Leave the safe state (the emulated rig also restarts its plant at rest)."""
         self._send(KIND_ARM)
 
-    def inject(self, fault: int, size: float = 0.0) -> None:
-        """Emulated rig: inject fault number ``fault`` (:data:`~cepam_gym.rig.protocol.FAULTS`)."""
-        self._send(KIND_FAULT, float(size), 0.0, flags=int(fault))
+    def inject(self, fault: int, size: float = 0.0, channel: int = 0) -> None:
+        """Emulated rig: inject fault number ``fault`` (:data:`~cepam_gym.rig.protocol.FAULTS`) of
+        ``size`` (0: its default) on sensor channel ``channel`` (the faults of one channel)."""
+        self._send(KIND_FAULT, float(size), float(channel), flags=int(fault))
 
     def close(self) -> None:
         self.sock.close()
