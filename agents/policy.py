@@ -263,7 +263,8 @@ def evaluate(make_policy, env_id: str, env_kwargs: dict, episodes: int, seed: in
 
 def baseline_score(env_id: str, env_kwargs: dict, episodes: int, seed: int, spec=None) -> float | None:
     """The inverse-model baseline's score on the episodes :func:`evaluate` scores an agent on (the
-    same env, seed and episodes; about a second for 16 episodes), to show beside the agent's; None
+    same env, seed and episodes; 0.5 s for 16 episodes on a busy 2-core machine), to show beside
+    the agent's; None
     where the baseline cannot drive the env."""
     from cepam_gym.control import make_controller
     from cepam_gym.control.baseline import UnsupportedEnvError
