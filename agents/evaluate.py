@@ -9,8 +9,8 @@ table, :mod:`cepam_gym.versions`: ``CEPAM-v2``: ``nominal-v2``, ``randomized-v2`
 ``CEPAMJoint-v2``: ``joint-v2``); ``--suite all`` scores every suite of its version whose env
 observes what it does. Writes into ``<run>/eval/`` (or ``--out-dir``): ``table.txt``
 (benchmark table with the headline and the normalized score), ``results.json`` (every metric),
-``comparison.md`` (agent / reference ratios, the goals of :data:`GOALS`, and the agent's headline
-score, the share of the baseline-to-oracle gap it closes, against :data:`GAP_GOALS`),
+``comparison.md`` (the agent's headline beside the baseline's 0, the MPC's and the oracle's 100,
+the agent / MPC score ratio, and the agent / reference ratio per controller that ran),
 ``scores.png`` and ``traces_<suite>_<controller>.png``.
 """
 
@@ -21,80 +21,74 @@ import sys
 from pathlib import Path
 
 from cepam_gym._cli_errors import CommandParser
-from cepam_gym.bench.headline import LEGEND, headline_score
+from cepam_gym.bench.headline import BASELINE, LEGEND, ORACLE, headline_score
 from cepam_gym.errors import InputError
 
-# goals per suite: (reference controller, largest agent / reference score ratio)
-GOALS = {
-    "nominal": [("baseline", 1.05)],  # v0: within 5 % of the baseline
-    "randomized": [("baseline", 0.70)],  # v0: 30 % lower combined error
-    "nominal-v1": [("oracle", 1.10), ("mpc", 1.00)],  # v1: within 10 % of the oracle, <= MPC
-    "randomized-v1": [("baseline", 0.70), ("mpc", 1.00)],  # v1: 30 % below the baseline, <= MPC
-    "nominal-v2": [("mpc", 1.00)],  # v2: at most the MPC's error
-    "randomized-v2": [("baseline", 0.70), ("mpc", 1.00)],  # v2: 30 % below the baseline, <= MPC
-}
+# the model-based controller an agent is measured against between the headline's two ends
+MPC = "mpc"
 
-# the headline score an agent must reach per suite (cepam_gym.bench.headline: the share of the
-# baseline-to-oracle gap closed, in points): 80 on the headline suites of v1 and v2
-GAP_GOALS = {"nominal-v1": 80.0, "randomized-v1": 80.0, "nominal-v2": 80.0, "randomized-v2": 80.0}
+
+def _headline_of(row: dict | None, score: dict) -> tuple[float | None, str | None]:
+    """A row's headline and where its ends come from: this run's baseline and oracle where both
+    ran, else the ``headline`` that :func:`cepam_gym.bench.cli.add_scores` put in the row from the
+    stored references of the same episodes; ``(None, None)`` where neither is known."""
+    if row is None:
+        return None, None
+    if {BASELINE, ORACLE} <= score.keys() and score[BASELINE] > score[ORACLE]:
+        return headline_score(row["score"], score[BASELINE], score[ORACLE]), "this run"
+    if row.get("headline") is not None:
+        return row["headline"], row.get("headline_from", "reference scores")
+    return None, None
 
 
 def gaps_closed(rows: list[dict], agent: str = "agent") -> list[dict]:
     """Per suite where the agent's headline score is known (the share of the gap from the
-    baseline to the oracle it closes, in points): from this run's three scores where the baseline
-    and the oracle ran, else the ``headline`` that :func:`cepam_gym.bench.cli.add_scores` put in
-    the agent's row from the stored references of the same episodes; and whether it meets
-    :data:`GAP_GOALS`."""
+    baseline to the oracle it closes, in points): the agent's headline beside the baseline's 0,
+    the MPC's headline (None where the MPC did not run) and the oracle's 100, with the agent / MPC
+    score ratio (below 1: the agent's error is the lower)."""
     out = []
     for s in dict.fromkeys(r["suite"] for r in rows):
         score = {r["controller"]: r["score"] for r in rows if r["suite"] == s}
-        mine = next((r for r in rows if r["suite"] == s and r["controller"] == agent), None)
-        if mine is None:
+        by_name = {r["controller"]: r for r in rows if r["suite"] == s}
+        closed, source = _headline_of(by_name.get(agent), score)
+        if closed is None:
             continue
-        if {"baseline", "oracle"} <= score.keys() and score["baseline"] > score["oracle"]:
-            closed, source = headline_score(score[agent], score["baseline"], score["oracle"]), "this run"
-        elif mine.get("headline") is not None:
-            closed, source = mine["headline"], mine.get("headline_from", "reference scores")
-        else:
-            continue
-        goal = GAP_GOALS.get(s)
+        mpc, _ = _headline_of(by_name.get(MPC), score)
+        ratio = score[agent] / score[MPC] if score.get(MPC, 0) > 0 else None
         out.append(
             {
                 "suite": s,
                 "headline": closed,
                 "headline_from": source,
-                "goal": goal,
-                "goal_met": None if goal is None else bool(closed >= goal),
+                "baseline_headline": 0.0,
+                "mpc_headline": mpc,
+                "oracle_headline": 100.0,
+                "mpc_ratio": ratio,
             }
         )
     return out
 
 
 def compare(rows: list[dict], agent: str = "agent") -> list[dict]:
-    """Per suite and reference controller that ran: both scores, their ratio, and whether the
-    goal for that pair (:data:`GOALS`) is met (None where there is none)."""
+    """Per suite and reference controller that ran: both scores and their ratio (below 1: the
+    agent's error is the lower), both headline and normalized scores, both failure rates."""
     out = []
     for s in dict.fromkeys(r["suite"] for r in rows):
         a = next((r for r in rows if r["suite"] == s and r["controller"] == agent), None)
         if a is None:
             continue
-        goals = dict(GOALS.get(s, []))
         for b in (r for r in rows if r["suite"] == s and r["controller"] != agent):
-            ratio = a["score"] / b["score"] if b["score"] > 0 else float("nan")
-            goal = goals.get(b["controller"])
             out.append(
                 {
                     "suite": s,
                     "reference": b["controller"],
                     "agent_score": a["score"],
                     "reference_score": b["score"],
-                    "ratio": ratio,
+                    "ratio": a["score"] / b["score"] if b["score"] > 0 else float("nan"),
                     "agent_headline": a.get("headline"),
                     "reference_headline": b.get("headline"),
                     "agent_normalized": a.get("normalized"),
                     "reference_normalized": b.get("normalized"),
-                    "goal_ratio": goal,
-                    "goal_met": None if goal is None else bool(ratio <= goal),
                     "agent_failures": a["failure_rate"],
                     "reference_failures": b["failure_rate"],
                 }
@@ -102,17 +96,49 @@ def compare(rows: list[dict], agent: str = "agent") -> list[dict]:
     return out
 
 
-def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict] = ()) -> str:
+def _headline_lines(gaps: list[dict]) -> list[str]:
+    """The agent's headline beside the baseline's, the MPC's and the oracle's."""
     lines = [
-        f"# {run.name}: agent ({which} model) vs the model-based controllers",
+        "",
+        "| suite | agent's headline | baseline | MPC | oracle | agent / MPC score | ends from |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for g in gaps:
+        mpc = "not run (--against mpc)" if g["mpc_headline"] is None else f"{g['mpc_headline']:.0f}"
+        ratio = "-" if g["mpc_ratio"] is None else f"{g['mpc_ratio']:.2f}"
+        lines.append(
+            f"| {g['suite']} | **{g['headline']:.0f}** | {g['baseline_headline']:.0f} | {mpc} | "
+            f"{g['oracle_headline']:.0f} | {ratio} | {g['headline_from']} |"
+        )
+    stored = [g["suite"] for g in gaps if g["headline_from"] != "this run"]
+    if stored:
+        lines += [
+            "",
+            f"The baseline's and the oracle's scores on {', '.join(stored)}: the stored reference "
+            "scores of the same episodes (cepam_gym/data/reference_scores.json, re-checked by the "
+            "test suite).",
+        ]
+    return lines
+
+
+def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict] = ()) -> str:
+    lines = [f"# {run.name}: agent ({which} model) vs the model-based controllers"]
+    if gaps:
+        lines += _headline_lines(gaps)
+    unknown = [s for s in dict.fromkeys(c["suite"] for c in cmp) if s not in {g["suite"] for g in gaps}]
+    if unknown:
+        lines += [
+            "",
+            f"No headline on {', '.join(unknown)}: no stored reference scores of these episodes; "
+            "`--against baseline --against oracle` measures both ends in this run.",
+        ]
+    lines += [
         "",
         "| suite | reference | agent score | reference score | agent / reference | headline "
-        "(agent, reference) | normalized (agent, reference) | goal | met |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "(agent, reference) | normalized (agent, reference) | failure rate (agent, reference) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for c in cmp:
-        goal = "-" if c["goal_ratio"] is None else f"<= {c['goal_ratio']:.2f}"
-        met = "-" if c["goal_met"] is None else ("yes" if c["goal_met"] else "no")
         pair = {
             k: "-" if c[f"agent_{k}"] is None else f"{c[f'agent_{k}']:.1f}, {c[f'reference_{k}']:.1f}"
             for k in ("headline", "normalized")
@@ -120,30 +146,13 @@ def comparison_markdown(cmp: list[dict], run: Path, which: str, gaps: list[dict]
         lines.append(
             f"| {c['suite']} | {c['reference']} | {c['agent_score']:.3f} | "
             f"{c['reference_score']:.3f} | {c['ratio']:.3f} | {pair['headline']} | {pair['normalized']} | "
-            f"{goal} | {met} |"
+            f"{c['agent_failures']:.2f}, {c['reference_failures']:.2f} |"
         )
-    if gaps:
-        lines += [
-            "",
-            "| suite | agent's headline (baseline 0, oracle 100) | goal | met |",
-            "|---|---|---|---|",
-        ]
-        for g in gaps:
-            goal = "-" if g["goal"] is None else f">= {g['goal']:.0f}"
-            met = "-" if g["goal_met"] is None else ("yes" if g["goal_met"] else "no")
-            lines.append(f"| {g['suite']} | {g['headline']:.0f} | {goal} | {met} |")
-        stored = [g["suite"] for g in gaps if g.get("headline_from", "this run") != "this run"]
-        if stored:
-            lines += [
-                "",
-                f"The baseline's and the oracle's scores on {', '.join(stored)}: the stored reference "
-                "scores of the same episodes (cepam_gym/data/reference_scores.json, re-checked by the "
-                "test suite).",
-            ]
     lines += [
         "",
         "Combined score (lower is better): length RMSE / 5 mm + stiffness RMSE / 20 % "
-        f"+ 2 x failure rate (cepam_gym.bench.metrics); {LEGEND}.",
+        "+ 2 x failure rate (cepam_gym.bench.metrics); agent / reference below 1: the agent's error "
+        f"is the lower; {LEGEND}.",
     ]
     return "\n".join(lines) + "\n"
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import sys
+import time
+from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -82,6 +84,21 @@ def missing_training_modules() -> list[str]:
     return [m for m in TRAINING_MODULES if importlib.util.find_spec(m) is None]
 
 
+@contextmanager
+def _step(steps: list, k: int, n: int, what: str, path: Path | None):
+    """One step of the job: ``[k/n] what`` when it starts, its elapsed time when it ends, and its
+    row of the summary (what, status, output, seconds), "failed" unless the body sets it."""
+    print(f"[{k}/{n}] {what}", flush=True)
+    entry = [what, "failed", path, None]
+    steps.append(entry)
+    t0 = time.perf_counter()
+    try:
+        yield entry
+    finally:
+        entry[3] = time.perf_counter() - t0
+        print(f"[{k}/{n}] {entry[1]} in {entry[3]:.0f} s: {what}", flush=True)
+
+
 def _run_steps(args, out: Path, steps: list, where: dict) -> int:
     """The steps of :func:`main`, each recorded in ``steps`` for the summary."""
     from cepam_gym import demo, versions
@@ -103,46 +120,39 @@ def _run_steps(args, out: Path, steps: list, where: dict) -> int:
 
     # the plant of the recommended id: its step response and its calibration against the paper
     plant = versions.get(versions.RECOMMENDED_ID).plant_preset
-    steps.append([f"plant step response (preset {plant})", "failed", None])
-    steps[-1][1:] = ["done", demo.step_response(preset(plant), out_dir=out)]
-    print(f"[1/3] plant step response (preset {plant}): {steps[-1][2]}", flush=True)
-    print(f"[2/3] the paper's reported numbers beside plant {plant}'s", flush=True)
-    steps.append([f"the paper's numbers beside plant {plant}'s", "failed", out / "validate"])
-    validate_main(["--preset", plant, "--out-dir", str(out / "validate")])
-    steps[-1][1] = "done"
+    n = 3 if args.no_train else 4
+    with _step(steps, 1, n, f"plant step response (preset {plant})", None) as step:
+        step[2] = demo.step_response(preset(plant), out_dir=out)
+        step[1] = "done"
+    with _step(steps, 2, n, f"the paper's numbers beside plant {plant}'s", out / "validate") as step:
+        validate_main(["--preset", plant, "--out-dir", str(out / "validate")])
+        step[1] = "done"
     if args.no_train:
         from cepam_gym.bench import cli as bench_cli
 
         headline = versions.get(versions.RECOMMENDED_ID).suites
-        steps.append(
-            [f"{' and '.join(REFERENCE_CONTROLLERS)} on {' and '.join(headline)}", "failed", out / "bench"]
-        )
-        against = [a for c in REFERENCE_CONTROLLERS for a in ("--controller", c)]
-        suites = [a for s in headline for a in ("--suite", s)]
-        code = bench_cli.main(
-            [*against, *suites, "--episodes", str(args.episodes), "--out-dir", str(out / "bench")]
-        )
-        steps[-1][1] = "done" if not code else f"exit code {code}"
+        what = f"{' and '.join(REFERENCE_CONTROLLERS)} on {' and '.join(headline)}"
+        with _step(steps, 3, n, what, out / "bench") as step:
+            against = [a for c in REFERENCE_CONTROLLERS for a in ("--controller", c)]
+            suites = [a for s in headline for a in ("--suite", s)]
+            code = bench_cli.main(
+                [*against, *suites, "--episodes", str(args.episodes), "--out-dir", str(out / "bench")]
+            )
+            step[1] = "done" if not code else f"exit code {code}"
         where["table"] = out / "bench" / "table.txt"
         return code
-    print(f"[3/3] train {args.config}, then score it beside {', '.join(REFERENCE_CONTROLLERS)}", flush=True)
     run_dir = fresh_dir(out / "agent")
     where["run_dir"] = run_dir
-    steps.append([f"train an agent ({args.config})", "failed", run_dir])
-    code = train_main(["--config", args.config, "--out", str(run_dir)])
-    steps[-1][1] = "done" if not code else f"exit code {code}"
+    with _step(steps, 3, n, f"train an agent ({args.config})", run_dir) as step:
+        code = train_main(["--config", args.config, "--out", str(run_dir)])
+        step[1] = "done" if not code else f"exit code {code}"
     if code:
         return code
-    steps.append(
-        [
-            f"score the agent beside {' and '.join(REFERENCE_CONTROLLERS)} (its version's headline suites)",
-            "failed",
-            run_dir / "eval",
-        ]
-    )
-    against = [a for c in REFERENCE_CONTROLLERS for a in ("--against", c)]
-    code = evaluate_main(["--run", str(run_dir), *against, "--episodes", str(args.episodes)])
-    steps[-1][1] = "done" if not code else f"exit code {code}"
+    what = f"score the agent beside {' and '.join(REFERENCE_CONTROLLERS)} (its version's headline suites)"
+    with _step(steps, 4, n, what, run_dir / "eval") as step:
+        against = [a for c in REFERENCE_CONTROLLERS for a in ("--against", c)]
+        code = evaluate_main(["--run", str(run_dir), *against, "--episodes", str(args.episodes)])
+        step[1] = "done" if not code else f"exit code {code}"
     where["table"] = run_dir / "eval" / "table.txt"
     return code
 

@@ -25,15 +25,19 @@ def _rel(path: Path, out: Path) -> str:
         return str(path)
 
 
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
 def write_summary(
     out: Path,
     argv: list[str],
     started: datetime,
-    steps: list[tuple[str, str, Path | None]],
+    steps: list,
     run_dir: Path | None,
     table: Path | None,
 ) -> Path:
-    """``steps``: (what, status, output path) per step of the job, in order."""
+    """``steps``: (what, status, output path[, elapsed seconds]) per step of the job, in order."""
     out = Path(out)
     ended = datetime.now(UTC)
     lines = [
@@ -47,12 +51,13 @@ def write_summary(
         "",
         "## What ran and where its output is",
         "",
-        "| step | status | output |",
-        "|---|---|---|",
+        "| step | status | time | output |",
+        "|---|---|---|---|",
     ]
-    for what, status, path in steps:
+    for what, status, path, *seconds in steps:
         where = "-" if path is None else f"`{_rel(path, out)}`"
-        lines.append(f"| {what} | {status} | {where} |")
+        took = _duration(seconds[0]) if seconds and seconds[0] is not None else "-"
+        lines.append(f"| {what} | {status} | {took} | {where} |")
     if run_dir is not None and (run_dir / "run.json").is_file():
         lines += ["", "## Training", "", *_training_lines(run_dir, out)]
     if table is not None and table.is_file():
@@ -67,7 +72,7 @@ def write_summary(
             "```",
         ]
         cmp = table.parent / "comparison.md"
-        if cmp.is_file():  # the agent against each reference controller, and the goals
+        if cmp.is_file():  # the agent's headline beside the baseline's, the MPC's and the oracle's
             lines += ["", *cmp.read_text().rstrip().splitlines()[2:]]
     path = out / "summary.md"
     path.write_text("\n".join(lines) + "\n")

@@ -1,4 +1,5 @@
-"""The progress bar of a training session (tqdm on stderr), showing the latest evaluation score.
+"""The progress bar of a training session (tqdm on stderr), showing the latest evaluation score
+beside the inverse-model baseline's on the same evaluation episodes.
 On a terminal it redraws twice a second; in a log file (batch jobs) every 30 s, so logs stay short."""
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ class ProgressBar:
         self.total, self.desc, self.quiet = total, desc, quiet
         self.bar = None
         self._n = 0
+        self.baseline: float | None = None  # the baseline's score on the evaluation episodes
 
     def open(self, n: int, last_score: float | None, best_score: float) -> None:
         if self.quiet or self.bar is not None:
@@ -45,7 +47,8 @@ class ProgressBar:
         if last is None:
             self.bar.set_postfix_str("eval score: -")
         else:
-            self.bar.set_postfix_str(f"eval score {last:.3f} (best {best:.3f}, lower is better)")
+            beside = "" if self.baseline is None else f", baseline {self.baseline:.3f}"
+            self.bar.set_postfix_str(f"eval score {last:.3f} (best {best:.3f}{beside}, lower is better)")
 
     def close(self) -> None:
         if self.bar is not None:

@@ -226,7 +226,7 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
 
     from .checkpoints import save_model
     from .envs import eval_env_spec
-    from .policy import evaluate, load_policy
+    from .policy import baseline_score, evaluate, load_policy
 
     check_student(cfg)
     torch.set_num_threads(cfg.torch_threads)
@@ -284,10 +284,14 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
         lambda venv: load_policy(run, venv, "final"), env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec
     )
     wall = round(time.perf_counter() - t0, 1)
+    baseline = baseline_score(env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec)
+    if baseline is not None:
+        metrics["baseline_score"] = baseline
     summary = {"labels": int(sum(len(v) for v in xs)), "rounds": rounds, "wall_s": wall, "eval": metrics}
     write_json(run / "evaluations.json", [{"step": summary["labels"], **metrics}])
     write_json(run / "summary.json", {"steps": summary["labels"], **summary})
     status = "stopped_by_time_limit" if stopped else "finished"
     record.write(status, 0, steps=summary["labels"], wall_s=wall)
-    say(f"{status} in {wall} s; eval score {metrics['score']:.4f} ({json.dumps(cfg.eval.suite)})")
+    beside = "" if baseline is None else f", the baseline {baseline:.4f} on the same episodes"
+    say(f"{status} in {wall} s; eval score {metrics['score']:.4f}{beside} ({json.dumps(cfg.eval.suite)})")
     return 0

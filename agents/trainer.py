@@ -95,6 +95,8 @@ class Trainer:
         self.progress = ProgressBar(cfg.total_timesteps, f"{cfg.algorithm} {self.run.name}", quiet)
         self.best_score = float("inf")
         self.last_score: float | None = None
+        self.baseline_score: float | None = None  # measured at the first evaluation
+        self._baseline_measured = False
         self.evaluations: list[dict] = []
         self.stopped_by_time = False
         self.wall_before = 0.0
@@ -181,6 +183,10 @@ class Trainer:
             "eval_s": round(time.perf_counter() - t, 2),
             **m,
         }
+        if not self._baseline_measured:
+            self.baseline_score, self._baseline_measured = self._baseline_score(), True
+        if self.baseline_score is not None:
+            m["baseline_score"] = self.baseline_score
         self.evaluations.append(m)
         write_json(self.run / "evaluations.json", self.evaluations)
         for k in _LOGGED_METRICS:
@@ -192,8 +198,22 @@ class Trainer:
             save_model(self.run, "best", self.model, self.vecnorm)
             write_json(self.run / "best.json", {"step": int(n), **m})
         self.model.logger.record("eval/best_score", self.best_score)
+        self.progress.baseline = self.baseline_score
         self.progress.score(self.last_score, self.best_score)
         return m
+
+    def _baseline_score(self) -> float | None:
+        from .policy import baseline_score
+
+        cfg = self.cfg
+        score = baseline_score(
+            self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed, self.eval_traces
+        )
+        if score is None:
+            self._say(
+                "note: the baseline cannot drive the evaluation env: no score beside the agent's", err=True
+            )
+        return score
 
     def wall(self) -> float:
         return self.wall_before + time.perf_counter() - self.t0

@@ -2,11 +2,11 @@
 
 The oracle (the 100 of every normalized score) reads four things no rig has: the future of the
 load, the plant's hidden state (air temperatures, spool positions, friction slips), its true
-parameters (randomized plants), and it searches harder than the practical MPC. An agent that sees
-only the sensors is asked to close 80 % of the baseline-to-oracle gap (the agents' goal,
-``GAP_GOALS`` in agents/evaluate.py); this script measures how much of that gap each privilege
-carries, by giving the MPC one privilege at a time and taking the foresight away from the oracle,
-all on the same seeded episodes of a suite:
+parameters (randomized plants), and it searches harder than the practical MPC. An agent sees
+only the sensors, and ``cepam-gym eval`` reports the share of the baseline-to-oracle gap it
+closes (its headline score); this script measures how much of that gap each privilege carries,
+by giving the MPC one privilege at a time and taking the foresight away from the oracle, all on
+the same seeded episodes of a suite:
 
 * ``mpc``: the nominal model, state from the sensors (air at ambient temperature, spools where the
   last command put them, friction relaxed), load from the static balance;

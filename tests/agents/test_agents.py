@@ -579,10 +579,9 @@ def test_obs_filters_are_low_passed_observations_restarted_per_episode():
         _cfg(agent={"obs_filters_s": [0.0]})
 
 
-def test_every_goal_names_a_benchmark_suite():
-    """The training package's goals are keyed by suite: a renamed or removed suite must not drop
-    a goal silently."""
-    from cepam_gym.bench.suites import SUITES
-    from cepam_gym_agents.evaluate import GAP_GOALS, GOALS
+def test_eval_states_no_goals_of_a_plan():
+    """``eval`` compares an agent with the baseline, the MPC and the oracle, never with a plan's
+    goals: the training package declares none."""
+    from cepam_gym_agents import evaluate
 
-    assert set(GOALS) | set(GAP_GOALS) <= set(SUITES)
+    assert not [n for n in vars(evaluate) if "GOAL" in n.upper()]

@@ -242,7 +242,7 @@ def row(suite, controller, score):
     return {"suite": suite, "controller": controller, "score": score, "failure_rate": 0.0}
 
 
-def test_comparison_goals_of_the_v1_suites():
+def test_comparison_gives_ratios_to_every_reference_and_no_goals():
     from cepam_gym_agents.evaluate import compare
 
     rows = [
@@ -254,13 +254,19 @@ def test_comparison_goals_of_the_v1_suites():
         row("nominal-v1", "zero", 2.7),
     ]
     got = {(c["suite"], c["reference"]): c for c in compare(rows)}
-    assert got[("randomized-v1", "baseline")]["goal_met"] is True  # 0.625 <= 0.70
-    assert got[("randomized-v1", "mpc")]["goal_met"] is False  # worse than the MPC
-    assert got[("nominal-v1", "oracle")]["goal_met"] is True  # within 10 %
-    assert got[("nominal-v1", "zero")]["goal_met"] is None  # no goal against the zero controller
+    assert set(got) == {
+        ("randomized-v1", "baseline"),
+        ("randomized-v1", "mpc"),
+        ("nominal-v1", "oracle"),
+        ("nominal-v1", "zero"),
+    }
+    assert got[("randomized-v1", "baseline")]["ratio"] == pytest.approx(0.625)
+    assert got[("randomized-v1", "mpc")]["ratio"] == pytest.approx(0.5 / 0.45)
+    assert got[("nominal-v1", "zero")]["reference_score"] == 2.7
+    assert not any(k.startswith("goal") for c in got.values() for k in c)
 
 
-def test_the_gap_closed_against_the_goal_of_issue_26():
+def test_the_agents_headline_beside_the_baseline_the_mpc_and_the_oracle():
     from cepam_gym_agents.evaluate import compare, comparison_markdown, gaps_closed
 
     rows = [
@@ -271,17 +277,37 @@ def test_the_gap_closed_against_the_goal_of_issue_26():
         row("randomized-v1", "agent", 0.4),
         row("randomized-v1", "baseline", 0.8),
         row("randomized-v1", "oracle", 0.0),
-        row("stress", "agent", 1.0),  # no oracle ran: no gap
+        row("stress", "agent", 1.0),  # no oracle ran and no stored headline: no gap
         row("stress", "baseline", 2.0),
     ]
     got = {g["suite"]: g for g in gaps_closed(rows)}
     assert set(got) == {"nominal-v1", "randomized-v1"}
     assert got["nominal-v1"]["headline"] == pytest.approx(100 * 0.25 / 0.30)  # (0.31 - 0.06) / (0.31 - 0.01)
-    assert got["nominal-v1"]["goal_met"] is True
-    assert got["randomized-v1"]["headline"] == pytest.approx(50.0) and not got["randomized-v1"]["goal_met"]
-    assert {(c["suite"], c["reference"]): c for c in compare(rows)}[("nominal-v1", "mpc")]["goal_met"]
+    assert got["nominal-v1"]["mpc_headline"] == pytest.approx(100 * 0.23 / 0.30)
+    assert got["nominal-v1"]["mpc_ratio"] == pytest.approx(0.75)  # 0.06 / 0.08
+    assert got["randomized-v1"]["headline"] == pytest.approx(50.0)
+    assert got["randomized-v1"]["mpc_headline"] is None and got["randomized-v1"]["mpc_ratio"] is None
     md = comparison_markdown(compare(rows), Path("run"), "final", gaps_closed(rows))
-    assert "| nominal-v1 | 83 | >= 80 | yes |" in md and "| randomized-v1 | 50 | >= 80 | no |" in md
+    assert "| nominal-v1 | **83** | 0 | 77 | 100 | 0.75 | this run |" in md
+    assert "| randomized-v1 | **50** | 0 | not run (--against mpc) | 100 | - | this run |" in md
+    assert "goal" not in md and "| met |" not in md
+    assert "No headline on stress: no stored reference scores" in md
+
+
+def test_the_headline_from_the_stored_references_when_the_oracle_did_not_run():
+    """eval's default (the baseline only): the agent's and the MPC's headlines are the ones
+    ``add_scores`` put in their rows from the stored references of the same episodes."""
+    from cepam_gym_agents.evaluate import gaps_closed
+
+    stored = {"headline": 40.0, "headline_from": "reference scores"}
+    rows = [
+        {**row("nominal-v2", "agent", 0.2), **stored},
+        {**row("nominal-v2", "baseline", 0.3), "headline": 0.0, "headline_from": "reference scores"},
+        {**row("nominal-v2", "mpc", 0.25), "headline": 20.0, "headline_from": "reference scores"},
+    ]
+    (got,) = gaps_closed(rows)
+    assert (got["headline"], got["mpc_headline"], got["headline_from"]) == (40.0, 20.0, "reference scores")
+    assert got["mpc_ratio"] == pytest.approx(0.8)
 
 
 @pytest.mark.slow  # trains

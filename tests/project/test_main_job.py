@@ -4,6 +4,7 @@ directories and ``summary.md`` (what ran, versions, where every output is, the s
 from __future__ import annotations
 
 import json
+import re
 from datetime import UTC, datetime
 
 import pytest
@@ -63,6 +64,10 @@ def test_main_job_without_training_writes_the_summary(tmp_path, capsys, recwarn)
     assert "cepam-gym run --out-dir" in text and "numba" in text and "gymnasium" in text
     for what in ("`step_response.png`", "`validate`", "`bench`", "| done |"):
         assert what in text, what
+    timed = re.findall(r"^\| .+ \| done \| [\d.]+ (s|min) \| .+ \|$", text, flags=re.M)
+    assert len(timed) == 3  # every step with its elapsed time
+    printed = capsys.readouterr().out
+    assert all(f"[{k}/3] done in " in printed for k in (1, 2, 3))
     table = (out / "bench" / "table.txt").read_text().strip()
     assert table in text and "baseline" in text
     assert (out / "step_response.png").is_file()
@@ -85,14 +90,15 @@ def test_summary_names_a_time_limit_stop_and_the_run_files(tmp_path):
         tmp_path,
         ["--config", "configs/quick.yaml"],
         datetime.now(UTC),
-        [("train an agent", "done", run), ("score", "exit code 2", None)],
+        [("train an agent", "done", run, 150.0), ("score", "exit code 2", None)],
         run,
         tmp_path / "t.txt",
     )
     text = path.read_text()
     assert "**stopped_by_time_limit** at step 721000 of 1000000" in text
     assert "time limit" in text and "--resume" in text and "`agent`" in text
-    assert "| score | exit code 2 | - |" in text and "nominal agent 1.2" in text
+    assert "| score | exit code 2 | - | - |" in text and "nominal agent 1.2" in text
+    assert "| train an agent | done | 2.5 min | `agent` |" in text
 
 
 def test_summary_of_a_student_names_its_rounds_and_only_the_files_it_has(tmp_path):

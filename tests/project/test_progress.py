@@ -43,3 +43,40 @@ def test_the_rollout_loop_advances_the_bar_by_one_run(monkeypatch):
     with progress.runs(2, "cepam-gym bench") as bar:
         run_suite("zero", "nominal-v2", episodes=1, max_steps=20)
         assert bar.n == pytest.approx(1.0)
+
+
+def test_identify_counts_its_fits_evaluations_to_their_budget(monkeypatch, tmp_path):
+    """``identify``'s bar counts the fit's residual evaluations: a budget of 12 per start and 60
+    for the polish, each stage topped up to its budget when it converges early."""
+    import contextlib
+
+    from cepam_gym.cli import main
+
+    err = _Terminal()
+    monkeypatch.setattr("sys.stderr", err)
+    ends, real = [], progress.runs
+
+    @contextlib.contextmanager
+    def spy(total, desc, unit="runs"):
+        with real(total, desc, unit) as bar:
+            yield bar
+            ends.append((desc, unit, total, bar.n))
+
+    monkeypatch.setattr(progress, "runs", spy)
+    log = tmp_path / "run1.csv"
+    assert main(["excite", "--simulate", "--preset", "balloon", "--seconds", "12", "--out", str(log)]) == 0
+    argv = [
+        "identify",
+        "--data",
+        str(log),
+        "--mode",
+        "valve",
+        "--out",
+        str(tmp_path / "p.yaml"),
+        "--starts",
+        "2",
+    ]
+    assert main(argv) == 0
+    ((unit, total, n),) = [e[1:] for e in ends if e[0] == "cepam-gym identify"]
+    assert (unit, total) == ("evaluations", 2 * 12 + 60) and n == pytest.approx(total)
+    assert "cepam-gym identify: " in err.getvalue() and "/84 evaluations" in err.getvalue()

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import plant as pl
+from .. import progress
 from ..errors import InputError
 from ..plant.params import PlantParams
 from ..validation import fitcore
@@ -174,7 +175,9 @@ class Problem:
 
 def solve(problem: Problem, starts: int = 4, seed: int = 0, budget: int = 12, polish: int = 60):
     """The best of ``starts`` short fits (the base plant first, then seeded random points in
-    ``z`` with neutral sensors), polished; scipy's result."""
+    ``z`` with neutral sensors), polished; scipy's result. A progress bar (on a terminal) counts
+    the residual evaluations against their budget: ``budget`` per start, ``polish`` for the
+    polish; a stage that converges early jumps to its end."""
     rng = np.random.default_rng(seed)
     z0 = problem.start()
     z0s = [z0]
@@ -182,7 +185,21 @@ def solve(problem: Problem, starts: int = 4, seed: int = 0, budget: int = 12, po
         z = z0.copy()
         z[: problem.k] = rng.uniform(0.1, 0.9, problem.k)
         z0s.append(z)
-    common = dict(jac=problem.jacobian, tol=1e-8)
-    best = fitcore.solve(problem.residuals, z0s, max_nfev=budget, **common) if starts > 1 else None
-    z = best.x if best is not None else z0
-    return fitcore.solve(problem.residuals, [z], max_nfev=polish, **common)
+    stages = [([z], budget) for z in z0s] if starts > 1 else []
+    used = [0]
+
+    def counted(z: np.ndarray) -> np.ndarray:
+        used[0] += 1
+        progress.advance(1)
+        return problem.residuals(z)
+
+    def stage(z_starts: list, nfev: int):
+        used[0] = 0
+        sol = fitcore.solve(counted, z_starts, jac=problem.jacobian, tol=1e-8, max_nfev=nfev)
+        progress.advance(max(0, nfev - used[0]))  # converged early: the stage is done
+        return sol
+
+    with progress.runs(budget * len(stages) + polish, "cepam-gym identify", unit="evaluations"):
+        fits = [sol for sol in (stage(zs, n) for zs, n in stages) if sol is not None]
+        best = min(fits, key=lambda sol: sol.cost, default=None)
+        return stage([best.x if best is not None else z0], polish)
