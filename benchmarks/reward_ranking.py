@@ -32,9 +32,9 @@ def controllers_for(suite_name: str, agent: str | None = None) -> list[tuple[str
     """``(controller, options, label)`` of every controller ranked on a suite."""
     joint = SUITES[suite_name].traces.quantity == "angle"
     base = "joint_baseline" if joint else "baseline"
-    out = [("zero", {}, "zero"), ("random", {}, "random"), (base, {}, base), ("mpc", {}, "mpc")]
-    if not joint:
-        out.append(("adaptive_mpc", {}, "adaptive_mpc"))
+    out = [("zero", {}, "zero"), ("random", {}, "random"), (base, {}, base)]
+    if not joint:  # the MPCs plan through the rig's kernel only
+        out += [("mpc", {}, "mpc"), ("adaptive_mpc", {}, "adaptive_mpc")]
     if "-id-" in suite_name:
         out.append(("identify_mpc", {}, "identify_mpc"))
     if agent:

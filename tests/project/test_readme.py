@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from cepam_gym import RECOMMENDED_ID
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -19,7 +21,7 @@ def python_blocks() -> list[str]:
 
 def test_readme_has_the_quick_example_first():
     blocks = python_blocks()
-    assert blocks and 'gym.make("cepam_gym/CEPAM-v2")' in blocks[0]  # the recommended id first
+    assert blocks and f'gym.make("{RECOMMENDED_ID}")' in blocks[0]  # the recommended id first
     assert len(blocks[0].strip().splitlines()) <= 12  # "a ten-line example"
 
 
