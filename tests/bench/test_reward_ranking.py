@@ -29,12 +29,17 @@ def _bench():
     return mod
 
 
-def test_agree_is_the_same_order_by_score_and_by_return():
+def test_agree_is_the_same_order_by_score_and_by_return_ties_left_unordered():
     bench = _bench()
-    rows = [{"score": 1.0, "mean_return": -10.0}, {"score": 0.5, "mean_return": -3.0}]
-    assert bench.agree(rows)
+    rows = [
+        {"controller": "a", "score": 1.0, "mean_return": -10.0},
+        {"controller": "b", "score": 0.5, "mean_return": -3.0},
+    ]
+    assert bench.agree(rows) and not bench.ties(rows)
     rows[1]["mean_return"] = -20.0
-    assert not bench.agree(rows)
+    assert not bench.agree(rows) and bench.misordered(rows) == [("a", "b")]
+    rows[1]["score"] = 0.99  # within 2 % of a's: a tie, which the return may order either way
+    assert bench.agree(rows) and bench.ties(rows) == [("a", "b")]
 
 
 def test_the_stored_ranking_covers_every_v3_headline_suite_and_agrees():

@@ -29,8 +29,10 @@ allowance after a jump of a target) ``r_x = -w_x (e_x / x_norm)^2`` and
 burst is charged ``failure_weight^2 x max_episode_steps`` once (the return of an episode whose
 every step scores ``failure_weight``); effort and air are priced too little to change a ranking.
 The mean return of a suite is then minus the number of scored steps times the sum of the squared
-RMS terms, which orders controllers as the score does (tests/bench/test_reward_ranking.py
-checks it on every v3 headline suite). The earlier ids keep the reward below.
+RMS terms (the score's squared form), which orders controllers as the score does except within a
+tie of 2 %: no per-step reward orders every pair as a sum of two RMS terms does
+(tests/bench/test_reward_ranking.py checks it on every v3 headline suite). The earlier ids keep
+the reward below.
 
 The reward of the earlier ids of a step is the sum of its terms, among them
 ``r_x = -w_x min(|e_x| / u, clip_x)`` (``e_x`` the position error, ``u`` the task's ``tracking_unit``) and
