@@ -9,7 +9,8 @@ policy an env that paid for the allowance would prefer). ``--agent RUN_DIR`` add
 agent. ``--json FILE`` writes the rows (with the package version and commit) for the docs and
 for ``tests/bench/test_reward_ranking.py``'s stored check.
 
-Run: ``python benchmarks/reward_ranking.py [--suite nominal-v3 ...] [--episodes 20] [--agent runs/main/agent --agent-label NAME]
+Run: ``python benchmarks/reward_ranking.py [--suite nominal-v3 ...] [--episodes 20]
+[--agent runs/main/agent --agent-label NAME]
 [--json docs/results/reward_ranking.json]`` (the default suites: every v3 headline suite).
 """
 
