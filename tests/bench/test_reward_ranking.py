@@ -3,7 +3,7 @@
 ``docs/results/reward_ranking.json`` holds the ranking on every v3 headline suite at its 20
 episodes (``python benchmarks/reward_ranking.py --json docs/results/reward_ranking.json``
 regenerates it); the fast test checks that file covers every v3 headline suite with the controllers
-the claim names and agrees; the slow test re-runs the ranking on shortened episodes of two suites,
+the claim names and agrees; the slow test re-runs the ranking on shortened episodes of the nominal suite,
 the oracle and the near-oracle included.
 """
 
@@ -56,11 +56,10 @@ def test_the_stored_ranking_covers_every_v3_headline_suite_and_agrees():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("suite", ["nominal-v3", "joint-v3"])
-def test_return_ranks_as_the_score_on_shortened_episodes(suite):
+def test_return_ranks_as_the_score_on_shortened_episodes():
     bench = _bench()
-    rows = bench.rank(suite, episodes=3, max_steps=150)
-    assert len(rows) >= (7 if suite != "joint-v3" else 5)
+    rows = bench.rank("nominal-v3", episodes=3, max_steps=150)
+    assert len(rows) == 7
     assert bench.agree(rows), rows
 
 
