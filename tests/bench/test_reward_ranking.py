@@ -1,10 +1,10 @@
-"""On the v3 ids the mean return ranks controllers exactly as the benchmark's score does.
+"""On the v3 ids the mean return ranks controllers as the benchmark's score does (ties within 2 %).
 
 ``docs/results/reward_ranking.json`` holds the ranking on every v3 headline suite at its 20
 episodes (``python benchmarks/reward_ranking.py --json docs/results/reward_ranking.json``
 regenerates it); the fast test checks that file covers every v3 headline suite with the controllers
-the claim names and agrees; the slow test re-runs the ranking on shortened episodes of the nominal suite,
-the oracle and the near-oracle included.
+the claim names and agrees; the slow test re-runs the ranking on shortened episodes of the nominal
+suite, the oracle and the near-oracle included.
 """
 
 from __future__ import annotations
