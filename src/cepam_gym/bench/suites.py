@@ -195,6 +195,8 @@ def _scenarios(row) -> dict[str, Scenario]:
         if "randomize" in kwargs:
             kwargs["randomize"] = RANDOMIZE_BY_PLANT[row.plant_version]
             doc = f"{prefix}{_RANDOMIZED_DOC.get(row.plant_version, sc.doc)}"
+        if row.sensor_noise and "sensor_noise" not in kwargs:  # the id observes through a rig's sensors
+            doc = doc.replace("no noise", "a rig's sensor noise")
         out[stem] = Scenario(kwargs, sc.seed + 10000 * (row.version - 1), doc)
     return out
 
