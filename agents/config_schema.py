@@ -364,13 +364,22 @@ def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -
     return name
 
 
+def _torch_threads(value: Any) -> int | str:
+    if value == "auto":
+        return value
+    try:
+        return as_int(value, "torch_threads", 1)
+    except ConfigError:
+        raise ConfigError(f"torch_threads must be an integer >= 1 or 'auto', got {value!r}") from None
+
+
 # --------------------------------------------------------------------------- the config
 @dataclass(frozen=True)
 class TrainConfig:
     algorithm: str
     total_timesteps: int = 100_000
     seed: int = 0
-    torch_threads: int = 1
+    torch_threads: int | str = 1  # or "auto": chosen while the run goes on (agents.torch_threads)
     env: EnvConfig = field(default_factory=EnvConfig)
     normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
     agent: AgentConfig = field(default_factory=AgentConfig)
@@ -413,7 +422,7 @@ class TrainConfig:
             learner=learner,
             total_timesteps=as_int(d.get("total_timesteps", cls.total_timesteps), "total_timesteps", 1),
             seed=as_int(d.get("seed", cls.seed), "seed", 0),
-            torch_threads=as_int(d.get("torch_threads", cls.torch_threads), "torch_threads", 1),
+            torch_threads=_torch_threads(d.get("torch_threads", cls.torch_threads)),
             env=EnvConfig.parse(d.get("env")),
             normalize=NormalizeConfig.parse(d.get("normalize")),
             agent=agent,

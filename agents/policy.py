@@ -30,6 +30,7 @@ from .model_files import (
     zoo_params_dir,
     zoo_record,
 )
+from .torch_threads import inference_threads
 
 MODEL_CHOICES = ("best", "final", "latest")
 
@@ -235,7 +236,7 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
             f"the env uses {env_model.action_mode!r}"
         )
     algorithm = cfg.algorithm if cfg is not None else algorithm_of(files.model)
-    torch.set_num_threads(max(1, cfg.torch_threads if cfg is not None else 1))
+    torch.set_num_threads(inference_threads(cfg.torch_threads) if cfg is not None else 1)
     model = guarded_load(
         files.model,
         f"{algorithm} model",

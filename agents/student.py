@@ -34,6 +34,7 @@ import numpy as np
 from .config import ConfigError, TrainConfig
 from .features import Features
 from .provenance import RunRecord, write_json
+from .torch_threads import TorchThreads
 
 # VecNormalize's clip of normalized observations: the fit sees what the deployed policy will see
 _CLIP_OBS = 10.0
@@ -165,9 +166,12 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
         venv.close()
 
 
-def fit(actor: _Actor, x, y, mean, std, scale, steps: int, batch: int, lr: float, seed: int) -> float:
-    """``steps`` Adam steps (cosine-decayed) of the mean squared error on actions / ``scale``;
-    returns the last 100 steps' mean loss."""
+def fit(
+    actor: _Actor, x, y, mean, std, scale, steps: int, batch: int, lr: float, seed: int, threads=None
+) -> float:
+    """``steps`` Adam steps (cosine-decayed) of the mean squared error on actions / ``scale``, each
+    on ``threads`` (a :class:`~.torch_threads.TorchThreads`) when given; returns the last 100
+    steps' mean loss."""
     import torch
 
     g = torch.Generator().manual_seed(seed)
@@ -176,7 +180,8 @@ def fit(actor: _Actor, x, y, mean, std, scale, steps: int, batch: int, lr: float
     opt = torch.optim.Adam(actor.params, lr=lr)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, steps)
     losses = []
-    for _ in range(steps):
+
+    def step() -> None:
         idx = torch.randint(len(z), (min(batch, len(z)),), generator=g)
         loss = ((actor(z[idx]) - t[idx]) ** 2).mean()
         opt.zero_grad()
@@ -184,6 +189,12 @@ def fit(actor: _Actor, x, y, mean, std, scale, steps: int, batch: int, lr: float
         opt.step()
         sched.step()
         losses.append(loss.item())
+
+    for _ in range(steps):
+        if threads is None:
+            step()
+        else:
+            threads.run(step)
     return float(np.mean(losses[-100:]))
 
 
@@ -222,14 +233,13 @@ def as_ppo(cfg: TrainConfig, actor: _Actor, mean, std, scale, seed: int):
 
 def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -> int:
     """DAgger rounds, then save and score the student (the run directory's usual files)."""
-    import torch
 
     from .checkpoints import save_model
     from .envs import eval_env_spec
     from .policy import baseline_score, evaluate, load_policy
 
     check_student(cfg)
-    torch.set_num_threads(cfg.torch_threads)
+    threads = TorchThreads(cfg.torch_threads)
     st, t0 = cfg.student, time.perf_counter()
     record = RunRecord(run, cfg.seed, argv)
     record.write("running", 0)
@@ -258,7 +268,17 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
             scale = y.std(0) + 1e-6
             actor = _Actor(x.shape[1], st.net_arch, cfg.seed)
         loss = fit(
-            actor, x, y, mean, std, scale, st.gradient_steps, st.batch_size, st.learning_rate, cfg.seed + it
+            actor,
+            x,
+            y,
+            mean,
+            std,
+            scale,
+            st.gradient_steps,
+            st.batch_size,
+            st.learning_rate,
+            cfg.seed + it,
+            threads,
         )
         rounds.append(
             {

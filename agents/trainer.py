@@ -23,6 +23,7 @@ from .lock import RunLock
 from .progress import ProgressBar
 from .provenance import RunRecord, now, write_json
 from .signals import SigtermAsInterrupt, describe, exit_code
+from .torch_threads import TorchThreads
 
 # the periodic evaluation's metrics that go to TensorBoard and the CSV log
 _LOGGED_METRICS = (
@@ -104,11 +105,10 @@ class Trainer:
 
     # ----------------------------------------------------------------- set-up
     def setup(self) -> None:
-        import torch
         from stable_baselines3.common.logger import Logger, make_output_format
 
         cfg = self.cfg
-        torch.set_num_threads(cfg.torch_threads)
+        threads = TorchThreads(cfg.torch_threads)
         self.run.mkdir(parents=True, exist_ok=True)
         self.checkpoints.dir.mkdir(exist_ok=True)
         algo = training_class(cfg.algorithm, cfg.learner)
@@ -128,6 +128,7 @@ class Trainer:
             self._restore(latest, seed)
         else:
             env, self.model = new_model(cfg, algo, raw)
+        self.model.torch_threads = threads
         self.env = env
         self.vecnorm = env if cfg.normalize.enabled else None
         self.start_step = int(self.model.num_timesteps)
