@@ -55,15 +55,16 @@ def algorithm_class(name: str):
 
 def training_class(algorithm: str, learner: str = "sb3"):
     """The class a session trains with: :func:`algorithm_class`, or for ``learner: native`` the
-    PPO that collects from the vector env as arrays (:mod:`agents.native_ppo`; its models load
-    as SB3's PPO), with its gradient steps on the session's torch threads
-    (:class:`~.torch_threads.ChosenThreadsTrain`)."""
+    PPO, SAC or TD3 that collects from the vector env as arrays (:mod:`agents.native_ppo`,
+    :mod:`agents.native_offpolicy`; their models load as SB3's), with its gradient steps on the
+    session's torch threads (:class:`~.torch_threads.ChosenThreadsTrain`)."""
     from .torch_threads import with_chosen_threads
 
     if learner == "native":
+        from .native_offpolicy import NativeSAC, NativeTD3
         from .native_ppo import NativePPO
 
-        return with_chosen_threads(NativePPO)
+        return with_chosen_threads({"PPO": NativePPO, "SAC": NativeSAC, "TD3": NativeTD3}[algorithm])
     return with_chosen_threads(algorithm_class(algorithm))
 
 

@@ -341,24 +341,28 @@ class StudentConfig:
 
 
 LEARNERS = ("sb3", "native")
+NATIVE_ALGORITHMS = ("PPO", "SAC", "TD3")
 
 
 def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -> str:
-    """The checked ``learner``: ``native`` (:mod:`agents.native_ppo`) runs PPO on the env's own
-    observations and actions (its rollouts skip the SB3 wrappers the agent features live in)."""
+    """The checked ``learner``: ``native`` (:mod:`agents.native_ppo`, :mod:`agents.native_offpolicy`)
+    runs PPO, SAC or TD3 on the env's own observations and actions (its rollouts skip the SB3
+    wrappers the agent features live in)."""
     if name not in LEARNERS:
         raise ConfigError(f"learner must be one of {list(LEARNERS)}, got {name!r}")
     if name == "sb3":
         return name
     why = None
-    if algo != "PPO":
-        why = f"algorithm {algo} (the native learner runs PPO)"
+    if algo not in NATIVE_ALGORITHMS:
+        why = f"algorithm {algo} (the native learner runs {', '.join(NATIVE_ALGORITHMS)})"
     elif student is not None:
         why = "a student section (a student is distilled, not trained by PPO)"
     elif agent != AgentConfig():
         why = "an agent section (the native learner drives the valves from the env's own observations)"
     elif hp.get("use_sde"):
         why = "hyperparameters.use_sde (the native learner samples plain Gaussian actions)"
+    elif algo != "PPO" and isinstance(hp.get("train_freq"), (list, tuple)):
+        why = "a train_freq in episodes (the native learner counts vector steps)"
     if why:
         raise ConfigError(f"learner: native does not take {why}; use learner: sb3")
     return name
@@ -390,7 +394,7 @@ class TrainConfig:
     log_every_steps: int = 5000
     time_limit_minutes: float | None = None
     student: StudentConfig | None = None
-    learner: str = "sb3"  # "native": PPO's rollouts from the vector env as arrays (agents.native_ppo)
+    learner: str = "sb3"  # "native": rollouts from the vector env as arrays (agents.native_*)
 
     @classmethod
     def from_dict(cls, data: Any) -> TrainConfig:
