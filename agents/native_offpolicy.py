@@ -31,6 +31,7 @@ from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.type_aliases import RolloutReturn, TrainFrequencyUnit
 
 from .native_collection import NativeCollection, last_step_infos
+from .offpolicy_updates import sac_updates, td3_updates
 
 
 class NativeOffPolicy(NativeCollection):
@@ -123,8 +124,16 @@ class NativeOffPolicy(NativeCollection):
 
 
 class NativeSAC(NativeOffPolicy, SAC):
-    """SB3's SAC whose rollouts come from the native vector env as arrays."""
+    """SB3's SAC whose rollouts come from the native vector env as arrays, and whose gradient
+    steps are SB3's in fewer Python calls (:func:`~.offpolicy_updates.sac_updates`)."""
+
+    def train(self, gradient_steps: int, batch_size: int = 64) -> None:
+        sac_updates(self, gradient_steps, batch_size)
 
 
 class NativeTD3(NativeOffPolicy, TD3):
-    """SB3's TD3 whose rollouts come from the native vector env as arrays."""
+    """SB3's TD3 whose rollouts come from the native vector env as arrays, and whose gradient
+    steps are SB3's in fewer Python calls (:func:`~.offpolicy_updates.td3_updates`)."""
+
+    def train(self, gradient_steps: int, batch_size: int = 100) -> None:
+        td3_updates(self, gradient_steps, batch_size)
