@@ -55,16 +55,19 @@ def algorithm_class(name: str):
 
 def training_class(algorithm: str, learner: str = "sb3"):
     """The class a session trains with: :func:`algorithm_class`, or for ``learner: native`` the
-    PPO, SAC or TD3 that collects from the vector env as arrays (:mod:`agents.native_ppo`,
-    :mod:`agents.native_offpolicy`; their models load as SB3's), with its gradient steps on the
+    PPO, RecurrentPPO, SAC or TD3 that collects from the vector env as arrays
+    (:mod:`agents.native_ppo`, ``native_recurrent``, ``native_offpolicy``; their models load as
+    SB3's), with its gradient steps on the
     session's torch threads (:class:`~.torch_threads.ChosenThreadsTrain`)."""
     from .torch_threads import with_chosen_threads
 
     if learner == "native":
         from .native_offpolicy import NativeSAC, NativeTD3
         from .native_ppo import NativePPO
+        from .native_recurrent import NativeRecurrentPPO
 
-        return with_chosen_threads({"PPO": NativePPO, "SAC": NativeSAC, "TD3": NativeTD3}[algorithm])
+        native = {"PPO": NativePPO, "RecurrentPPO": NativeRecurrentPPO, "SAC": NativeSAC, "TD3": NativeTD3}
+        return with_chosen_threads(native[algorithm])
     return with_chosen_threads(algorithm_class(algorithm))
 
 

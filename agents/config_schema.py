@@ -341,12 +341,12 @@ class StudentConfig:
 
 
 LEARNERS = ("sb3", "native")
-NATIVE_ALGORITHMS = ("PPO", "SAC", "TD3")
+NATIVE_ALGORITHMS = ("PPO", "RecurrentPPO", "SAC", "TD3")
 
 
 def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -> str:
     """The checked ``learner``: ``native`` (:mod:`agents.native_ppo`, :mod:`agents.native_offpolicy`)
-    runs PPO, SAC or TD3 on the env's own observations and actions (its rollouts skip the SB3
+    runs PPO, RecurrentPPO, SAC or TD3 on the env's own observations and actions (its rollouts skip the SB3
     wrappers the agent features live in)."""
     if name not in LEARNERS:
         raise ConfigError(f"learner must be one of {list(LEARNERS)}, got {name!r}")

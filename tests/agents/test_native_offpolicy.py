@@ -39,7 +39,6 @@ def _cfg(**changes) -> TrainConfig:
 @pytest.mark.parametrize(
     "changes, match",
     [
-        ({"algorithm": "RecurrentPPO", "hyperparameters": {}}, "does not take algorithm RecurrentPPO"),
         ({"hyperparameters": {"use_sde": True}}, "does not take hyperparameters.use_sde"),
         ({"hyperparameters": {"train_freq": [1, "episode"]}}, "train_freq in episodes"),
     ],

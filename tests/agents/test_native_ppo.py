@@ -39,7 +39,6 @@ def _cfg(**changes) -> TrainConfig:
     "changes, match",
     [
         ({"learner": "jax"}, "learner must be one of"),
-        ({"algorithm": "RecurrentPPO", "hyperparameters": {}}, "does not take algorithm RecurrentPPO"),
         ({"agent": {"residual": True}}, "does not take an agent section"),
         ({"hyperparameters": {"use_sde": True}}, "does not take hyperparameters.use_sde"),
     ],

@@ -83,7 +83,7 @@ def test_the_shipped_networks_compute_the_same_numbers_on_one_and_two_threads(co
     for i, o in zip(width[:-1], width[1:], strict=True):
         layers += [torch.nn.Linear(i, o), torch.nn.ReLU()]
     net = torch.nn.Sequential(*layers[:-1])
-    batch = int((cfg.student.batch_size if cfg.student is not None else cfg.hyperparameters["batch_size"]))
+    batch = int(cfg.student.batch_size if cfg.student is not None else cfg.hyperparameters["batch_size"])
     x = torch.randn(batch, width[0])
     before, out = torch.get_num_threads(), []
     try:

@@ -18,15 +18,8 @@ from sybil import Sybil
 from sybil.parsers.markdown import CodeBlockParser, PythonCodeBlockParser, SkipParser
 
 ROOT = Path(__file__).resolve().parents[2]
-# pages whose shell blocks are not all marked yet: read for their Python blocks only (their
-# marked blocks' shortened forms run all the same). The README's first block is make run / make
-# test (a training run, timed in the README's text); the deploy page's block drives a rig; the
-# integrations page's Ray cluster block needs several machines
-SHELL_UNMARKED = {
-    "README.md",
-    "docs/deploy.md",
-    "docs/integrations.md",
-}
+# pages whose shell blocks need not all be marked (read for their Python blocks only): none
+SHELL_UNMARKED: set[str] = set()
 PAGES = sorted(
     str(p.relative_to(ROOT)) for p in [ROOT / "README.md", *(ROOT / "docs").rglob("*.md")] if p.is_file()
 )

@@ -10,7 +10,7 @@ Usage (new API stack)::
 
     name = register_env()                       # "cepam_gym", in Ray's env registry
     config = (PPOConfig()
-              .environment(name, env_config={"id": "cepam_gym/CEPAM-v2", "seed": 0,
+              .environment(name, env_config={"id": "cepam_gym/CEPAM-v3", "seed": 0,
                                              "sensor_noise": {"length_mm": 0.2}})
               .env_runners(num_env_runners=2))
     algo = config.build_algo()
@@ -18,7 +18,7 @@ Usage (new API stack)::
 ``env_config`` holds the env's own kwargs (``randomize``, ``sensor_noise``, ``reward_weights``,
 ``task_options``, ...; see :class:`cepam_gym.envs.cepam.CEPAMEnv`) plus :data:`EXTRA_KEYS`:
 
-* ``id``: the Gymnasium id (default the recommended ``cepam_gym/CEPAM-v2``);
+* ``id``: the Gymnasium id (default the recommended ``cepam_gym/CEPAM-v3``);
 * ``seed``: base seed (int >= 0, or ``None`` for fresh OS entropy);
 * ``max_episode_steps``: override the registration's 500.
 

@@ -8,9 +8,10 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
+from ..versions import RECOMMENDED_ID
 
 DEFAULT_ADDRESS = "127.0.0.1:9870"
-DEFAULT_ENV = "cepam_gym/CEPAM-v2"
+DEFAULT_ENV = RECOMMENDED_ID
 
 
 def _episode(env_id: str, kwargs: dict, seed: int, episode: int, episodes: int):
