@@ -49,7 +49,7 @@ run: install  ## the main job on the default config
 # skipped in .venv, run again in .venv-ray
 test: install install-distributed
 	$(PY) -m pytest -q -n auto --dist worksteal
-	$(RAY_PY) -m pytest -q tests/integrations/test_rllib.py
+	$(RAY_PY) -m pytest -q tests/integrations/test_rllib.py tests/integrations/test_ray_grid.py
 
 # the inner loop: everything but the tests marked slow (training, wheel builds, videos, golden
 # trajectories), on every core when pytest-xdist is there

@@ -23,9 +23,6 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 from cepam_gym.cli_errors import CommandParser
@@ -35,31 +32,22 @@ CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")
 UNSEEN_CONTROLLERS = ("baseline", "oracle")  # what the gap on an unseen seed needs
 
 
-def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int) -> None:
-    """Every (config, seed) not yet trained, ``jobs`` processes at a time, the machine's cores
-    shared among them (numba's and OpenMP's threads: one each when the jobs fill the cores)."""
+def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int, ray: str | None = None) -> None:
+    """Every (config, seed) not yet trained: ``jobs`` processes at a time on this machine, or (``ray``:
+    a Ray address, ``"local"`` for a new instance here) as Ray tasks of ``cores / jobs`` cores each
+    (:mod:`agents.grid`)."""
+    from .grid import Trial, run_local, run_ray
+
     todo = [
-        (c, s) for c in configs for s in seeds if not (out / f"{Path(c).stem}-s{s}" / "model.zip").is_file()
+        Trial(c, s, out / f"{Path(c).stem}-s{s}")
+        for c in configs
+        for s in seeds
+        if not (out / f"{Path(c).stem}-s{s}" / "model.zip").is_file()
     ]
-    threads = str(max(1, (os.cpu_count() or 1) // max(jobs, 1)))
-    env = {**os.environ, "NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
-    running: list = []
-    while todo or running:
-        while todo and len(running) < jobs:
-            c, s = todo.pop(0)
-            run = out / f"{Path(c).stem}-s{s}"
-            cmd = [sys.executable, "-m", "cepam_gym.cli", "train", "--config", c, "--seed", str(s)]
-            cmd += ["--out", str(run), "--quiet"]
-            log = open(out / f"{run.name}.log", "w")  # noqa: SIM115  (closed when the job ends)
-            running.append((subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT), log, run))
-        time.sleep(2)
-        for job in list(running):
-            proc, log, run = job
-            if proc.poll() is not None:
-                log.close()
-                running.remove(job)
-                if proc.returncode != 0:
-                    raise RuntimeError(f"training {run} failed (exit {proc.returncode}): see {log.name}")
+    if ray is None:
+        run_local(todo, jobs)
+    else:
+        run_ray(todo, None if ray == "local" else ray, max(1, (os.cpu_count() or 1) // max(jobs, 1)))
 
 
 def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
@@ -164,7 +152,13 @@ def main(argv: list[str] | None = None) -> int:
         "--config", action="append", required=True, help="a shipped config name or a file (repeatable)"
     )
     ap.add_argument("--seeds", type=int, default=5, help="training seeds 0..N-1 (at least 5 for the IQM)")
-    ap.add_argument("--jobs", type=int, default=2, help="trainings at a time")
+    ap.add_argument("--jobs", type=int, default=2, help="trainings at a time (per machine with --ray)")
+    ap.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="train as Ray tasks: 'local' (a Ray instance on this machine), 'auto' (the running cluster) "
+        "or the head's address; on a cluster --out must be on a filesystem every node sees",
+    )
     ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
     ap.add_argument(
         "--unseen-episodes",
@@ -196,11 +190,18 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.controller or ():
         if name not in controller_names():
             ap.error(f"unknown controller {name!r}; one of {', '.join(controller_names())}")
+    if args.ray is not None:
+        import importlib.util
+
+        from .grid import NO_RAY
+
+        if importlib.util.find_spec("ray") is None:
+            ap.error(NO_RAY)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.seeds))
     if not args.report_only:
-        train_runs(args.config, seeds, out, args.jobs)
+        train_runs(args.config, seeds, out, args.jobs, args.ray)
     path = out / "compare.json"
     cache = json.loads(path.read_text()) if path.is_file() else {}
     n = args.unseen_episodes
