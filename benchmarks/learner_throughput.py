@@ -9,7 +9,8 @@ Printed: medians over the rounds and the native/SB3 ratio. The share of a traini
 spent in the gradient steps grows with ``--epochs``: at the default 1 epoch the collection's cost
 shows; the load average is printed (another busy process slows all three).
 
-Run: ``.venv/bin/python benchmarks/learner_throughput.py`` (options: ``--id``, ``--sizes``,
+Run: ``.venv/bin/python benchmarks/learner_throughput.py`` (options: ``--algorithm`` (``PPO``,
+``RecurrentPPO``: a 32-unit LSTM before the same network), ``--id``, ``--sizes``,
 ``--n-steps``, ``--epochs``, ``--minibatches``, ``--rounds``, ``--threads``).
 """
 
@@ -26,14 +27,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the agents package from a checkout
 
 
-def make_model(learner: str, env_id: str, n: int, n_steps: int, epochs: int, minibatches: int):
+def make_model(
+    learner: str, env_id: str, n: int, n_steps: int, epochs: int, minibatches: int, algorithm="PPO"
+):
     from cepam_gym_agents.algorithm import hyperparameters, policy, training_class
     from cepam_gym_agents.config import TrainConfig, load_config
     from cepam_gym_agents.envs import make_train_env, normalize
 
+    pk = dict(load_config("fast_ppo").policy_kwargs)  # the fast config's network
+    if algorithm == "RecurrentPPO":
+        pk["lstm_hidden_size"] = 32  # one small LSTM layer before it
     cfg = TrainConfig.from_dict(
         {
-            "algorithm": "PPO",
+            "algorithm": algorithm,
             "learner": learner,
             "env": {"id": env_id, "num_envs": n},
             "normalize": {"obs": True, "reward": True},
@@ -43,12 +49,12 @@ def make_model(learner: str, env_id: str, n: int, n_steps: int, epochs: int, min
                 "n_epochs": epochs,
                 "gamma": 0.98,
             },
-            "policy_kwargs": dict(load_config("fast_ppo").policy_kwargs),  # the fast config's network
+            "policy_kwargs": pk,
         }
     )
-    cls = training_class("PPO", learner)
+    cls = training_class(algorithm, learner)
     env = normalize(make_train_env(cfg, 0), cfg)
-    name, pk = policy("PPO", cfg.policy_kwargs, False, env)
+    name, pk = policy(algorithm, cfg.policy_kwargs, False, env)
     return cls(name, env, seed=0, device="cpu", policy_kwargs=pk, **hyperparameters(cfg.hyperparameters))
 
 
@@ -88,16 +94,21 @@ def main(argv=None) -> None:
     p.add_argument("--minibatches", type=int, default=4)
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--threads", type=int, default=2, help="torch threads")
+    p.add_argument("--algorithm", default="PPO", choices=["PPO", "RecurrentPPO"])
     a = p.parse_args(argv)
     torch.set_num_threads(a.threads)
     print(
-        f"load average at start: {os.getloadavg()[0]:.2f}; {a.id}, n_steps {a.n_steps}, {a.epochs} epoch(s), "
+        f"load average at start: {os.getloadavg()[0]:.2f}; {a.algorithm} on {a.id}, n_steps {a.n_steps}, "
+        f"{a.epochs} epoch(s), "
         f"{a.minibatches} minibatches, torch threads {a.threads}"
     )
     print("| envs | bare env steps/s | SB3 learner steps/s | native learner steps/s | native / SB3 |")
     print("|---|---|---|---|---|")
     for n in a.sizes:
-        models = {k: make_model(k, a.id, n, a.n_steps, a.epochs, a.minibatches) for k in ("sb3", "native")}
+        models = {
+            k: make_model(k, a.id, n, a.n_steps, a.epochs, a.minibatches, a.algorithm)
+            for k in ("sb3", "native")
+        }
         iterations = max(1, 65536 // (n * a.n_steps))
         for m in models.values():
             m.learn(m.n_steps * m.n_envs)  # warm-up: the first iteration compiles and allocates
