@@ -29,6 +29,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the agents package from a checkout
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # learner_throughput's bare-env timing
+
+from learner_throughput import env_rate  # noqa: E402
 
 
 def _config(algorithm: str, learner: str, gradient_steps: int):
@@ -64,22 +67,6 @@ def rate(model, steps: int) -> float:
     n = model.n_envs
     t = time.perf_counter()
     model.learn(steps * n, reset_num_timesteps=False)
-    return steps * n / (time.perf_counter() - t)
-
-
-def env_rate(env_id: str, n: int, steps: int) -> float:
-    import gymnasium as gym
-
-    venv = gym.make_vec(
-        env_id, num_envs=n, vectorization_mode="vector_entry_point", autoreset_mode="same_step"
-    )
-    venv.reset(seed=0)
-    a = np.random.default_rng(0).uniform(-1, 1, (n, *venv.single_action_space.shape))
-    for _ in range(20):
-        venv.step(a)
-    t = time.perf_counter()
-    for _ in range(steps):
-        venv.step(a)
     return steps * n / (time.perf_counter() - t)
 
 
