@@ -58,9 +58,11 @@ def initial_state(params, length, pressure_c=0.0, pressure_e=0.0, temperature=No
         np.atleast_1d(pressure_e).astype(float),
     )
     n = max(L.shape[0], params.shape[0])
-    L, pc, pe = (np.broadcast_to(a, (n,)) for a in (L, pc, pe))
-    temp = np.broadcast_to(params[:, ix.T_AMB] if temperature is None else np.atleast_1d(temperature), (n,))
-    prow = np.broadcast_to(params, (n, params.shape[1]))
+    # copies, not broadcast views: numba warns that it will stop treating those as writable
+    L, pc, pe = (np.array(np.broadcast_to(a, (n,))) for a in (L, pc, pe))
+    t_amb = params[:, ix.T_AMB] if temperature is None else np.atleast_1d(temperature)
+    temp = np.array(np.broadcast_to(t_amb, (n,)))
+    prow = np.array(np.broadcast_to(params, (n, params.shape[1])))
     lo, hi = prow[:, ix.L_MIN], prow[:, ix.L_MAX]
     if np.any((L < lo) | (L > hi)) or not np.all(np.isfinite(L)):
         raise InputError(f"initial length must lie within the end stops [{lo.min()}, {hi.max()}] m, got {L}")
