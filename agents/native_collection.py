@@ -65,11 +65,15 @@ class NativeCollection:
         out = super()._setup_learn(*args, **kwargs)
         self._venv, self._norm = _unwrap(self.env)
         if self._last_obs is not before or not hasattr(self, "_ep_return"):  # the envs were reset
-            n = self._venv.num_envs
-            self._ep_return = np.zeros(n)
-            self._ep_length = np.zeros(n, dtype=np.int64)
-            self._t_start = time.time()
+            self._on_reset()
         return out
+
+    def _on_reset(self) -> None:
+        """The session's counters after the envs were reset (a learner adds its own)."""
+        n = self._venv.num_envs
+        self._ep_return = np.zeros(n)
+        self._ep_length = np.zeros(n, dtype=np.int64)
+        self._t_start = time.time()
 
     def _normalize_obs(self, obs: np.ndarray) -> np.ndarray:
         if self._norm is None:

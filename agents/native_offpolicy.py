@@ -40,16 +40,12 @@ class NativeOffPolicy(NativeCollection):
 
     _SESSION = (*NativeCollection._SESSION, "_raw_obs", "_noise_rng")
 
-    def _setup_learn(self, *args, **kwargs):
-        before = self._last_obs
-        out = super()._setup_learn(*args, **kwargs)
-        if self._last_obs is not before or not hasattr(self, "_raw_obs"):
-            # the envs were reset: SB3 holds the normalised observation; the buffer wants the raw
-            self._raw_obs = (
-                self._norm.get_original_obs() if self._norm is not None else np.asarray(self._last_obs)
-            )
-            self._noise_rng = np.random.default_rng(self.seed)
-        return out
+    def _on_reset(self) -> None:
+        super()._on_reset()
+        # SB3 holds the normalised observation; the replay buffer wants the raw one
+        norm = self._norm
+        self._raw_obs = norm.get_original_obs() if norm is not None else np.asarray(self._last_obs)
+        self._noise_rng = np.random.default_rng(self.seed)
 
     def _exploration(self, learning_starts: int, action_noise) -> np.ndarray:
         """The batch's actions in [-1, 1] (SB3's ``_sample_action`` for a [-1, 1] box, per env)."""
