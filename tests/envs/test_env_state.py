@@ -14,8 +14,9 @@ from cepam_gym import plant as pl
 from cepam_gym.envs.core import CEPAMBatch
 from cepam_gym.plant.actions import plant_inputs
 from cepam_gym.tasks import kernel as tk
+from cepam_gym.tasks import step
 from cepam_gym.tasks.records import allocate
-from cepam_gym.tasks.single import SLABS, env_step_single
+from cepam_gym.tasks.single import SLABS
 from cepam_gym.tasks.state import EnvState, dims
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "cepam_gym"
@@ -64,7 +65,13 @@ def test_core_attributes_are_the_records_fields():
 
 
 def test_the_step_functions_take_the_records():
-    for f in (tk._env_block, tk._env_step_serial, tk._env_step_parallel, tk.observe, env_step_single):
+    for f in (
+        step._env_block,
+        step._env_step_serial,
+        step._env_step_parallel,
+        tk.observe,
+        step.env_step_single,
+    ):
         assert len(inspect.signature(f.py_func).parameters) <= 8, f.__name__
 
 

@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import cepam_gym
 from cepam_gym.envs import CEPAMEnv
-from cepam_gym.tasks.kernel import REWARD_TERMS
+from cepam_gym.tasks.contract import RIG
 
 IDS = list(cepam_gym.ENV_IDS)
 MODES = ["valve", "pwm", "pressure"]
@@ -88,7 +88,7 @@ def test_info_keys_and_reward_terms_sum_to_reward():
     rng = np.random.default_rng(0)
     for _ in range(50):
         _, r, term, trunc, info = env.step(rng.uniform(-1, 1, 2))
-        terms = [info[f"reward_{t}"] for t in REWARD_TERMS]
+        terms = [info[f"reward_{t}"] for t in RIG.reward_terms]
         assert all(t <= 0 for t in terms)
         assert r == pytest.approx(sum(terms), rel=1e-12, abs=1e-12)
         assert info["termination_reason"] == 0

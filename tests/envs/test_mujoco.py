@@ -289,34 +289,37 @@ def test_joint_baseline_settles_on_the_nominal_plant(mujoco, mode):
 
 
 def test_joint_reward_terms_are_the_rig_terms_over_the_mechanism_map(mujoco):
-    """The joint scores with the rig's reward function (tasks.kernel.reward_terms) on the angle
+    """The joint scores with the rig's reward function (tasks.step.reward_terms) on the angle
     and the joint stiffness, and its terms are the documented ones."""
     import math
 
-    from cepam_gym.tasks import kernel as tk
+    from cepam_gym.tasks.reward import MAX_TERMS
+    from cepam_gym.tasks.step import reward_terms
 
     env = CEPAMJointEnv(action_mode="pressure", reward_weights={"air": 0.3})
-    assert env.terms.shape == (tk.N_TERMS,)
+    assert env.terms.shape == (MAX_TERMS,)
     env.reset(seed=2)
     rng = np.random.default_rng(0)
     for _ in range(5):
         a = rng.uniform(-1, 1, 2)
         _, r, _, _, info = env.step(a)
         got = [info[f"reward_{t}"] for t in ("angle", "stiffness", "effort", "air", "burst")]
-        terms = np.zeros(tk.N_TERMS)
-        total = tk.reward_terms(
+        terms = np.zeros(MAX_TERMS)
+        total = reward_terms(
             info["angle"],
             info["target_angle"],
+            info["angular_velocity"],
             info["joint_stiffness"],
             info["target_stiffness"],
             a[0],
             a[1],
             info["air_used"],
             False,
+            True,
             env.task_params,
             terms,
         )
-        assert terms.tolist() == got and total == r
+        assert terms[:5].tolist() == got and total == r
         w = env.weights
         expect = [
             -w.angle * min(abs(info["angle"] - info["target_angle"]) / math.radians(10), 5.0),

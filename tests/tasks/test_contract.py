@@ -15,7 +15,6 @@ from cepam_gym.control.objective import JOINT as JOINT_TRACES
 from cepam_gym.control.objective import RIG as RIG_TRACES
 from cepam_gym.control.objective import combined_score, step_error_sq
 from cepam_gym.errors import InputError
-from cepam_gym.tasks import kernel as tk
 from cepam_gym.tasks.contract import CONTRACTS, JOINT, RIG
 from cepam_gym.tasks.spec import TERMINATION_NAMES
 
@@ -88,10 +87,12 @@ def test_the_kernel_and_the_envs_read_their_names_from_the_contracts():
     from cepam_gym.envs import joint, joint_mujoco, shared
     from cepam_gym.tasks.hinge_task import HingeTask
     from cepam_gym.tasks.joint import JointRewardWeights
+    from cepam_gym.tasks.reward import ABS_REWARD, JOINT_ABS_REWARD, JOINT_SCORE_REWARD, SCORE_REWARD
     from cepam_gym.tasks.rig_task import RigTask
     from cepam_gym.tasks.spec import RewardWeights
 
-    assert tk.REWARD_TERMS == RIG.reward_terms and tk.N_TERMS == len(RIG.reward_terms)
+    assert ABS_REWARD.names == SCORE_REWARD.names == RIG.reward_terms
+    assert JOINT_ABS_REWARD.names == JOINT_SCORE_REWARD.names == JOINT.reward_terms
     assert RIG.reward_terms == tuple(f.name for f in dataclasses.fields(RewardWeights))
     assert JOINT.reward_terms == tuple(f.name for f in dataclasses.fields(JointRewardWeights))
     assert (RigTask.contract, HingeTask.contract) == (RIG, JOINT)

@@ -13,6 +13,8 @@ from cepam_gym.control import InverseStaticController
 from cepam_gym.plant.params import PlantParams, pressure_cap_of
 from cepam_gym.tasks import OBS_FIELDS, TASKS, TERMINATION_REASONS, ObsColumn, ObsLayout, rig_layout
 from cepam_gym.tasks import kernel as tk
+from cepam_gym.tasks.reward import MAX_TERMS
+from cepam_gym.tasks.step import reward_terms
 
 
 def _si_values(rng, n):
@@ -119,20 +121,22 @@ def test_rig_reward_terms_are_the_shared_function():
     core = env.unwrapped.core
     a = np.array([0.3, -0.7])
     _, r, _, _, info = env.step(a)
-    terms = np.zeros(tk.N_TERMS)
-    total = tk.reward_terms(
+    terms = np.zeros(MAX_TERMS)
+    total = reward_terms(
         info["length"],
         info["target_length"],
+        info["velocity"],
         info["stiffness"],
         info["target_stiffness"],
         a[0],
         a[1],
         info["air_used"],
         False,
+        True,
         core.task_params,
         terms,
     )
-    assert terms.tolist() == [info[f"reward_{t}"] for t in tk.REWARD_TERMS]
+    assert terms[:5].tolist() == [info[f"reward_{t}"] for t in core.task.reward_terms] and not terms[5:].any()
     assert total == r
 
 

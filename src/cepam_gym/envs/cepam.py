@@ -11,7 +11,7 @@ from gymnasium.error import ResetNeeded
 from gymnasium.utils import EzPickle
 
 from ..errors import InputError
-from ..tasks.single import NONFINITE_ACTION, env_step_single
+from ..tasks.single import NONFINITE_ACTION
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 from .shared import (
@@ -27,7 +27,7 @@ from .shared import (
     seed_core,
 )
 
-_STEP_SINGLE, _REFUSED = env_step_single, NONFINITE_ACTION  # bound once: the hot path's
+_REFUSED = NONFINITE_ACTION  # bound once: the hot path's
 
 
 class CEPAMEnv(gym.Env, EzPickle):
@@ -61,6 +61,7 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._obs_row, self._info_row = self.core.obs[0], self.core.info_row
         self._one_call = self.core.fast_single
         self._slabs = self.core.slabs if self._one_call else None
+        self._step_single = self.core.step_module.env_step_single  # the task's reward compiled in
         self._step_keys = self.core.task.step_keys if self.core.fast_single else None
         self._redraws = 0
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
@@ -116,7 +117,7 @@ class CEPAMEnv(gym.Env, EzPickle):
             # call that also checks the action and writes the info values
             if core.has_noise:
                 core._draw_noise()
-            reward, reason = _STEP_SINGLE(*self._slabs, *action.tolist())
+            reward, reason = self._step_single(*self._slabs, *action.tolist())
             if reason == _REFUSED:
                 raise InputError(f"action contains NaN or inf: {action.tolist()}; actions must be finite")
             keys = self._step_keys

@@ -28,6 +28,7 @@ from ..tasks.registry import make_task
 from ..tasks.rng import Streams
 from ..tasks.single import single_slabs
 from ..tasks.state import EnvState, StepSettings, dims
+from ..tasks.step_source import step_module
 from ..tasks.task import Task
 from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
 from .threads import KernelThreads, numba_threads
@@ -104,6 +105,9 @@ class CEPAMBatch:
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
         self.obs_layout = self.task.layout
         self.task_params = self.task.params
+        # the compiled step of the task's reward (the package's, or one generated from a user's
+        # declaration: tasks.step_source)
+        self.step_module = step_module(self.task.reward)
         self.obs_dim = self.obs_layout.size
         self.settings = build(StepSettings, mech=self.mech, mode=self.mode, dt=self.sub_dt, n_sub=self.n_sub)
         self._allocate(n)
@@ -114,7 +118,7 @@ class CEPAMBatch:
         self._nominal_row = nominal_row = self.nominal.to_array()
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call
-        # (tasks.single.env_step_single) on slabs its state's arrays are views of
+        # (tasks.step.env_step_single) on slabs its state's arrays are views of
         self.fast_single = n == 1 and not self.latency and not self.supply_drift and not self.n_window
         if n == 1:
             self.slabs, self.s, extras = single_slabs(
@@ -354,8 +358,10 @@ class CEPAMBatch:
         if self._kernels is None:
             parallel = self.num_envs >= pl.PARALLEL_MIN_BATCH  # else never called
             self._kernels = (
-                bound(tk._env_step_serial, self._step_args),
-                bound(tk._env_step_parallel, self._step_args) if parallel else tk._env_step_parallel,
+                bound(self.step_module._env_step_serial, self._step_args),
+                bound(self.step_module._env_step_parallel, self._step_args)
+                if parallel
+                else self.step_module._env_step_parallel,
             )
         windowed = self.s.t_idx < self.n_window if self.n_window else None
         self.threads.run(*self._kernels, self._step_args)
@@ -365,7 +371,7 @@ class CEPAMBatch:
     def _window_step(self, windowed: np.ndarray) -> None:
         """After a step: the window's steps unscored; the envs whose window just ended (and that
         did not fail in it) restarted at rest at their starting point, as the reset started them."""
-        win.unscore(self.s, windowed)
+        win.unscore(self.s, windowed, self.task.reward)
         ended = np.flatnonzero(windowed & (self.s.t_idx == self.n_window) & (self.s.reasons == 0))
         if ended.size:
             self.task.start(self.s, ended, self.s.initial[ended].copy())

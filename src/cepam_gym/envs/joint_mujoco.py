@@ -15,7 +15,6 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Mapping
-from dataclasses import astuple
 from typing import Any
 
 import gymnasium as gym
@@ -41,7 +40,9 @@ from ..tasks.joint import (
     joint_schedules,
 )
 from ..tasks.randomization import MAX_REDRAWS, sample_params
+from ..tasks.reward import JOINT_ABS_REWARD, MAX_TERMS
 from ..tasks.spec import TERMINATION_NAMES, TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
+from ..tasks.step import reward_terms
 from .checks import (
     as_actions,
     check_randomize,
@@ -51,7 +52,7 @@ from .checks import (
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 
-REWARD_TERMS = JOINT.reward_terms  # tasks.kernel.reward_terms, in order
+REWARD_TERMS = JOINT.reward_terms  # tasks.reward.JOINT_ABS_REWARD's terms, in order
 _TERM_KEYS = JOINT.term_keys
 
 
@@ -130,7 +131,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.setpoint_max = self.nominal.pressure_cap
         self.obs_layout = joint_layout(self.task, self.angle_max, self.nominal.supply_pressure)
         self.task_params = tk.task_params(
-            astuple(self.weights), self.task.scales, self.obs_layout, self.setpoint_max
+            JOINT_ABS_REWARD, self.weights, self.task.scales, self.obs_layout, self.setpoint_max
         )
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         clip = self.obs_layout.clip
@@ -151,7 +152,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.t_idx = 0
         self.prev_action = np.zeros(2)
         self.aux = np.zeros(pl.N_AUX)
-        self.terms = np.zeros(tk.N_TERMS)
+        self.terms = np.zeros(MAX_TERMS)
         self._reset_done = False
 
     def _build(self, p) -> None:
@@ -223,15 +224,17 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.prev_action[:] = a
         th, om = self.joint_state()
         burst = self.aux[pl.A_BURST] != 0.0
-        reward = tk.reward_terms(
+        reward = reward_terms(
             th,
             float(self.target_angle[k]),
+            om,
             self.joint_stiffness(),
             float(self.target_stiffness[k]),
             a[0],
             a[1],
             self.aux[pl.A_AIR],
             burst,
+            True,
             self.task_params,
             self.terms,
         )

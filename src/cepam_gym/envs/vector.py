@@ -124,7 +124,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
 
             require_mujoco()
         expose(self, self.core)
-        self._term_keys = self.core.task.contract.term_keys
+        self._term_keys = self.core.task.term_keys
         self.num_envs = self.core.num_envs
         if max_episode_steps is not None and (
             int(max_episode_steps) != max_episode_steps or max_episode_steps < 1

@@ -2,10 +2,11 @@
 
 A :class:`TaskContract` holds the names and facts every layer reads:
 
-* the reward terms and their default weights: the fields of the task's weights dataclass
+* the terms of the package's rewards (:mod:`cepam_gym.tasks.reward`: ``abs`` and ``score``) and
+  their weights: the fields of the task's weights dataclass
   (:class:`~cepam_gym.tasks.spec.RewardWeights`, :class:`~cepam_gym.tasks.joint.JointRewardWeights`),
-  in the order of the kernel's term slots (:func:`cepam_gym.tasks.kernel.reward_terms`), each
-  reported signed as ``info["reward_<term>"]``;
+  in the declared order, each reported signed as ``info["reward_<term>"]`` (a task given another
+  reward declaration reports that one's terms: ``Task.term_keys``);
 * the info keys of every reset and step, and the termination names
   (``info["termination_reason"]`` is an index into :data:`TERMINATION_NAMES`);
 * the ``reset(options=...)`` keys it pins;
@@ -16,7 +17,7 @@ A :class:`TaskContract` holds the names and facts every layer reads:
 * what the benchmark's score reads of the info (``score_keys``: trace column -> info key) and its
   trade (:class:`ScoreTrade`: the errors that score 1, the weight of a failure).
 
-The kernel names its term slots from it, the envs their info masks and metadata, the agents'
+The envs name their info masks and metadata from it, the agents'
 logging its keys, :mod:`cepam_gym.control.objective` its trade and columns, and the docs build
 (``docs/gen_env_pages.py``) its reset options and termination names.
 
@@ -59,6 +60,7 @@ from dataclasses import dataclass, fields
 
 from ..errors import InputError
 from .joint import INIT_KEYS, PIN_KEYS, JointRewardWeights
+from .reward import ABS_REWARD
 from .spec import TERMINATION_NAMES, RewardWeights
 
 # the trace columns the benchmark scores (bench.harness records them; TraceSpec.info_keys maps
@@ -116,19 +118,18 @@ class TaskContract:
 
     def __post_init__(self):
         terms = self.reward_terms
-        if (
-            len(terms) != 5
-            or terms[0] != self.position
-            or terms[1:] != ("stiffness", "effort", "air", "burst")
-        ):
-            raise ValueError(f"{self.name}: the kernel's five term slots, got {terms}")
+        declared = ABS_REWARD.renamed({"length": self.position}).names
+        if terms != declared:
+            raise ValueError(
+                f"{self.name}: the weights' fields must be the package reward's terms {declared}"
+            )
         read = set(self.score_keys.values())
         if set(self.score_keys) != set(TRACE_COLUMNS) or not read <= set(self.info_keys):
             raise ValueError(f"{self.name}: score_keys must map {TRACE_COLUMNS} to info keys")
 
     @property
     def reward_terms(self) -> tuple[str, ...]:
-        """The reward terms in the kernel's slot order (the weights dataclass's fields)."""
+        """The package rewards' terms, in order (the weights dataclass's fields)."""
         return tuple(f.name for f in fields(self.weights))
 
     @property

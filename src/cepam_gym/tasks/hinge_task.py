@@ -26,6 +26,7 @@ from .joint import (
 from .plan_vectors import joint_mechanism
 from .planner import start_at_rest
 from .randomization import Randomizer, unstable
+from .reward import JOINT_SCORE_REWARD
 from .spec import check_kwargs
 from .task import Task
 from .task_params import allowance_of
@@ -37,16 +38,18 @@ V1_REFERENCES = ("min_jerk", "sine", "chirp", "stiffness_ramp")
 JOINT_SCORE_SCALES = dataclasses.replace(
     JointTask.scales, tracking_clip=30.0, stiffness_unit=0.2, stiffness_clip=25.0
 )
-JOINT_SCORE_WEIGHTS = JointRewardWeights(angle=1.0, stiffness=1.0, effort=1e-4, air=1e-4, burst=2000.0)
+JOINT_SCORE_WEIGHTS = JointRewardWeights(**{t.name: t.weight for t in JOINT_SCORE_REWARD.terms})
 JOINT_TASKS = {
     "joint": JointTask(),
     "joint_v1": JointTask(references=V1_REFERENCES),
     "joint_v3": JointTask(
-        references=V1_REFERENCES, scales=JOINT_SCORE_SCALES, weights=JOINT_SCORE_WEIGHTS, reward_form="score"
+        references=V1_REFERENCES,
+        scales=JOINT_SCORE_SCALES,
+        weights=JOINT_SCORE_WEIGHTS,
+        reward=JOINT_SCORE_REWARD,
     ),
 }
-REWARD_TERMS = JOINT.reward_terms  # tasks.kernel.reward_terms, in order
-TERM_KEYS = JOINT.term_keys
+REWARD_TERMS = JOINT.reward_terms  # the package's joint rewards' terms, in order
 INFO_KEYS = JOINT.info_keys
 
 
@@ -56,7 +59,6 @@ class HingeTask(Task):
 
     mech = pl.HINGE
     contract = JOINT
-    reward_terms = REWARD_TERMS
     pin_keys = JOINT.pin_keys
     renderers = ("mujoco",)
     track_stiffness = True
@@ -74,15 +76,13 @@ class HingeTask(Task):
             task = JOINT_TASKS[task]
         elif not isinstance(task, JointTask):
             raise TypeError(f"task must be a joint task name or a JointTask, got {type(task).__name__}")
-        opts = check_kwargs(
-            JointTask, task_options, "task_options", exclude=("scales", "weights", "reward_form")
-        )
+        opts = check_kwargs(JointTask, task_options, "task_options", exclude=("scales", "weights", "reward"))
         if opts:
             task = dataclasses.replace(
                 task, **{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             )
         weights = dataclasses.replace(
-            task.weights, **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
+            task.weights, **check_kwargs(type(task.weights), reward_weights, "reward_weights", "terms")
         )
         return cls(task, JointGeometry.from_kwargs(joint), weights, preview_steps)
 
@@ -95,13 +95,13 @@ class HingeTask(Task):
         self.angle_max = self.geometry.max_angle(nominal_row)
         self.layout = joint_layout(self.spec, self.angle_max, nominal.supply_pressure, self.preview_steps)
         self.params = tk.task_params(
-            dataclasses.astuple(self.weights),
+            self.spec.reward,
+            self.weights,
             self.spec.scales,
             self.layout,
             nominal.pressure_cap,
             True,
             "angle",
-            score_form=self.spec.reward_form == "score",
             allowance=allowance_of(JOINT.trade, control_dt),
         )
 
@@ -182,7 +182,7 @@ class HingeTask(Task):
             "target_stiffness": float(s.target_k[0, k]),
         }
         if scored:
-            info.update(zip(TERM_KEYS, s.terms[0].tolist()))
+            info.update(zip(self.term_keys, s.terms[0].tolist()))
         info["redraws"] = int(s.redraws[0])
         return info
 
@@ -214,6 +214,6 @@ class HingeTask(Task):
             "target_stiffness": s.target_k[rows, k],
         }
         if scored:
-            out.update(zip(TERM_KEYS, np.ascontiguousarray(s.terms.T)))
+            out.update(zip(self.term_keys, np.ascontiguousarray(s.terms.T)))
         out["redraws"] = s.redraws.copy()
         return out

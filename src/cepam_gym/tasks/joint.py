@@ -23,6 +23,7 @@ from ..physics.hinge import H_DAMP, H_INERTIA, H_MASS_MOMENT, H_R, N_HINGE
 from .layout import ObsColumn, ObsLayout, preview_fields
 from .plan_vectors import joint_mechanism
 from .planner import plan
+from .reward import JOINT_ABS_REWARD, Reward
 from .schedules import load_profile, segments, stiffness_interval
 from .spec import LOAD_KINDS, TaskScales, TaskSpec
 
@@ -148,10 +149,10 @@ class JointTask:
     # of stiffness is, which JointRewardWeights.stiffness = 5 prices alike); angular velocity per
     # 5 rad/s and joint stiffness per 1 N m/rad in the observation
     scales: TaskScales = TaskScales(tracking_unit=math.radians(10.0), velocity_scale=5.0, stiffness_scale=1.0)
-    # the default reward weights (a user's reward_weights override them) and how the reward prices
-    # errors (tasks.spec.REWARD_FORMS: "score" on the v3 joint)
+    # the default reward weights (a user's reward_weights override them) and the reward
+    # (tasks.reward: the score's form on the v3 joint)
     weights: JointRewardWeights = JointRewardWeights()
-    reward_form: str = "abs"
+    reward: Reward = JOINT_ABS_REWARD
 
     def __post_init__(self):
         lo, hi = self.angle_range
@@ -171,8 +172,15 @@ class JointTask:
             pressure_margin=self.pressure_margin,
             references=tuple(self.references),
             move_s=self.move_s,
-            reward_form=self.reward_form,
         )
+        if not isinstance(self.reward, Reward):
+            raise InputError(f"reward must be a tasks.reward.Reward, got {type(self.reward).__name__}")
+        self.reward.weight_values(self.weights)
+
+    @property
+    def reward_form(self) -> str:
+        """The reward's name (``"abs"``, ``"score"``, or a declaration's own)."""
+        return self.reward.name
 
     def check_range(self, geom: JointGeometry, p) -> None:
         """``ValueError`` when the target angles exceed the joint's range for plant row ``p``."""

@@ -15,24 +15,24 @@ from .contract import RIG
 from .layout import rig_layout
 from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
+from .reward import MAX_TERMS
 from .single import AUX_INFO, N_INFO
-from .spec import TASKS, RewardWeights, TaskSpec, check_kwargs
+from .spec import TASKS, TaskSpec, check_kwargs
 from .task import Task
 from .task_params import allowance_of
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
 # the contract's info keys: length and velocity, then the columns read from aux in the order
-# tasks.single.env_step_single writes them, then load and targets (redraws comes from the state)
+# tasks.step.env_step_single writes them, then load and targets (redraws comes from the state)
 INFO_KEYS = RIG.info_keys[: RIG.info_keys.index("redraws")]
 _AUX_NAMES = INFO_KEYS[2 : 2 + len(AUX_INFO)]
 _AUX_INFO = dict(zip(_AUX_NAMES, AUX_INFO))
 _AUX_ITEMS = tuple(_AUX_INFO.items())
 _AUX_COLS = np.array(list(_AUX_INFO.values()))
 _STATE_COLS = np.array([pl.S_L, pl.S_V])
-TERM_KEYS = RIG.term_keys
-# keys of a step's info in the order of the single env's info row (tasks.single.SingleExtras)
-_STEP_KEYS = (*INFO_KEYS, *TERM_KEYS)
-assert len(_STEP_KEYS) == N_INFO
+# a step's info keys before the reward terms, in the order of the single env's info row
+# (tasks.single.SingleExtras); the terms fill the rest of the row
+assert len(INFO_KEYS) == N_INFO - MAX_TERMS
 
 
 class RigTask(Task):
@@ -41,16 +41,15 @@ class RigTask(Task):
 
     mech = pl.RIG
     contract = RIG
-    reward_terms = RIG.reward_terms
     pin_keys = RIG.pin_keys
     renderers = ("numpy", "mujoco")
-    step_keys = _STEP_KEYS
 
     def __init__(self, spec: TaskSpec, preview_steps: int = 0):
         self.spec = spec
         self.name = spec.name
         self.preview_steps = int(preview_steps)
         self.track_stiffness = bool(spec.track_stiffness)
+        self.step_keys = (*INFO_KEYS, *spec.reward.term_keys)
 
     @classmethod
     def from_kwargs(cls, task, task_options=None, reward_weights=None, preview_steps: int = 0) -> RigTask:
@@ -62,12 +61,12 @@ class RigTask(Task):
             raise TypeError(f"task must be a task name or a TaskSpec, got {type(task).__name__}")
         if task_options:
             opts = check_kwargs(
-                TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales", "reward_form")
+                TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales", "reward")
             )
             opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)
         if reward_weights:
-            weights = check_kwargs(RewardWeights, reward_weights, "reward_weights", "terms")
+            weights = check_kwargs(type(task.weights), reward_weights, "reward_weights", "terms")
             task = dataclasses.replace(task, weights=dataclasses.replace(task.weights, **weights))
         return cls(task, preview_steps)
 
@@ -90,12 +89,12 @@ class RigTask(Task):
         self.nominal, self.sub_dt = nominal, sub_dt
         self.layout = rig_layout(t, nominal, self.preview_steps)
         self.params = tk.task_params(
-            dataclasses.astuple(t.weights),
+            t.reward,
+            t.weights,
             t.scales,
             self.layout,
             nominal.pressure_cap,
             t.track_stiffness,
-            score_form=t.reward_form == "score",
             allowance=allowance_of(RIG.trade, control_dt),
         )
 
@@ -176,7 +175,7 @@ class RigTask(Task):
         info["target_length"] = float(s.target_l[0, k])
         info["target_stiffness"] = float(s.target_k[0, k])
         if scored:
-            info.update(zip(TERM_KEYS, s.terms[0].tolist()))
+            info.update(zip(self.term_keys, s.terms[0].tolist()))
         info["redraws"] = int(s.redraws[0])
         return info
 
@@ -191,6 +190,6 @@ class RigTask(Task):
         out["target_length"] = s.target_l[r, k]
         out["target_stiffness"] = s.target_k[r, k]
         if scored:
-            out.update(zip(TERM_KEYS, np.ascontiguousarray(s.terms.T)))
+            out.update(zip(self.term_keys, np.ascontiguousarray(s.terms.T)))
         out["redraws"] = s.redraws.copy()
         return out

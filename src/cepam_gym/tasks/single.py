@@ -14,18 +14,15 @@ cost 0.3 us of the single step's 0.7 us of fixed compiled work.
 
 from __future__ import annotations
 
-import math
-
 from .. import plant as pl
-from .._jit import jit
-from .kernel import _env_block
 from .records import Field, Slabs, record
-from .state import N_TERMS, EnvState, StepSettings
+from .reward import MAX_TERMS
+from .state import EnvState, StepSettings
 from .task_params import TaskParams
 
 AUX_INFO = (pl.A_STIFF, pl.A_STIFF_CLOSED, pl.A_FORCE, pl.A_PC, pl.A_PE, pl.A_TC, pl.A_TE, pl.A_AIR)
-N_INFO = 2 + len(AUX_INFO) + 3 + N_TERMS
-NONFINITE_ACTION = -1  # env_step_single's reason for an action it refused
+N_INFO = 2 + len(AUX_INFO) + 3 + MAX_TERMS  # the terms a reward declares fill the first
+NONFINITE_ACTION = -1  # tasks.step.env_step_single's reason for an action it refused
 
 SingleExtras = record(
     "SingleExtras",
@@ -37,8 +34,8 @@ SingleExtras = record(
     __name__,
 )
 SLABS = Slabs((EnvState, StepSettings, TaskParams, SingleExtras), {"n": 1, "noise_rows": 1})
-_state_of, _settings_of = SLABS.reader(EnvState), SLABS.reader(StepSettings)
-_task_of, _extras_of = SLABS.reader(TaskParams), SLABS.reader(SingleExtras)
+# the records rebuilt inside the single step (tasks.step.env_step_single)
+SLAB_READERS = tuple(SLABS.reader(r) for r in (EnvState, StepSettings, TaskParams, SingleExtras))
 
 
 def single_slabs(n_steps: int, obs_dim: int, settings, task):
@@ -48,33 +45,3 @@ def single_slabs(n_steps: int, obs_dim: int, settings, task):
     SLABS.write(settings, slabs)
     SLABS.write(task, slabs)
     return slabs, SLABS.views(EnvState, slabs), SLABS.views(SingleExtras, slabs)
-
-
-@jit
-def env_step_single(F, I, obs, a0, a1):
-    """One control step of a single env whose records live in the slabs ``F``, ``I``, ``obs``
-    (see :func:`single_slabs`), with the action ``(a0, a1)``; returns ``(reward, reason)``, or
-    ``(nan, NONFINITE_ACTION)`` without stepping when an action is NaN or inf (checked here: one
-    call less on the single env's hot path)."""
-    if not (math.isfinite(a0) and math.isfinite(a1)):
-        return math.nan, NONFINITE_ACTION
-    s = _state_of(F, I, obs)
-    ex = _extras_of(F, I, obs)
-    s.prev_action[0, 0] = a0
-    s.prev_action[0, 1] = a1
-    _env_block(0, 1, s, _settings_of(F, I, obs), _task_of(F, I, obs), ex.W)
-    # info of the scored step (the targets and load of the step just taken)
-    n_steps = s.target_l.shape[1]
-    k = min(max(s.t_idx[0] - 1, 0), n_steps - 1)
-    info, state, aux = ex.info, s.state, s.aux
-    info[0] = state[0, pl.S_L]
-    info[1] = state[0, pl.S_V]
-    for j in range(len(AUX_INFO)):
-        info[2 + j] = aux[0, AUX_INFO[j]]
-    j = 2 + len(AUX_INFO)
-    info[j] = s.load[0, k]
-    info[j + 1] = s.target_l[0, k]
-    info[j + 2] = s.target_k[0, k]
-    for m in range(N_TERMS):
-        info[j + 3 + m] = s.terms[0, m]
-    return s.rewards[0], s.reasons[0]

@@ -8,12 +8,13 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 from ..errors import InputError
+from .reward import ABS_REWARD, BUILTIN_REWARDS, SCORE_REWARD, Reward
 
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
-# how the tracking and stiffness terms price an error (tasks.kernel.reward_terms): "abs" the
-# clipped absolute errors of the v0-v2 ids, "score" the score's squared per-step form of the v3 ids,
-# zero within the settling allowance (tasks.contract, "Reward and score")
-REWARD_FORMS = ("abs", "score")
+# the package's rewards by name (tasks.reward): "abs" the clipped absolute errors of the v0-v2 ids,
+# "score" the score's squared per-step form of the v3 ids, zero within the settling allowance
+# (tasks.contract, "Reward and score")
+REWARD_FORMS = tuple(BUILTIN_REWARDS)
 REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # tasks.references
 
 # termination reasons: integer codes (what the step kernels return) and their names, index = code
@@ -102,8 +103,9 @@ class TaskSpec:
     move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s] (lengthened if needed)
     # an unscored identification window before the scored tracking [s] (tasks.window; 0: none)
     id_window_s: float = 0.0
-    # how the reward prices errors (REWARD_FORMS): "score" pays the benchmark's own per-step form
-    reward_form: str = "abs"
+    # the reward (tasks.reward): its terms, their expressions and default weights; ``weights`` holds
+    # one weight per term (with_reward sets both)
+    reward: Reward = ABS_REWARD
 
     def __post_init__(self):
         lo, hi = self.length_range
@@ -133,11 +135,24 @@ class TaskSpec:
             )
         if not (np.isfinite(self.move_s) and self.move_s > 0):
             raise InputError(f"move_s must be finite and > 0, got {self.move_s!r}")
-        if self.reward_form not in REWARD_FORMS:
-            raise InputError(f"reward_form must be one of {REWARD_FORMS}, got {self.reward_form!r}")
+        if not isinstance(self.reward, Reward):
+            raise InputError(f"reward must be a tasks.reward.Reward, got {type(self.reward).__name__}")
+        self.reward.weight_values(self.weights)
         w = self.id_window_s
         if isinstance(w, bool) or not isinstance(w, (int, float)) or not (np.isfinite(w) and 0 <= w <= 600):
             raise InputError(f"id_window_s is in seconds and must lie in [0, 600], got {w!r}")
+
+    @property
+    def reward_form(self) -> str:
+        """The reward's name (``"abs"``, ``"score"`` for the package's, or a declaration's own)."""
+        return self.reward.name
+
+    def with_reward(self, reward: Reward, **weights: float) -> TaskSpec:
+        """This task paying ``reward`` (a :class:`~cepam_gym.tasks.reward.Reward`), at its default
+        weights but for ``weights`` (term name -> weight)."""
+        typ = reward.weights_type()
+        check_kwargs(typ, weights, f"the weights of reward {reward.name!r}", "terms")
+        return replace(self, reward=reward, weights=typ(**weights))
 
 
 # The score's own units (tasks.contract.RIG.trade): 5 mm and 20 % are one unit each, squared by the
@@ -147,12 +162,12 @@ SCORE_SCALES = TaskScales(tracking_unit=0.005, tracking_clip=30.0, stiffness_uni
 # Squared errors at the score's trade (w = 1); a burst charged as an episode whose every one of its
 # 500 steps scores the failure weight 2 (2^2 x 500); effort and air at prices measured not to change
 # the ranking of any shipped controller (tests/bench/test_reward_ranking.py)
-SCORE_WEIGHTS = RewardWeights(length=1.0, stiffness=1.0, effort=1e-4, air=1e-4, burst=2000.0)
+SCORE_WEIGHTS = RewardWeights(**{t.name: t.weight for t in SCORE_REWARD.terms})
 
 
 def _v3(v1: TaskSpec, name: str) -> TaskSpec:
     """The v3 task ``name`` of a v1 task: the same references and loads, the score's reward."""
-    return replace(v1, name=name, weights=SCORE_WEIGHTS, scales=SCORE_SCALES, reward_form="score")
+    return replace(v1, name=name, weights=SCORE_WEIGHTS, scales=SCORE_SCALES, reward=SCORE_REWARD)
 
 
 TASKS = {

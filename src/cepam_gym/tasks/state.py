@@ -13,12 +13,9 @@ from __future__ import annotations
 from .. import plant as pl
 from ..physics import layout as ix
 from ..physics.hinge import N_HINGE
-from .contract import RIG
 from .records import Field, record
+from .reward import MAX_TERMS
 
-# the names of the ``terms`` columns, the rig's (tasks.contract; the joint names the first "angle")
-REWARD_TERMS = RIG.reward_terms
-N_TERMS = len(REWARD_TERMS)
 # noise columns: length [m], velocity [m/s], pressure_c, pressure_e, supply [Pa]
 N_NOISE = 5
 
@@ -31,7 +28,7 @@ EnvState = record(
         Field("hinge", "f8", (1, N_HINGE), "the mechanism's constants, one row for the batch (rig: 0)"),
         Field("inputs", "f8", ("n", pl.N_INPUT), "plant input rows of the step (plant.I_*)"),
         Field("aux", "f8", ("n", pl.N_AUX), "what the plant measured at the step's end (plant.A_*)"),
-        Field("terms", "f8", ("n", N_TERMS), "the step's signed reward terms (REWARD_TERMS)"),
+        Field("terms", "f8", ("n", MAX_TERMS), "the step's signed reward terms, in the reward's order"),
         Field("rewards", "f8", ("n",), "the step's rewards"),
         Field("noise", "f8", ("noise_rows", N_NOISE), "sensor noise of the next observation"),
         Field("initial", "f8", ("n", 2), "the (position, stiffness) the episode started at"),

@@ -57,10 +57,24 @@ class Task:
     preview_steps: int
     track_stiffness: bool
     contract: Any  # its tasks.contract.TaskContract: names of terms, info, options, what the score reads
-    reward_terms: tuple[str, ...]  # in tasks.kernel order (the contract's)
     pin_keys: tuple[str, ...]  # reset(options=...) keys (the contract's)
     renderers: tuple[str, ...]  # the first is the default
     spec: Any  # the task's frozen parameters (a TaskSpec or a JointTask)
+
+    @property
+    def reward(self):
+        """The task's reward declaration (:class:`~cepam_gym.tasks.reward.Reward`)."""
+        return self.spec.reward
+
+    @property
+    def reward_terms(self) -> tuple[str, ...]:
+        """The reward's term names, in order (``info["reward_<term>"]``)."""
+        return self.reward.names
+
+    @property
+    def term_keys(self) -> tuple[str, ...]:
+        """``info`` keys of the reward terms."""
+        return self.reward.term_keys
 
     def bind(self, nominal, sub_dt: float, control_dt: float = 0.02) -> None:
         """Check the task against the env's nominal plant, sub-step and control period

@@ -7,23 +7,22 @@ import numpy as np
 
 from .layout import OBS_FIELDS, ObsLayout
 from .records import Field, build, record
+from .reward import MAX_TERMS, Reward
+from .step_source import reward_index
 
 MAX_OBS = len(OBS_FIELDS)  # measured columns of a layout (one per measured quantity at most)
 
 TaskParams = record(
     "TaskParams",
     (
-        Field("w_track", "f8", (), "weight of the position term"),
-        Field("w_stiff", "f8", (), "weight of the stiffness term"),
-        Field("w_effort", "f8", (), "weight of the effort term"),
-        Field("w_air", "f8", (), "weight of the air term"),
-        Field("w_burst", "f8", (), "weight of the burst term"),
+        Field("w", "f8", (MAX_TERMS,), "the reward terms' weights, in the reward's order"),
+        Field("reward_index", "i8", (), "the reward's branch in the compiled step (tasks.step_source)"),
         Field("track_k", "i8", (), "1 if the task sets a stiffness target"),
         Field("track_unit", "f8", (), "the position error that scores 1 [m or rad]"),
         Field("track_clip", "f8", (), "largest position term (in units)"),
         Field("stiff_clip", "f8", (), "largest stiffness term (in units)"),
         Field("stiff_unit", "f8", (), "the relative stiffness error of one unit"),
-        Field("score_form", "i8", (), "1: the score's squared per-step form (zero in the allowance)"),
+        Field("uses_allowance", "i8", (), "1: the reward reads `counted` (the score's settling allowance)"),
         Field("allow_steps", "i8", (), "control steps left out after a jump of a target"),
         Field("jump_pos", "f8", (), "a position change larger than this in one step is a jump [SI]"),
         Field("jump_k", "f8", (), "a relative stiffness change larger than this is a jump"),
@@ -39,29 +38,31 @@ TaskParams = record(
         Field("prev_scale", "f8", (), "scale of the position preview columns"),
         Field("prev_k_scale", "f8", (), "scale of the stiffness preview columns"),
     ),
-    "The task's settings of the compiled step: reward weights (in REWARD_TERMS order), units and "
+    "The task's settings of the compiled step: reward weights (in the reward's order), units and "
     "clips of the terms, the pressure set-point range, the observation layout.",
     __name__,
 )
 
 
 def task_params(
+    reward: Reward,
     weights,
     scales,
     layout: ObsLayout,
     setpoint_max: float,
     track_stiffness: bool = True,
     position: str = "length",
-    score_form: bool = False,
     allowance=(0, 0.0, 0.0),
 ) -> TaskParams:
-    """The :class:`TaskParams` of a task: ``weights`` the five reward weights in REWARD_TERMS
-    order, ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`, ``layout`` the observation layout
+    """The :class:`TaskParams` of a task: ``reward`` its declaration
+    (:class:`~cepam_gym.tasks.reward.Reward`), ``weights`` an object with one weight per term
+    (:meth:`Reward.weight_values`), ``scales`` a :class:`~cepam_gym.tasks.spec.TaskScales`,
+    ``layout`` the observation layout
     (at most :data:`MAX_OBS` measured columns), ``setpoint_max`` [Pa] the gauge pressure of the
     action +1 in pressure mode, ``position`` the name of the tracked position in the preview
-    columns (``"length"`` on the rig, ``"angle"`` on the joint), ``score_form`` whether the reward
-    is the score's squared form, ``allowance`` its ``(steps, jump_position, jump_stiffness)``:
-    the control steps left out after a jump of a target (:func:`allowance_of`)."""
+    columns (``"length"`` on the rig, ``"angle"`` on the joint), ``allowance`` the score's
+    ``(steps, jump_position, jump_stiffness)``: the control steps left out after a jump of a target
+    (:func:`allowance_of`; read when the reward declares ``allowance``)."""
     n = layout.n_measured
     if n > MAX_OBS:
         raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns; got {layout.names}")
@@ -77,20 +78,18 @@ def task_params(
             )
         col = layout.columns[n]
         prev = (col.offset, col.scale, layout.columns[n + steps].scale if track_stiffness else 1.0)
-    w = [float(x) for x in weights]
+    w = np.zeros(MAX_TERMS)
+    w[: len(reward.terms)] = reward.weight_values(weights)
     return build(
         TaskParams,
-        w_track=w[0],
-        w_stiff=w[1],
-        w_effort=w[2],
-        w_air=w[3],
-        w_burst=w[4],
+        w=w,
+        reward_index=reward_index(reward),
         track_k=int(bool(track_stiffness)),
         track_unit=scales.tracking_unit,
         track_clip=scales.tracking_clip,
         stiff_clip=scales.stiffness_clip,
         stiff_unit=scales.stiffness_unit,
-        score_form=int(bool(score_form)),
+        uses_allowance=int(reward.allowance),
         allow_steps=int(allowance[0]),
         jump_pos=float(allowance[1]),
         jump_k=float(allowance[2]),

@@ -54,9 +54,13 @@ def in_window(t_idx: np.ndarray, n_window: int, scored: bool) -> np.ndarray:
     return (np.asarray(t_idx) - (1 if scored else 0)) < n_window
 
 
-def unscore(s, stepped: np.ndarray) -> None:
+def unscore(s, stepped: np.ndarray, reward) -> None:
     """The reward of envs ``stepped`` (a bool mask: their step was in the window) of env state
-    ``s``: only the burst term is kept (a failure is a failure), the others are zeroed."""
+    ``s``: only the terms of ``reward`` (a :class:`~cepam_gym.tasks.reward.Reward`) that charge a
+    failure are kept (a failure is a failure: the burst term), the others are zeroed."""
     if stepped.any():
-        s.terms[stepped, :-1] = 0.0
-        s.rewards[stepped] = s.terms[stepped, -1]
+        keep = np.zeros(s.terms.shape[1], dtype=bool)
+        keep[list(reward.failure_columns)] = True
+        rows = np.flatnonzero(stepped)
+        s.terms[np.ix_(rows, np.flatnonzero(~keep))] = 0.0
+        s.rewards[rows] = s.terms[rows][:, keep].sum(axis=1)
