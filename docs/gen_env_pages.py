@@ -88,23 +88,6 @@ ARGUMENTS = {
     "width": "frame width [px]",
     "height": "frame height [px]",
 }
-TERM_FORMULAS = {
-    "track": "-w min(|x - x*| / {unit}, {clip})",
-    "stiffness": "-w min(|K - K*| / K*, {kclip}), K the stiffness at constant pressures; counted when the "
-    "task tracks stiffness",
-    "effort": "-w mean(a^2)",
-    "air": "-w (air drawn from the supply this step) / {air}",
-    "burst": "-w, once, when a chamber exceeds the burst pressure",
-}
-# the score's per-step form (task version 2, the v3 ids): zero on the steps of the settling allowance
-SCORE_TERM_FORMULAS = {
-    **TERM_FORMULAS,
-    "track": "-w min(|x - x*| / {unit}, {clip})^2 on the steps the score counts, else 0",
-    "stiffness": "-w min(|K / K* - 1| / {kunit}, {kclip})^2 on the steps the score counts, else 0; "
-    "K the stiffness at constant pressures; counted when the task tracks stiffness",
-    "burst": "-w, once, when a chamber exceeds the burst pressure (the return of an episode whose "
-    "every step scores the failure weight 2)",
-}
 
 
 def env_facts(env_id: str) -> dict:
@@ -259,7 +242,6 @@ def spec_page(f: dict) -> str:
         if joint
         else f"{sc.tracking_unit * 100:.3g} cm"
     )
-    track = "angle" if joint else "length"
     lines = [
         f"# {f['id']}",
         "",
@@ -319,10 +301,9 @@ def spec_page(f: dict) -> str:
             "([benchmark](../benchmark.md#reward-and-score-on-v3)).",
             "",
         ]
-    formulas = SCORE_TERM_FORMULAS if score_form else TERM_FORMULAS
+    formulas = {t.name: t.doc for t in task.reward.terms}  # the declaration's (tasks.reward)
     for term, w in f["weights"].items():
-        formula = formulas["track" if term == track else term].format(**fmt)
-        lines.append(f"| {term} | `{formula}` | {_num(w)} |")
+        lines.append(f"| {term} | `{formulas[term].format(**fmt)}` | {_num(w)} |")
     lines += [
         "",
         "## Starting state",

@@ -22,6 +22,7 @@ cost), which the envs' tests check of the package's terms.
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import keyword
 import math
@@ -43,12 +44,27 @@ STEP_QUANTITIES = {
     "counted": "whether the benchmark's score counts the step (not within the settling allowance)",
 }
 MAX_TERMS = 8  # the terms row of the env state holds at most this many
+# what else an expression may name: the task's parameters, the term's weight, math and a few builtins
+_ALSO_NAMED = {"task", "w", "math", "abs", "min", "max", "float", "int", "bool"}
+
+
+def _names_read(text: str) -> tuple[set[str], set[str]]:
+    """``(names, task attributes)`` an expression reads."""
+    tree = ast.parse(text, mode="eval")
+    names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+    attrs = {
+        n.attr
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name) and n.value.id == "task"
+    }
+    return names, attrs
 
 
 @dataclass(frozen=True)
 class Term:
     """One reward term: ``expr`` (a numba expression, see the module doc) gives its signed value,
-    ``weight`` its default weight (read as ``w``)."""
+    ``weight`` its default weight (read as ``w``), ``doc`` its formula as the spec pages show it
+    (``{unit}``, ``{clip}``, ``{kunit}``, ``{kclip}``, ``{air}``: the task's scales)."""
 
     name: str
     expr: str
@@ -63,14 +79,15 @@ class Reward:
     (each may read the earlier ones), ``allowance`` whether the step computes ``counted`` (the
     score's settling allowance: a loop over the last half second of targets, so only rewards
     that read it pay for it), ``failure_terms`` the terms that charge a failure (kept in an
-    identification window, where the others are zeroed: :mod:`cepam_gym.tasks.window`)."""
+    identification window, where the others are zeroed: :mod:`cepam_gym.tasks.window`; None: the
+    term ``burst`` if the reward has one)."""
 
     name: str
     terms: tuple[Term, ...]
     quantities: tuple[tuple[str, str], ...] = ()
     allowance: bool = False
     doc: str = ""
-    failure_terms: tuple[str, ...] = ("burst",)
+    failure_terms: tuple[str, ...] | None = None
 
     def __post_init__(self):
         names = [t.name for t in self.terms]
@@ -87,15 +104,25 @@ class Reward:
         for t in self.terms:
             if not (math.isfinite(t.weight) and t.weight >= 0):
                 raise InputError(f"reward {self.name!r}: term {t.name} weight must be finite and >= 0")
-        for label, text in [(t.name, t.expr) for t in self.terms] + list(self.quantities):
+        known = set(STEP_QUANTITIES) | _ALSO_NAMED
+        for label, text in list(self.quantities) + [(t.name, t.expr) for t in self.terms]:
             try:
-                compile(text, f"<reward {self.name}: {label}>", "eval")
+                read, _ = _names_read(text)
             except SyntaxError as e:
                 raise InputError(f"reward {self.name!r}: {label}: not a Python expression: {e.msg}") from None
-        unknown = sorted(set(self.failure_terms) - set(names))
+            if read - known:
+                raise InputError(
+                    f"reward {self.name!r}: {label} reads {sorted(read - known)}, which the step does not "
+                    f"have; it may read {sorted(STEP_QUANTITIES)}, the quantities declared before it, "
+                    f"task.<parameter>, w and math"
+                )
+            if label in local:
+                known.add(label)
+        unknown = sorted(set(self.failure_terms or ()) - set(names))
         if unknown:
             raise InputError(f"reward {self.name!r}: failure_terms {unknown} are not terms of it")
-        if "counted" in self.code() and not self.allowance:
+        texts = [e for _, e in self.quantities] + [t.expr for t in self.terms]
+        if any("counted" in _names_read(e)[0] for e in texts) and not self.allowance:
             raise InputError(f"reward {self.name!r} reads `counted`: declare it with allowance=True")
 
     @property
@@ -111,7 +138,13 @@ class Reward:
     @property
     def failure_columns(self) -> tuple[int, ...]:
         """The columns of :attr:`failure_terms` in the env state's ``terms`` rows."""
-        return tuple(self.names.index(n) for n in self.failure_terms)
+        failure = ("burst",) if self.failure_terms is None else self.failure_terms
+        return tuple(self.names.index(n) for n in failure if n in self.names)
+
+    def task_attributes(self) -> set[str]:
+        """The :class:`~cepam_gym.tasks.task_params.TaskParams` fields the expressions read."""
+        texts = [e for _, e in self.quantities] + [t.expr for t in self.terms]
+        return set().union(*(_names_read(e)[1] for e in texts))
 
     def code(self) -> str:
         """What the compiled reward computes (names left out): two rewards with the same code share
@@ -159,15 +192,21 @@ _ERRORS = (
 )
 
 
-_EFFORT = Term("effort", "-w * 0.5 * (a0 * a0 + a1 * a1)", 0.05, "per unit mean squared action")
-_AIR = Term("air", "-w * air / task.air_unit", 0.05, "per air unit drawn from the supply in one step")
-_BURST = Term("burst", "-w if burst else 0.0", 100.0, "once, when a bladder bursts")
+_EFFORT = Term("effort", "-w * 0.5 * (a0 * a0 + a1 * a1)", 0.05, "-w mean(a^2)")
+_AIR = Term("air", "-w * air / task.air_unit", 0.05, "-w (air drawn from the supply this step) / {air}")
+_BURST = Term("burst", "-w if burst else 0.0", 100.0, "-w, once, when a chamber exceeds the burst pressure")
+_K_NOTE = "K the stiffness at constant pressures; counted when the task tracks stiffness"
 
 ABS_REWARD = Reward(
     name="abs",
     terms=(
-        Term("length", "-w * e_x", 1.0, "per tracking unit of |x - x*|, clipped"),
-        Term("stiffness", "-w * e_k if task.track_k != 0 else 0.0", 2.5, "per unit of |K / K* - 1|, clipped"),
+        Term("length", "-w * e_x", 1.0, "-w min(|x - x*| / {unit}, {clip})"),
+        Term(
+            "stiffness",
+            "-w * e_k if task.track_k != 0 else 0.0",
+            2.5,
+            "-w min(|K - K*| / K*, {kclip}), " + _K_NOTE,
+        ),
         _EFFORT,
         _AIR,
         _BURST,
@@ -179,16 +218,25 @@ ABS_REWARD = Reward(
 SCORE_REWARD = Reward(
     name="score",
     terms=(
-        Term("length", "-w * e_x * e_x if counted else 0.0", 1.0, "squared error in the score's unit"),
+        Term(
+            "length",
+            "-w * e_x * e_x if counted else 0.0",
+            1.0,
+            "-w min(|x - x*| / {unit}, {clip})^2 on the steps the score counts, else 0",
+        ),
         Term(
             "stiffness",
             "-w * e_k * e_k if counted and task.track_k != 0 else 0.0",
             1.0,
-            "squared relative error in the score's unit",
+            "-w min(|K / K* - 1| / {kunit}, {kclip})^2 on the steps the score counts, else 0; " + _K_NOTE,
         ),
         dataclasses.replace(_EFFORT, weight=1e-4),
         dataclasses.replace(_AIR, weight=1e-4),
-        dataclasses.replace(_BURST, weight=2000.0),
+        dataclasses.replace(
+            _BURST,
+            weight=2000.0,
+            doc=_BURST.doc + " (the return of an episode whose every step scores the failure weight 2)",
+        ),
     ),
     quantities=_ERRORS,
     allowance=True,
@@ -201,3 +249,24 @@ BUILTIN_REWARDS = {r.name: r for r in (ABS_REWARD, SCORE_REWARD)}
 # (20 % of stiffness prices as 10 deg: tasks.joint.JointRewardWeights)
 JOINT_ABS_REWARD = ABS_REWARD.renamed({"length": "angle"}, {"stiffness": 5.0})
 JOINT_SCORE_REWARD = SCORE_REWARD.renamed({"length": "angle"})
+
+
+def distinct(rewards) -> list[Reward]:
+    """The first of ``rewards`` with each compiled code, in order: the branches of one compiled
+    reward function (:func:`reward_index`)."""
+    out: dict[str, Reward] = {}
+    for r in rewards:
+        out.setdefault(r.code(), r)
+    return list(out.values())
+
+
+def reward_index(reward: Reward) -> int:
+    """The ``TaskParams.reward_index`` of ``reward``: its branch in the package's step, or 0 in a
+    step of its own."""
+    codes = [r.code() for r in distinct(BUILTIN_REWARDS.values())]
+    return codes.index(reward.code()) if reward.code() in codes else 0
+
+
+def is_builtin(reward: Reward) -> bool:
+    """Whether the package's compiled step computes ``reward``."""
+    return any(r.code() == reward.code() for r in BUILTIN_REWARDS.values())

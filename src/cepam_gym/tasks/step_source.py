@@ -24,21 +24,12 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .reward import BUILTIN_REWARDS, Reward
+from .reward import BUILTIN_REWARDS, Reward, distinct, is_builtin
 
 _PKG = Path(__file__).resolve().parents[1]
 _BUILTIN_FILE = Path(__file__).with_name("_reward_builtin.py")
 _REWARD_IMPORT = "from cepam_gym.tasks._reward_builtin import reward_terms"
 SIGNATURE = "x, x_target, v, K, K_target, a0, a1, air, burst, counted, task, terms"
-
-
-def distinct_codes(rewards) -> list[str]:
-    """The distinct compiled codes of ``rewards``, in first-seen order (the branch indices)."""
-    out: list[str] = []
-    for r in rewards:
-        if r.code() not in out:
-            out.append(r.code())
-    return out
 
 
 def _body(reward: Reward, indent: str) -> list[str]:
@@ -54,12 +45,8 @@ def _body(reward: Reward, indent: str) -> list[str]:
 def reward_source(rewards) -> str:
     """The source of the compiled ``reward_terms`` of ``rewards`` (a sequence of
     :class:`~cepam_gym.tasks.reward.Reward`; one branch per distinct code, chosen by
-    ``task.reward_index``: :func:`reward_index`)."""
-    firsts, seen = [], set()
-    for r in rewards:
-        if r.code() not in seen:
-            seen.add(r.code())
-            firsts.append(r)
+    ``task.reward_index``: :func:`~cepam_gym.tasks.reward.reward_index`)."""
+    firsts = distinct(rewards)
     names = ", ".join(r.name for r in firsts)
     out = [
         "@jit",
@@ -87,18 +74,6 @@ def builtin_text() -> str:
         "import math  # noqa: F401  (a term's expression may read it)\n\n"
         "from cepam_gym._jit import jit\n\n\n" + reward_source(list(BUILTIN_REWARDS.values()))
     )
-
-
-def reward_index(reward: Reward) -> int:
-    """The ``TaskParams.reward_index`` of ``reward``: its branch in the package's step, or 0 in a
-    step of its own."""
-    codes = distinct_codes(BUILTIN_REWARDS.values())
-    return codes.index(reward.code()) if reward.code() in codes else 0
-
-
-def is_builtin(reward: Reward) -> bool:
-    """Whether the package's compiled step computes ``reward``."""
-    return reward.code() in distinct_codes(BUILTIN_REWARDS.values())
 
 
 def cache_dir() -> Path:

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from .layout import OBS_FIELDS, ObsLayout
 from .records import Field, build, record
-from .reward import MAX_TERMS, Reward
-from .step_source import reward_index
+from .reward import MAX_TERMS, Reward, reward_index
 
 MAX_OBS = len(OBS_FIELDS)  # measured columns of a layout (one per measured quantity at most)
 
@@ -78,6 +78,12 @@ def task_params(
             )
         col = layout.columns[n]
         prev = (col.offset, col.scale, layout.columns[n + steps].scale if track_stiffness else 1.0)
+    unknown = sorted(reward.task_attributes() - set(TaskParams._fields))
+    if unknown:
+        raise InputError(
+            f"reward {reward.name!r} reads task.{', task.'.join(unknown)}; the task's parameters are "
+            f"{list(TaskParams._fields)}"
+        )
     w = np.zeros(MAX_TERMS)
     w[: len(reward.terms)] = reward.weight_values(weights)
     return build(
