@@ -105,9 +105,7 @@ class CEPAMBatch:
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
         self.obs_layout = self.task.layout
         self.task_params = self.task.params
-        # the compiled step of the task's reward (the package's, or one generated from a user's
-        # declaration: tasks.step_source)
-        self.step_module = step_module(self.task.reward)
+        self.step_module = step_module(self.task.reward)  # the step compiled with the task's reward
         self.obs_dim = self.obs_layout.size
         self.settings = build(StepSettings, mech=self.mech, mode=self.mode, dt=self.sub_dt, n_sub=self.n_sub)
         self._allocate(n)
@@ -357,12 +355,8 @@ class CEPAMBatch:
             )
         if self._kernels is None:
             parallel = self.num_envs >= pl.PARALLEL_MIN_BATCH  # else never called
-            self._kernels = (
-                bound(self.step_module._env_step_serial, self._step_args),
-                bound(self.step_module._env_step_parallel, self._step_args)
-                if parallel
-                else self.step_module._env_step_parallel,
-            )
+            serial, par = self.step_module._env_step_serial, self.step_module._env_step_parallel
+            self._kernels = (bound(serial, self._step_args), bound(par, self._step_args) if parallel else par)
         windowed = self.s.t_idx < self.n_window if self.n_window else None
         self.threads.run(*self._kernels, self._step_args)
         if windowed is not None:
