@@ -13,6 +13,7 @@ heavy; the modules do:
 |---|---|
 | ``config`` | YAML training config: finding and reading the files; every config name |
 | ``config_schema`` | the config's sections as frozen dataclasses, each checking its YAML |
+| ``agent_config`` | the config's ``agent`` section: what the policy sees and sends beside the env's own |
 | ``config_checks`` | ``ConfigError`` and the typed readers of YAML values |
 | ``algorithm`` | the SB3 algorithm a config names: class, policy, checks, constructor arguments |
 | ``features`` | what the agent sees and sends (baseline residual, history); the policies' input check |
