@@ -61,6 +61,7 @@ from dataclasses import dataclass, fields
 from ..errors import InputError
 from .joint import INIT_KEYS, PIN_KEYS, JointRewardWeights
 from .reward import ABS_REWARD
+from .rig_info import INFO_KEYS as RIG_INFO_KEYS
 from .spec import TERMINATION_NAMES, RewardWeights
 
 # the trace columns the benchmark scores (bench.harness records them; TraceSpec.info_keys maps
@@ -165,22 +166,7 @@ RIG = TaskContract(
     position_unit="m",
     stiffness_unit="N/m",
     weights=RewardWeights,
-    info_keys=(
-        "length",
-        "velocity",
-        "stiffness",
-        "stiffness_closed",
-        "force",
-        "pressure_c",
-        "pressure_e",
-        "temperature_c",
-        "temperature_e",
-        "air_used",
-        "load_mass",
-        "target_length",
-        "target_stiffness",
-        "redraws",
-    ),
+    info_keys=(*RIG_INFO_KEYS, "redraws"),  # declared with what each reads: tasks.rig_info
     pin_keys=("target_length", "target_stiffness", "load_mass"),
     score_keys={k: k for k in TRACE_COLUMNS},
     trade=ScoreTrade(unit="mm", scale=1000.0, score_norm=5.0),

@@ -15,24 +15,15 @@ from .contract import RIG
 from .layout import rig_layout
 from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
-from .reward import MAX_TERMS
-from .single import AUX_INFO, N_INFO
+from .rig_info import AUX, INFO_KEYS, LOAD, RIG_INFO, STATE, TARGET_K, TARGET_L, columns
 from .spec import TASKS, TaskSpec, check_kwargs
 from .task import Task
 from .task_params import allowance_of
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
-# the contract's info keys: length and velocity, then the columns read from aux in the order
-# tasks.step.env_step_single writes them, then load and targets (redraws comes from the state)
-INFO_KEYS = RIG.info_keys[: RIG.info_keys.index("redraws")]
-_AUX_NAMES = INFO_KEYS[2 : 2 + len(AUX_INFO)]
-_AUX_INFO = dict(zip(_AUX_NAMES, AUX_INFO))
-_AUX_ITEMS = tuple(_AUX_INFO.items())
-_AUX_COLS = np.array(list(_AUX_INFO.values()))
-_STATE_COLS = np.array([pl.S_L, pl.S_V])
-# a step's info keys before the reward terms, in the order of the single env's info row
-# (tasks.single.SingleExtras); the terms fill the rest of the row
-assert len(INFO_KEYS) == N_INFO - MAX_TERMS
+# the state's and aux's columns of the declared info (tasks.rig_info), gathered in one copy each
+_STATE_KEYS, _STATE_COLS = columns(STATE)
+_AUX_KEYS, _AUX_COLS = columns(AUX)
 
 
 class RigTask(Task):
@@ -165,15 +156,14 @@ class RigTask(Task):
     def info_single(self, s, scored: bool) -> dict[str, Any]:
         """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays (the
         single env's step is dominated by Python overhead, so this path is kept lean)."""
-        aux = s.aux[0].tolist()
         k = min(max(int(s.t_idx[0]) - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
-        state = s.state[0].tolist()
-        info = {"length": state[pl.S_L], "velocity": state[pl.S_V]}
-        for name, col in _AUX_ITEMS:
-            info[name] = aux[col]
-        info["load_mass"] = float(s.load[0, k])
-        info["target_length"] = float(s.target_l[0, k])
-        info["target_stiffness"] = float(s.target_k[0, k])
+        rows = {STATE: s.state[0].tolist(), AUX: s.aux[0].tolist()}
+        at_k = {
+            LOAD: float(s.load[0, k]),
+            TARGET_L: float(s.target_l[0, k]),
+            TARGET_K: float(s.target_k[0, k]),
+        }
+        info = {key: rows[src][col] if src in rows else at_k[src] for key, src, col in RIG_INFO}
         if scored:
             info.update(zip(self.term_keys, s.terms[0].tolist()))
         info["redraws"] = int(s.redraws[0])
@@ -184,11 +174,10 @@ class RigTask(Task):
         group is gathered in one copy and handed out as its rows (fresh arrays every step)."""
         k = np.minimum(np.maximum(s.t_idx - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
         r = np.arange(s.state.shape[0])
-        out = dict(zip(("length", "velocity"), np.ascontiguousarray(s.state[:, _STATE_COLS].T)))
-        out.update(zip(_AUX_INFO, np.ascontiguousarray(s.aux[:, _AUX_COLS].T)))
-        out["load_mass"] = s.load[r, k]
-        out["target_length"] = s.target_l[r, k]
-        out["target_stiffness"] = s.target_k[r, k]
+        got = dict(zip(_STATE_KEYS, np.ascontiguousarray(s.state[:, _STATE_COLS].T)))
+        got.update(zip(_AUX_KEYS, np.ascontiguousarray(s.aux[:, _AUX_COLS].T)))
+        at_k = {LOAD: s.load[r, k], TARGET_L: s.target_l[r, k], TARGET_K: s.target_k[r, k]}
+        out = {key: got[key] if src in (STATE, AUX) else at_k[src] for key, src, _ in RIG_INFO}
         if scored:
             out.update(zip(self.term_keys, np.ascontiguousarray(s.terms.T)))
         out["redraws"] = s.redraws.copy()

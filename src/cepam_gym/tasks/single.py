@@ -6,7 +6,8 @@ call (about 55 ns per array argument). Its :class:`~cepam_gym.tasks.state.EnvSta
 the values of its ``info`` and the plant's scratch therefore live in two slabs, one float64 and one
 int64 (:data:`SLABS`, derived from the records' declarations), beside the float32 observation; its
 step is one jitted call with these three arrays and two floats, which also writes the values of the
-step's ``info`` in order (length, velocity, the AUX_INFO columns, load, targets, reward terms).
+step's ``info`` in order (the rig's declared info, :mod:`cepam_gym.tasks.rig_info`, then the reward
+terms).
 Inside, the records are rebuilt from the slabs as borrowed views (``records.Slabs.reader``): a
 reshaped slice calls a helper and is reference counted across every call it is passed to, which
 cost 0.3 us of the single step's 0.7 us of fixed compiled work.
@@ -17,11 +18,13 @@ from __future__ import annotations
 from .. import plant as pl
 from .records import Field, Slabs, record
 from .reward import MAX_TERMS
+from .rig_info import RIG_INFO
 from .state import EnvState, StepSettings
 from .task_params import TaskParams
 
-AUX_INFO = (pl.A_STIFF, pl.A_STIFF_CLOSED, pl.A_FORCE, pl.A_PC, pl.A_PE, pl.A_TC, pl.A_TE, pl.A_AIR)
-N_INFO = 2 + len(AUX_INFO) + 3 + MAX_TERMS  # the terms a reward declares fill the first
+# the info row: the rig's declared info (tasks.rig_info), then the reward's terms (the first columns
+# of the MAX_TERMS)
+N_INFO = len(RIG_INFO) + MAX_TERMS
 NONFINITE_ACTION = -1  # tasks.step.env_step_single's reason for an action it refused
 
 SingleExtras = record(

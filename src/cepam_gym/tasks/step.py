@@ -31,7 +31,8 @@ from cepam_gym.physics.hinge import H_R
 from cepam_gym.plant.actions import plant_inputs
 from cepam_gym.tasks._reward_builtin import reward_terms  # the declared reward (tasks.step_source)
 from cepam_gym.tasks.kernel import mechanism_view, scored, termination, write_obs, write_preview
-from cepam_gym.tasks.single import AUX_INFO, NONFINITE_ACTION, SLAB_READERS
+from cepam_gym.tasks.rig_info import AUX, INFO_COL, INFO_SRC, LOAD, STATE, TARGET_L
+from cepam_gym.tasks.single import NONFINITE_ACTION, SLAB_READERS
 from cepam_gym.tasks.spec import TERMINATION_NONFINITE
 
 __all__ = ["env_step", "env_step_single", "reward_terms"]
@@ -127,15 +128,20 @@ def env_step_single(F, I, obs, a0, a1):
     # info of the scored step (the targets and load of the step just taken)
     n_steps = s.target_l.shape[1]
     k = min(max(s.t_idx[0] - 1, 0), n_steps - 1)
-    info, state, aux, terms = ex.info, s.state, s.aux, s.terms
-    info[0] = state[0, pl.S_L]
-    info[1] = state[0, pl.S_V]
-    for j in range(len(AUX_INFO)):
-        info[2 + j] = aux[0, AUX_INFO[j]]
-    j = 2 + len(AUX_INFO)
-    info[j] = s.load[0, k]
-    info[j + 1] = s.target_l[0, k]
-    info[j + 2] = s.target_k[0, k]
+    info, terms = ex.info, s.terms
+    n = INFO_SRC.shape[0]
+    for j in range(n):  # the rig's declared info (tasks.rig_info)
+        src, col = INFO_SRC[j], INFO_COL[j]
+        if src == STATE:
+            info[j] = s.state[0, col]
+        elif src == AUX:
+            info[j] = s.aux[0, col]
+        elif src == LOAD:
+            info[j] = s.load[0, k]
+        elif src == TARGET_L:
+            info[j] = s.target_l[0, k]
+        else:
+            info[j] = s.target_k[0, k]
     for m in range(terms.shape[1]):
-        info[j + 3 + m] = terms[0, m]
+        info[n + m] = terms[0, m]
     return s.rewards[0], s.reasons[0]
