@@ -225,8 +225,9 @@ NATIVE_ALGORITHMS = ("PPO", "RecurrentPPO", "SAC", "TD3")
 
 def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -> str:
     """The checked ``learner``: ``native`` (:mod:`agents.native_ppo`, :mod:`agents.native_offpolicy`)
-    runs PPO, RecurrentPPO, SAC or TD3 on the env's own observations and actions (its rollouts skip the SB3
-    wrappers the agent features live in)."""
+    runs PPO, RecurrentPPO, SAC or TD3 on arrays from the vector env, through the agent's features
+    (:mod:`agents.native_collection`) but for the privileged critic and the plant's columns (they
+    read the env beside the features: not carried to the native learner)."""
     if name not in LEARNERS:
         raise ConfigError(f"learner must be one of {list(LEARNERS)}, got {name!r}")
     if name == "sb3":
@@ -236,8 +237,8 @@ def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -
         why = f"algorithm {algo} (the native learner runs {', '.join(NATIVE_ALGORITHMS)})"
     elif student is not None:
         why = "a student section (a student is distilled, not trained by PPO)"
-    elif agent != AgentConfig():
-        why = "an agent section (the native learner drives the valves from the env's own observations)"
+    elif agent.privileged_critic or agent.plant_features:
+        why = "agent.privileged_critic or agent.plant_features"
     elif hp.get("use_sde"):
         why = "hyperparameters.use_sde (the native learner samples plain Gaussian actions)"
     elif algo != "PPO" and isinstance(hp.get("train_freq"), (list, tuple)):

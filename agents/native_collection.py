@@ -1,7 +1,11 @@
 """What the native learners share (``learner: native``): the vector env beneath the SB3 wrappers,
 stepped as arrays, with ``VecNormalize``'s statistics and ``VecMonitor``'s episode log kept by the
 same formulas in the same order, on whole arrays (:mod:`agents.native_ppo`,
-:mod:`agents.native_offpolicy`)."""
+:mod:`agents.native_offpolicy`). With an ``agent`` section, the agent's features
+(:class:`agents.features.Features`: set-point gaps, history, a residual...) are the agent wrapper's
+own object, applied in the wrapper's order: the policy's action mapped to the env's, the step,
+the finished envs' last observations featurised before their state is forgotten, then the new
+observation."""
 
 from __future__ import annotations
 
@@ -13,13 +17,16 @@ from cepam_gym.envs.vector import CEPAMVectorEnv
 
 
 def _unwrap(env):
-    """(the CE-PAM vector env beneath the SB3 wrappers, the ``VecNormalize`` among them or None)."""
+    """(the CE-PAM vector env beneath the SB3 wrappers, the ``VecNormalize`` among them or None, the
+    agent's features wrapper (:func:`agents.features.make_agent_vec_env`) or None)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
-    norm = None
+    norm = agent = None
     while not isinstance(env, CEPAMVectorEnv):
         if isinstance(env, VecNormalize):
             norm = env
+        if agent is None and hasattr(env, "features"):
+            agent = env
         inner = getattr(env, "venv", None)
         if inner is None:
             raise TypeError(
@@ -27,7 +34,7 @@ def _unwrap(env):
                 f"{type(env).__name__} has none beneath it"
             )
         env = inner
-    return env, norm
+    return env, norm, agent
 
 
 def last_step_infos(infos: dict, dones: np.ndarray) -> dict:
@@ -55,7 +62,7 @@ class NativeCollection:
     log kept as ``VecMonitor`` keeps it, all on whole arrays."""
 
     # the session's handles on the env and its episode counters are not part of the model
-    _SESSION = ("_venv", "_norm", "_ep_return", "_ep_length", "_t_start")
+    _SESSION = ("_venv", "_norm", "_agent", "_ep_return", "_ep_length", "_t_start")
 
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), *self._SESSION]
@@ -63,7 +70,7 @@ class NativeCollection:
     def _setup_learn(self, *args, **kwargs):
         before = self._last_obs
         out = super()._setup_learn(*args, **kwargs)
-        self._venv, self._norm = _unwrap(self.env)
+        self._venv, self._norm, self._agent = _unwrap(self.env)
         if self._last_obs is not before or not hasattr(self, "_ep_return"):  # the envs were reset
             self._on_reset()
         return out
@@ -83,9 +90,14 @@ class NativeCollection:
     def _step(self, actions: np.ndarray):
         """One step of the vector env, normalised by ``VecNormalize``'s own methods in the order
         of its ``step_wait``, with the episode log kept as ``VecMonitor`` keeps it."""
+        agent = self._agent
+        if agent is not None:
+            actions = agent.features.action(actions.reshape(len(actions), -1), agent._base)
         obs, rewards, terminated, truncated, infos = self._venv.step(actions)
         rewards = rewards.astype(np.float32)  # as the SB3 adapter hands them to VecNormalize
         dones = terminated | truncated
+        if agent is not None:
+            obs, infos = self._featurise(agent, obs, dones, infos)
         self._ep_return += rewards
         self._ep_length += 1
         # the log keeps the last maxlen episodes: the ones older than that are not written
@@ -109,3 +121,17 @@ class NativeCollection:
             rewards = norm.normalize_reward(rewards)
             norm.returns[dones] = 0
         return self._normalize_obs(obs), rewards, terminated, truncated, dones, infos
+
+    @staticmethod
+    def _featurise(agent, obs: np.ndarray, dones: np.ndarray, infos: dict):
+        """The agent's features of a step's observations, as its wrapper's ``step_wait`` makes
+        them: the finished envs' last observations (``final_obs``) featurised first, their state
+        then forgotten, then every env's new observation."""
+        features = agent.features
+        if dones.any():
+            full = np.array(obs, copy=True)
+            full[dones] = infos["final_obs"][dones]
+            infos = {**infos, "final_obs": features.peek(full)}
+            features.reset(np.flatnonzero(dones))
+        out, agent._base = features(obs)
+        return out, infos

@@ -39,7 +39,7 @@ def _cfg(**changes) -> TrainConfig:
     "changes, match",
     [
         ({"learner": "jax"}, "learner must be one of"),
-        ({"agent": {"residual": True}}, "does not take an agent section"),
+        ({"agent": {"privileged_critic": True}}, "does not take agent.privileged_critic"),
         ({"hyperparameters": {"use_sde": True}}, "does not take hyperparameters.use_sde"),
     ],
 )
@@ -71,16 +71,23 @@ def _model(cls, cfg):
     )
 
 
-def test_native_rollouts_are_sb3s_rollouts():
+@pytest.mark.parametrize(
+    "agent",
+    [{}, {"setpoint_gaps_in_obs": True}, {"residual": True, "history": 2, "obs_filters_s": [0.5]}],
+    ids=["env", "gaps", "residual-history-filters"],
+)
+def test_native_rollouts_are_sb3s_rollouts(agent):
     """Same seed, same env: the native collection fills the rollout buffer with SB3's numbers
     (observations, actions, normalised rewards with the time-limit bootstrap, episode starts,
     values, log-probabilities, returns, advantages), keeps VecNormalize's statistics and the
-    episode log as the wrappers do. 64 steps of episodes of 40: every env crosses a time limit."""
+    episode log as the wrappers do; with the agent's features (the baseline's set-point gaps; a
+    residual on the baseline with a history and a filter) as the features' wrapper makes them.
+    64 steps of episodes of 40: every env crosses a time limit."""
     from stable_baselines3 import PPO
 
     from cepam_gym_agents.native_ppo import NativePPO
 
-    cfg = _cfg()
+    cfg = _cfg(agent=agent)
     chunk = cfg.hyperparameters["n_steps"] * cfg.env.num_envs
     # one model at a time: the policy samples from torch's global generator, which each
     # constructor seeds
