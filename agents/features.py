@@ -278,6 +278,23 @@ class Features:
         self._priv_last = self.privileged.view()
         return self._priv_last
 
+    def after_step(self, obs: np.ndarray, done: np.ndarray, last: np.ndarray):
+        """``(features, baseline action, features of the finished envs' last observations)`` after a
+        vector step: ``obs`` (N, raw_dim) the new observations, ``done`` the indices of the envs
+        whose episode ended, ``last`` (len(done), raw_dim) their episodes' last observations (None
+        when none ended). The
+        last observations are featurised first (their episodes' state), then that state is
+        forgotten, then every env's new observation advances the state. The agent wrapper's
+        ``step_wait`` and the native learners (:mod:`agents.native_collection`) both call it."""
+        term = np.zeros((0, self.dim), np.float32)
+        if len(done):
+            full = np.array(obs, copy=True)
+            full[done] = last
+            term = self.peek(full)[done]
+            self.reset(done)
+        f, base = self(obs)
+        return f, base, term
+
     def peek(self, obs: np.ndarray) -> np.ndarray:
         """Features of ``obs`` without changing any state (terminal observations)."""
         saved = self._save()
@@ -383,15 +400,10 @@ def make_agent_vec_env(venv, cfg: AgentConfig):
         def step_wait(self):
             obs, rewards, dones, infos = self.venv.step_wait()
             done = np.flatnonzero(dones)
-            if done.size:
-                full = np.array(obs, copy=True)
-                for i in done:
-                    full[i] = infos[i]["terminal_observation"]
-                term = self.features.peek(full)
-                for i in done:
-                    infos[i]["terminal_observation"] = term[i]
-                self.features.reset(done)
-            f, self._base = self.features(obs)
+            last = np.array([infos[i]["terminal_observation"] for i in done]) if done.size else None
+            f, self._base, term = self.features.after_step(obs, done, last)
+            for j, i in enumerate(done):
+                infos[i]["terminal_observation"] = term[j]
             return f, rewards, dones, infos
 
     features = Features(venv, cfg, venv.observation_space.shape[0])

@@ -124,14 +124,14 @@ class NativeCollection:
 
     @staticmethod
     def _featurise(agent, obs: np.ndarray, dones: np.ndarray, infos: dict):
-        """The agent's features of a step's observations, as its wrapper's ``step_wait`` makes
-        them: the finished envs' last observations (``final_obs``) featurised first, their state
-        then forgotten, then every env's new observation."""
-        features = agent.features
-        if dones.any():
-            full = np.array(obs, copy=True)
-            full[dones] = infos["final_obs"][dones]
-            infos = {**infos, "final_obs": features.peek(full)}
-            features.reset(np.flatnonzero(dones))
-        out, agent._base = features(obs)
+        """The agent's features of a step's observations and of the finished envs' last ones
+        (``final_obs``), by the wrapper's own :meth:`agents.features.Features.after_step`."""
+        done = np.flatnonzero(dones)
+        out, agent._base, term = agent.features.after_step(
+            obs, done, infos["final_obs"][done] if done.size else None
+        )
+        if done.size:
+            final = np.zeros_like(out)
+            final[done] = term
+            infos = {**infos, "final_obs": final}
         return out, infos

@@ -16,6 +16,7 @@ declared step is a module whose functions numba caches like the package's own.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.util
@@ -104,8 +105,10 @@ def module_text(reward: Reward) -> str:
     return head + "\n\n" + reward_source([reward]) + "\n\n" + tail.lstrip("\n")
 
 
+@functools.cache
 def _package_stamp() -> str:
-    """A hash of the sources a step inlines (numba keys its cache by the module's own file)."""
+    """A hash of the sources a step inlines (numba keys its cache by the module's own file); read
+    once per process."""
     h = hashlib.sha1()
     for folder in ("physics", "plant", "tasks"):
         for p in sorted((_PKG / folder).glob("*.py")):
