@@ -80,6 +80,8 @@ class CEPAMEnv(gym.Env, EzPickle):
         info = self.core.task.info_single(self.core.s, scored)
         if self.core.n_window:
             info.update((k, bool(v[0])) for k, v in self.core.window_info(scored).items())
+        if self.core.planned:
+            info.update((k, float(v[0])) for k, v in self.core.schedule_info(scored).items())
         return info
 
     def __getstate__(self) -> dict[str, Any]:

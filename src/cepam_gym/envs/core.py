@@ -20,25 +20,22 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.actions import check_action_mode
 from ..tasks import kernel as tk
+from ..tasks import schedule as sched
 from ..tasks import window as win
 from ..tasks.planner import PARALLEL_MIN_ENVS
 from ..tasks.randomization import MAX_REDRAWS
 from ..tasks.records import allocate, build
 from ..tasks.registry import make_task
-from ..tasks.rng import Streams
 from ..tasks.single import single_slabs
 from ..tasks.state import EnvState, StepSettings, dims
 from ..tasks.step_source import step_module
 from ..tasks.task import Task
 from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
+from .streams import RandomStreams
 from .threads import KernelThreads, numba_threads
 
-# standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
-_N_NORMALS = 6
-_NORMAL_CHUNK = 32
 
-
-class CEPAMBatch:
+class CEPAMBatch(RandomStreams):
     """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`.
 
     What the envs are asked to do is the :class:`~cepam_gym.tasks.task.Task` object ``task`` (a
@@ -103,12 +100,26 @@ class CEPAMBatch:
         if not (np.isfinite(supply_drift_kpa) and supply_drift_kpa >= 0):
             raise InputError(f"supply_drift_kpa must be finite and >= 0, got {supply_drift_kpa!r}")
         self.supply_drift = float(supply_drift_kpa) * 1e3  # Pa per sqrt(s)
+        self.planned = self._declared_schedules(n)
         self.obs_layout = self.task.layout
         self.task_params = self.task.params
         self.step_module = step_module(self.task.reward)  # the step compiled with the task's reward
         self.obs_dim = self.obs_layout.size
         self.settings = build(StepSettings, mech=self.mech, mode=self.mode, dt=self.sub_dt, n_sub=self.n_sub)
         self._allocate(n)
+
+    def _declared_schedules(self, n: int) -> sched.PlannedSchedules | None:
+        """The task's declared schedules of plant parameters (:mod:`cepam_gym.tasks.schedule`), or
+        None without any."""
+        declared = self.task.schedules
+        if not declared:
+            return None
+        if self.supply_drift and any(s.column == "P_SUP" for s in declared):
+            raise InputError(
+                "supply_drift_kpa drifts the supply pressure, which a schedule of the task drives: "
+                "drop one of them"
+            )
+        return sched.PlannedSchedules(declared, n, self.n_steps, self.n_window)
 
     def _allocate(self, n: int) -> None:
         """The env state's arrays for ``n`` envs at the nominal plant, the latency queue, the
@@ -117,7 +128,9 @@ class CEPAMBatch:
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency or supply drift steps through one jitted call
         # (tasks.step.env_step_single) on slabs its state's arrays are views of
-        self.fast_single = n == 1 and not self.latency and not self.supply_drift and not self.n_window
+        self.fast_single = (
+            n == 1 and not self.latency and not self.supply_drift and not self.n_window and not self.planned
+        )
         if n == 1:
             self.slabs, self.s, extras = single_slabs(
                 self.n_steps, self.obs_dim, self.settings, self.task_params
@@ -147,6 +160,9 @@ class CEPAMBatch:
         out.update((k, getattr(self, k).copy()) for k in self._CORE_ARRAYS)
         out["rngs"] = [r.bit_generator.state for r in self.streams.generators()]
         out["noise_rngs"] = [r.bit_generator.state for r in self.noise_rngs]
+        if self.planned:
+            out["schedules"] = self.planned.values.copy()
+            out["schedule_rngs"] = [r.bit_generator.state for r in self.schedule_rngs]
         out["needs_reset"] = self.needs_reset
         return out
 
@@ -160,6 +176,10 @@ class CEPAMBatch:
             r.bit_generator.state = st
         for r, st in zip(self.noise_rngs, episode["noise_rngs"]):
             r.bit_generator.state = st
+        if self.planned:
+            self.planned.values[...] = episode["schedules"]
+            for r, st in zip(self.schedule_rngs, episode["schedule_rngs"]):
+                r.bit_generator.state = st
         self.needs_reset = episode["needs_reset"]
 
     def __getstate__(self) -> dict[str, Any]:
@@ -173,45 +193,6 @@ class CEPAMBatch:
         self.restore(st["episode"])
 
     # ------------------------------------------------------------------ reset
-    def seed(self, seed: int | None) -> None:
-        """Per-env random streams spawned from ``numpy.random.SeedSequence(seed)``.
-
-        Env i of the batch owns stream ``self.stream + i``: the seed sequence
-        ``SeedSequence(seed, spawn_key=(stream + i,))`` (``SeedSequence(seed).spawn(n)[i]`` for
-        ``stream == 0``), whose two children feed (0) parameter draws and schedules and (1) sensor
-        noise and supply drift. Streams of different seeds, and of different envs of one seed,
-        are independent (no ``seed + i`` overlaps); an env's draws never depend on the batch it is
-        in, so env i of a batch seeded ``s`` follows exactly a single env seeded ``s`` whose
-        ``stream`` kwarg is i. ``None``: fresh OS entropy."""
-        root = np.random.SeedSequence(seed)
-        rngs, self.noise_rngs = [], []
-        for i in range(self.num_envs):
-            env_ss = np.random.SeedSequence(root.entropy, spawn_key=(self.stream + i,))
-            main, noise = env_ss.spawn(2)
-            rngs.append(np.random.Generator(np.random.PCG64(main)))
-            self.noise_rngs.append(np.random.Generator(np.random.PCG64(noise)))
-        # the reset's compiled draws keep the main streams' states as rows between resets
-        self.streams = Streams(rngs)
-        # buffered standard normals per env (columns: 5 sensor-noise channels, supply drift),
-        # refilled _NORMAL_CHUNK steps at a time from each env's own noise stream
-        draws = self.has_noise or bool(self.supply_drift)
-        self._normals = np.zeros((self.num_envs if draws else 0, _NORMAL_CHUNK, _N_NORMALS))
-        self._normal_pos = np.full(self.num_envs, _NORMAL_CHUNK, dtype=np.int64)
-
-    def _next_normals(self, idx: np.ndarray | None = None) -> np.ndarray:
-        """One row of standard normals per env of ``idx`` (all if None), each from its own stream."""
-        pos = self._normal_pos if idx is None else self._normal_pos[idx]
-        if (pos >= _NORMAL_CHUNK).any():
-            envs = np.arange(self.num_envs) if idx is None else np.asarray(idx)
-            for i in envs[pos >= _NORMAL_CHUNK]:
-                self._normals[i] = self.noise_rngs[i].standard_normal((_NORMAL_CHUNK, _N_NORMALS))
-                self._normal_pos[i] = 0
-            pos = self._normal_pos if idx is None else self._normal_pos[idx]
-        rows = np.arange(self.num_envs) if idx is None else idx
-        out = self._normals[rows, pos]
-        self._normal_pos[rows] += 1
-        return out
-
     def apply_options(self, options: dict | None) -> None:
         """``reset(options=...)``: the task's pin keys (``task.pin_keys``; the rig's:
         target_length [m], target_stiffness [N/m], load_mass [kg] held for the episode, scalars
@@ -255,6 +236,9 @@ class CEPAMBatch:
             self.s.params[idx], self.s.redraws[idx] = self._nominal_row, 0
         tl, tkk, load, initial = self._schedules(idx)
         self.s.target_l[idx], self.s.target_k[idx], self.s.load[idx] = tl, tkk, load
+        if self.planned:  # the declared schedules' first values are in the rows the start reads
+            rngs = [self.schedule_rngs[i] for i in idx]
+            self.planned.plan(idx, rngs, self.s.params, self.control_dt)
         self.task.start(self.s, idx, initial)
         self.s.prev_action[idx] = 0.0
         self.queue[:, idx] = 0.0
@@ -302,21 +286,6 @@ class CEPAMBatch:
         return tuple(out)
 
     # ------------------------------------------------------------------- step
-    def _draw_noise(self, idx: np.ndarray | None = None) -> np.ndarray | None:
-        """Fresh sensor noise of the envs ``idx`` (all if None), written in place (the kernel's
-        argument tuple holds this buffer). With supply drift on, the drift's normal comes from
-        the same row, so every step consumes one row of each env's stream. Returns the drift
-        normals (None when neither noise nor drift is on)."""
-        if self.has_noise or self.supply_drift:
-            z = self._next_normals(idx)
-            if self.has_noise:
-                if idx is None:
-                    self.s.noise[:] = z[:, : tk.N_NOISE] * self.noise_sd
-                else:
-                    self.s.noise[idx] = z[:, : tk.N_NOISE] * self.noise_sd
-            return z[:, tk.N_NOISE]
-        return None
-
     def check_actions(self, actions, single: bool = False) -> np.ndarray:
         """A float64 (N, 2) copy of ``actions``; ``InputError`` on a wrong shape (exactly (2,) for
         a ``single`` env, (N, 2) for a batch: :func:`~.checks.as_actions`), NaN or inf.
@@ -353,6 +322,8 @@ class CEPAMBatch:
             self.s.params[rows, ix.P_SUP] = np.clip(
                 self.s.params[rows, ix.P_SUP] + walk, 0.8 * nominal, 1.2 * nominal
             )
+        if self.planned:
+            self.planned.apply(self.s.params, self.s.t_idx)
         if self._kernels is None:
             parallel = self.num_envs >= pl.PARALLEL_MIN_BATCH  # else never called
             serial, par = self.step_module._env_step_serial, self.step_module._env_step_parallel
@@ -380,6 +351,11 @@ class CEPAMBatch:
         if not self.n_window:
             return {}
         return {win.INFO_KEY: win.in_window(self.s.t_idx, self.n_window, scored)}
+
+    def schedule_info(self, scored: bool) -> dict[str, np.ndarray]:
+        """The task's declared schedules (:mod:`cepam_gym.tasks.schedule`) at the step just taken
+        (``scored``; after a reset: the next one), per env and SI; empty without any."""
+        return self.planned.info(self.s.t_idx, scored) if self.planned else {}
 
     def current_targets(self):
         """(target length, target stiffness, load) each env is asked for at its current step."""

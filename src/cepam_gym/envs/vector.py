@@ -150,6 +150,8 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         info = self.core.task.info_arrays(self.core.s, scored)
         if self.core.n_window:  # (no second dict per step without a window)
             info.update(self.core.window_info(scored))
+        if self.core.planned:
+            info.update(self.core.schedule_info(scored))
         return info
 
     def __getstate__(self) -> dict[str, Any]:

@@ -16,9 +16,11 @@ from .layout import rig_layout
 from .planner import planned_schedules, start_at_rest
 from .randomization import Randomizer
 from .rig_info import AUX, INFO_KEYS, LOAD, RIG_INFO, STATE, TARGET_K, TARGET_L, columns
+from .schedule import check_schedules
 from .spec import TASKS, TaskSpec, check_kwargs
 from .task import Task
 from .task_params import allowance_of
+from .window import INFO_KEY
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
 # the state's and aux's columns of the declared info (tasks.rig_info), gathered in one copy each
@@ -41,6 +43,8 @@ class RigTask(Task):
         self.preview_steps = int(preview_steps)
         self.track_stiffness = bool(spec.track_stiffness)
         self.step_keys = (*INFO_KEYS, *spec.reward.term_keys)
+        reserved = (*RIG.info_keys, *spec.reward.term_keys, "termination_reason", INFO_KEY)
+        check_schedules(spec.schedules, reserved)
 
     @classmethod
     def from_kwargs(cls, task, task_options=None, reward_weights=None, preview_steps: int = 0) -> RigTask:
@@ -52,7 +56,10 @@ class RigTask(Task):
             raise TypeError(f"task must be a task name or a TaskSpec, got {type(task).__name__}")
         if task_options:
             opts = check_kwargs(
-                TaskSpec, task_options, "task_options", exclude=("name", "weights", "scales", "reward")
+                TaskSpec,
+                task_options,
+                "task_options",
+                exclude=("name", "weights", "scales", "reward", "schedules"),
             )
             opts = {k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()}
             task = dataclasses.replace(task, **opts)

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import InputError
 from .reward import ABS_REWARD, BUILTIN_REWARDS, SCORE_REWARD, Reward
+from .schedule import Schedule, check_schedules
 
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
 # the package's rewards by name (tasks.reward): "abs" the clipped absolute errors of the v0-v2 ids,
@@ -106,6 +107,9 @@ class TaskSpec:
     # the reward (tasks.reward): its terms, their expressions and default weights; ``weights`` holds
     # one weight per term (with_reward sets both)
     reward: Reward = ABS_REWARD
+    # plant parameters the task drives step by step, each planned per episode (tasks.schedule;
+    # e.g. a supply pressure that drops), reported in the info under their names
+    schedules: tuple[Schedule, ...] = ()
 
     def __post_init__(self):
         lo, hi = self.length_range
@@ -138,6 +142,7 @@ class TaskSpec:
         if not isinstance(self.reward, Reward):
             raise InputError(f"reward must be a tasks.reward.Reward, got {type(self.reward).__name__}")
         self.reward.weight_values(self.weights)
+        object.__setattr__(self, "schedules", check_schedules(self.schedules))
         w = self.id_window_s
         if isinstance(w, bool) or not isinstance(w, (int, float)) or not (np.isfinite(w) and 0 <= w <= 600):
             raise InputError(f"id_window_s is in seconds and must lie in [0, 600], got {w!r}")

@@ -67,6 +67,11 @@ class Task:
         return self.spec.reward
 
     @property
+    def schedules(self) -> tuple:
+        """The plant parameters the task drives step by step (:mod:`cepam_gym.tasks.schedule`)."""
+        return tuple(getattr(self.spec, "schedules", ()))
+
+    @property
     def reward_terms(self) -> tuple[str, ...]:
         """The reward's term names, in order (``info["reward_<term>"]``)."""
         return self.reward.names
