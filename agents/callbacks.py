@@ -41,6 +41,31 @@ class Session(Protocol):
     def wall(self) -> float: ...
 
 
+def info_sums(infos, keys, contract, track_stiffness: bool):
+    """``(sums, count)`` of a step's infos (a list of dicts, or the native learner's dict of arrays
+    with Gymnasium's masks): each reward term's sum over the envs and the summed position and
+    stiffness errors, in the contract's units; None when the infos hold none of it. ``keys``: the
+    position, its target, the stiffness, its target, then the reward terms (envs.info_keys)."""
+    if isinstance(infos, dict):  # the native learner's dict of arrays (last-step entries)
+        if not all(k in infos for k in keys):
+            return None
+        scored = np.ones(len(infos[keys[0]]), bool)
+        for k in keys:  # Gymnasium's masks: the envs whose info holds the entry
+            scored &= np.asarray(infos.get("_" + k, True), dtype=bool)
+        vals = np.column_stack([np.asarray(infos[k], dtype=float)[scored] for k in keys])
+    elif not infos or keys[0] not in infos[0]:
+        return None
+    else:
+        vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
+    row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
+    trade = contract.trade  # e.g. length_error_mm, angle_error_deg
+    row[f"{contract.position}_error_{trade.unit}"] = trade.scale * np.abs(vals[:, 0] - vals[:, 1]).sum()
+    if track_stiffness:
+        K, Kt = vals[:, 2], vals[:, 3]
+        row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
+    return row, len(vals)
+
+
 def make_callback_class():
     """The callback class (built on first use: SB3 is imported only when training)."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -94,31 +119,12 @@ def make_callback_class():
             return True
 
         def _accumulate(self, infos) -> None:
-            # the keys: position, its target, stiffness, its target, then the reward terms
-            # (envs.info_keys, by the task's contract)
-            keys = self.t.info_keys
-            if isinstance(infos, dict):  # the native learner's dict of arrays (last-step entries)
-                if not all(k in infos for k in keys):
-                    return
-                scored = np.ones(len(infos[keys[0]]), bool)
-                for k in keys:  # Gymnasium's masks: the envs whose info holds the entry
-                    scored &= np.asarray(infos.get("_" + k, True), dtype=bool)
-                vals = np.column_stack([np.asarray(infos[k], dtype=float)[scored] for k in keys])
-            elif not infos or keys[0] not in infos[0]:
-                return
-            else:
-                vals = np.array([[inf[k] for k in keys] for inf in infos], dtype=float)
-            row = {k: vals[:, j].sum() for j, k in enumerate(keys) if k.startswith("reward_")}
-            trade = self.t.contract.trade  # e.g. length_error_mm, angle_error_deg
-            row[f"{self.t.contract.position}_error_{trade.unit}"] = (
-                trade.scale * np.abs(vals[:, 0] - vals[:, 1]).sum()
-            )
-            if self.t.track_stiffness:
-                K, Kt = vals[:, 2], vals[:, 3]
-                row["stiffness_error_pct"] = 100.0 * np.abs((K - Kt) / Kt).sum()
-            for k, v in row.items():
-                self._sums[k] = self._sums.get(k, 0.0) + float(v)
-            self._count += len(vals)
+            got = info_sums(infos, self.t.info_keys, self.t.contract, self.t.track_stiffness)
+            if got is not None:
+                row, count = got
+                for k, v in row.items():
+                    self._sums[k] = self._sums.get(k, 0.0) + float(v)
+                self._count += count
 
         def _log(self) -> None:
             if self._count:

@@ -13,8 +13,6 @@ def make_train_env(cfg: TrainConfig, seed: int):
     """SB3 VecEnv: native batched env (one process) -> agent features -> VecNormalize (optional)."""
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
 
-    from .features import make_agent_vec_env
-
     env = make_sb3_vec_env(cfg.env.id, num_envs=cfg.env.num_envs, seed=seed, **cfg.env.kwargs)
     return make_agent_vec_env(env, cfg.agent)
 
@@ -59,3 +57,50 @@ def info_keys(contract) -> list[str]:
     then its reward terms."""
     cols = ("length", "target_length", "stiffness", "target_stiffness")
     return [contract.score_keys[c] for c in cols] + list(contract.term_keys)
+
+
+def make_agent_vec_env(venv, cfg):
+    """Wrap an SB3 VecEnv of the CE-PAM env so that it shows and takes the agent's features
+    (:class:`agents.features.Features` of the config's ``agent`` section ``cfg``; identity when it
+    is trivial). Imports stable-baselines3."""
+    import numpy as np
+    from gymnasium import spaces
+    from stable_baselines3.common.vec_env import VecEnvWrapper
+
+    from .features import Features
+
+    class AgentVecEnv(VecEnvWrapper):
+        def __init__(self, venv, features: Features):
+            space = spaces.Box(-10.0, 10.0, (features.dim,), np.float32)
+            act = spaces.Box(-1.0, 1.0, (features.n_actions,), np.float32)
+            super().__init__(venv, observation_space=space, action_space=act)
+            self.features = features
+            self._base = None
+
+        def reset(self):
+            obs = self.venv.reset()
+            self.features.reset()
+            f, self._base = self.features(obs)
+            return f
+
+        def step_async(self, actions) -> None:
+            a = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, self.features.n_actions)
+            self.venv.step_async(self.features.action(a, self._base))
+
+        def step_wait(self):
+            obs, rewards, dones, infos = self.venv.step_wait()
+            done = np.flatnonzero(dones)
+            last = np.array([infos[i]["terminal_observation"] for i in done]) if done.size else None
+            f, self._base, term = self.features.after_step(obs, done, last)
+            for j, i in enumerate(done):
+                infos[i]["terminal_observation"] = term[j]
+            return f, rewards, dones, infos
+
+    features = Features(venv, cfg, venv.observation_space.shape[0])
+    if features.trivial:
+        return venv
+    if features.priv_dim:  # training: the privileged columns come from this env
+        features.privileged = features._view
+    if features.plant_dim:  # training: the actor is told this env's true plant
+        features.use_true_plant()
+    return AgentVecEnv(venv, features)

@@ -21,7 +21,7 @@
   whose excitation drives the window: :attr:`Features.window`).
 * ``privileged_critic``: the privileged columns (:mod:`agents.privileged`) follow, for the
   critic only: read from the env during training (``privileged`` set by
-  :func:`make_agent_vec_env`), NaN when deployed (:mod:`agents.asymmetric` masks them).
+  :func:`agents.envs.make_agent_vec_env`), NaN when deployed (:mod:`agents.asymmetric` masks them).
 
 The baseline (:class:`cepam_gym.control.InverseStaticController`) keeps filter and integrator
 state per env; :meth:`Features.reset` forgets it for finished episodes. Pure numpy.
@@ -371,46 +371,3 @@ class Features:
         if self.cfg.target_shift:
             return base.astype(np.float32)
         return a
-
-
-def make_agent_vec_env(venv, cfg: AgentConfig):
-    """Wrap an SB3 VecEnv of the CE-PAM env so that it shows and takes the agent's features
-    (identity when ``cfg`` is trivial). Imports stable-baselines3."""
-    from gymnasium import spaces
-    from stable_baselines3.common.vec_env import VecEnvWrapper
-
-    class AgentVecEnv(VecEnvWrapper):
-        def __init__(self, venv, features: Features):
-            space = spaces.Box(-10.0, 10.0, (features.dim,), np.float32)
-            act = spaces.Box(-1.0, 1.0, (features.n_actions,), np.float32)
-            super().__init__(venv, observation_space=space, action_space=act)
-            self.features = features
-            self._base = None
-
-        def reset(self):
-            obs = self.venv.reset()
-            self.features.reset()
-            f, self._base = self.features(obs)
-            return f
-
-        def step_async(self, actions) -> None:
-            a = np.asarray(actions, dtype=np.float32).reshape(self.num_envs, self.features.n_actions)
-            self.venv.step_async(self.features.action(a, self._base))
-
-        def step_wait(self):
-            obs, rewards, dones, infos = self.venv.step_wait()
-            done = np.flatnonzero(dones)
-            last = np.array([infos[i]["terminal_observation"] for i in done]) if done.size else None
-            f, self._base, term = self.features.after_step(obs, done, last)
-            for j, i in enumerate(done):
-                infos[i]["terminal_observation"] = term[j]
-            return f, rewards, dones, infos
-
-    features = Features(venv, cfg, venv.observation_space.shape[0])
-    if features.trivial:
-        return venv
-    if features.priv_dim:  # training: the privileged columns come from this env
-        features.privileged = features._view
-    if features.plant_dim:  # training: the actor is told this env's true plant
-        features.use_true_plant()
-    return AgentVecEnv(venv, features)

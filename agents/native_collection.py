@@ -18,7 +18,7 @@ from cepam_gym.envs.vector import CEPAMVectorEnv
 
 def _unwrap(env):
     """(the CE-PAM vector env beneath the SB3 wrappers, the ``VecNormalize`` among them or None, the
-    agent's features wrapper (:func:`agents.features.make_agent_vec_env`) or None)."""
+    agent's features wrapper (:func:`agents.envs.make_agent_vec_env`) or None)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     norm = agent = None

@@ -231,12 +231,35 @@ def as_ppo(cfg: TrainConfig, actor: _Actor, mean, std, scale, seed: int):
     return model, env
 
 
+def _score_and_record(
+    cfg: TrainConfig, run: Path, record, rounds: list, labels: int, t0: float, stopped: bool, say
+):
+    """Score the saved student on the config's evaluation episodes beside the baseline, and write
+    the run directory's evaluations, summary and status."""
+    from .envs import eval_env_spec
+    from .policy import baseline_score, evaluate, load_policy
+
+    env_id, kwargs, spec = eval_env_spec(cfg)
+    metrics = evaluate(
+        lambda venv: load_policy(run, venv, "final"), env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec
+    )
+    wall = round(time.perf_counter() - t0, 1)
+    baseline = baseline_score(env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec)
+    if baseline is not None:
+        metrics["baseline_score"] = baseline
+    summary = {"labels": labels, "rounds": rounds, "wall_s": wall, "eval": metrics}
+    write_json(run / "evaluations.json", [{"step": labels, **metrics}])
+    write_json(run / "summary.json", {"steps": labels, **summary})
+    status = "stopped_by_time_limit" if stopped else "finished"
+    record.write(status, 0, steps=labels, wall_s=wall)
+    beside = "" if baseline is None else f", the baseline {baseline:.4f} on the same episodes"
+    say(f"{status} in {wall} s; eval score {metrics['score']:.4f}{beside} ({json.dumps(cfg.eval.suite)})")
+
+
 def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -> int:
     """DAgger rounds, then save and score the student (the run directory's usual files)."""
 
     from .checkpoints import save_model
-    from .envs import eval_env_spec
-    from .policy import baseline_score, evaluate, load_policy
 
     check_student(cfg)
     threads = TorchThreads(cfg.torch_threads)
@@ -299,19 +322,5 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
     model, vecnorm = as_ppo(cfg, actor, mean, std, scale, cfg.seed)
     save_model(run, "final", model, vecnorm)
     vecnorm.close()
-    env_id, kwargs, spec = eval_env_spec(cfg)
-    metrics = evaluate(
-        lambda venv: load_policy(run, venv, "final"), env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec
-    )
-    wall = round(time.perf_counter() - t0, 1)
-    baseline = baseline_score(env_id, kwargs, cfg.eval.episodes, cfg.eval.seed, spec)
-    if baseline is not None:
-        metrics["baseline_score"] = baseline
-    summary = {"labels": int(sum(len(v) for v in xs)), "rounds": rounds, "wall_s": wall, "eval": metrics}
-    write_json(run / "evaluations.json", [{"step": summary["labels"], **metrics}])
-    write_json(run / "summary.json", {"steps": summary["labels"], **summary})
-    status = "stopped_by_time_limit" if stopped else "finished"
-    record.write(status, 0, steps=summary["labels"], wall_s=wall)
-    beside = "" if baseline is None else f", the baseline {baseline:.4f} on the same episodes"
-    say(f"{status} in {wall} s; eval score {metrics['score']:.4f}{beside} ({json.dumps(cfg.eval.suite)})")
+    _score_and_record(cfg, run, record, rounds, int(sum(len(v) for v in xs)), t0, stopped, say)
     return 0

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cepam_gym.physics import layout as ix
-from cepam_gym.physics import muscle, statics
+from cepam_gym.physics import muscle, statics, stretch
 from cepam_gym.plant.params import preset
 from cepam_gym.validation.calibrate_v2 import v2_experiments
 from cepam_gym.validation.equilibrium import simulate
@@ -49,7 +49,7 @@ def test_stretched_slopes_without_stretch_are_the_braid_terms(v2):
     row = v2.to_array()
     for L in (0.15, 0.17, 0.195):
         _, _, dvc, dvac, d2vc, d2vac = muscle.cpam_terms(L, row)
-        got = muscle.stretched_slopes.py_func(
+        got = stretch.stretched_slopes.py_func(
             L, 1e5, 0.0, 0.0, row[ix.BC], row[ix.QC], row[ix.TAN_C], row[ix.PTA2]
         )
         np.testing.assert_allclose(got[:4], (dvc, dvac, d2vc, d2vac), rtol=1e-10)

@@ -17,6 +17,7 @@ local interval vouches for nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -169,32 +170,8 @@ def identify(
     supplies = [r.supply for r in recs if r.supply is not None]
     if supplies:  # the logs' supply (their mean) goes into the plant the env will run
         params = params.replace(supply_pressure=float(np.mean(supplies)))
-    # every recording, fitted and held out, scored by the fit and by the preset alone
-    held_recs, n_held = _grid(held, sub_dt)
-    score = Problem(fit_recs + held_recs, n_fit + n_held, sub_dt, base_params, mode, names, warmup_s, bounds)
-    z_base = problem.start()
-    z_base[k:] = _neutral_z(problem)
-    records = []
-    for i, rec in enumerate(score.recordings):
-        pred, pre = score.predict(z, i), score.predict(z_base, i)
-        s = score._scored(rec).start
-        role = "fitted" if i < len(fit_recs) else "held out"
-        sc = Scored(rec.name, role, rec.time, rec.measured, pred, pre, s)
-        sc.fit, sc.base = scores(pred[s:], rec.measured[s:]), scores(pre[s:], rec.measured[s:])
-        records.append(sc)
-    notes = list(unc.notes)
-    if inflation > MAX_INFLATION:
-        notes.append(
-            f"the residuals are correlated in time (intervals widened x{np.sqrt(inflation):.2g}): the fit "
-            "did not reach the sensor noise (a model structure that differs from the rig's, or a local "
-            "minimum: try more --starts, --free the parameters the rig may differ in), so no value is "
-            "called identifiable"
-        )
-    if np.any(at_bound):
-        notes.append(
-            "at a bound (no confidence interval): " + ", ".join(np.array(problem.scale.names)[at_bound])
-        )
-    notes += fitcore.correlation_notes(problem.scale.names, unc.cov, at_bound)
+    records = _scored_records(problem, z, held)
+    notes = _fit_notes(problem, unc, inflation, at_bound)
     return Identification(
         preset=base,
         mode=mode,
@@ -219,6 +196,43 @@ def identify(
         notes=notes,
         k=k,
     )
+
+
+def _scored_records(problem: Problem, z: np.ndarray, held: list) -> list:
+    """Every recording, fitted (``problem``'s) and ``held`` out, scored by the fit ``z`` and by the
+    preset alone."""
+    fit_recs = problem.recordings
+    held_recs, n_held = _grid(held, problem.sub_dt)
+    score = dataclasses.replace(problem, recordings=fit_recs + held_recs, n_sub=problem.n_sub + n_held)
+    z_base = problem.start()
+    z_base[problem.k :] = _neutral_z(problem)
+    records = []
+    for i, rec in enumerate(score.recordings):
+        pred, pre = score.predict(z, i), score.predict(z_base, i)
+        s = score._scored(rec).start
+        role = "fitted" if i < len(fit_recs) else "held out"
+        sc = Scored(rec.name, role, rec.time, rec.measured, pred, pre, s)
+        sc.fit, sc.base = scores(pred[s:], rec.measured[s:]), scores(pre[s:], rec.measured[s:])
+        records.append(sc)
+    return records
+
+
+def _fit_notes(problem, unc, inflation: float, at_bound: np.ndarray) -> list[str]:
+    """What a reader of the fit must know: correlated residuals, values at a bound, correlations."""
+    notes = list(unc.notes)
+    if inflation > MAX_INFLATION:
+        notes.append(
+            f"the residuals are correlated in time (intervals widened x{np.sqrt(inflation):.2g}): the fit "
+            "did not reach the sensor noise (a model structure that differs from the rig's, or a local "
+            "minimum: try more --starts, --free the parameters the rig may differ in), so no value is "
+            "called identifiable"
+        )
+    if np.any(at_bound):
+        notes.append(
+            "at a bound (no confidence interval): " + ", ".join(np.array(problem.scale.names)[at_bound])
+        )
+    notes += fitcore.correlation_notes(problem.scale.names, unc.cov, at_bound)
+    return notes
 
 
 def _neutral_z(problem: Problem) -> np.ndarray:

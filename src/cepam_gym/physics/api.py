@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from . import bladder, muscle, statics, valve
 from . import layout as ix
-from . import muscle, statics, valve
 
 __all__ = [
     "force_terms",
@@ -168,7 +168,7 @@ def contact_pressures(length, params):
 
 @njit
 def _energy(L, p):
-    return muscle.bladder_energies(L, p)
+    return bladder.bladder_energies(L, p)
 
 
 def bladder_energy(length, params):

@@ -21,6 +21,8 @@ import math
 
 from .._jit import fmax, jit, jit_inline, sqrt
 from . import layout as ix
+from .bladder import bladder_energy_k
+from .stretch import stretched_slopes, stretched_thread
 
 
 @jit
@@ -174,51 +176,6 @@ def cepam_force(L, pc, pe, p):
 
 
 @jit_inline
-def bladder_energy_k(L, inv_b, dk, scale, inv_lref, inv_dref):
-    """Strain energy of one bladder wall and its first two length derivatives, ``(U, dU/dL, d2U/dL2)``.
-
-    Thin-wall incompressible neo-Hookean cylinder (the elastic energy of Klute and Hannaford 2000,
-    there with a Mooney-Rivlin law; neo-Hookean is its one-constant case):
-    ``U = mu V_r (lam1^2 + lam2^2 + (lam1 lam2)^-2 - 3) / 2`` with the axial stretch
-    ``lam1 = L / L_ref`` (the bladder is glued to both end caps) and the hoop stretch
-    ``lam2 = D(L) / D(L_ref)`` (the bladder follows the braid, Eq. 2; stress-free in the muscle's
-    unpressurised rest configuration). ``scale = mu V_r`` (rubber volume ``pi (D_o - t_b) t_b L_ref``
-    of a tube of outer diameter ``D_o``);
-    ``scale = 0`` gives exact zeros. The derivatives are exact (``K = -dF/dL`` needs the second).
-    """
-    u = L * inv_b
-    s2 = 1.0 - u * u
-    s = sqrt(s2)
-    inv_s = 1.0 / s
-    l1 = L * inv_lref
-    l1p = inv_lref
-    l2 = dk * s * inv_dref
-    l2p = -dk * u * inv_b * inv_s * inv_dref  # dD/dL = -dk L / (b^2 s)
-    l2pp = -dk * inv_b * inv_b * inv_s * inv_s * inv_s * inv_dref  # d2D/dL2 = -dk / (b^2 s^3)
-    j = l1 * l2
-    jp = l1p * l2 + l1 * l2p
-    jpp = 2.0 * l1p * l2p + l1 * l2pp
-    ij = 1.0 / j
-    ij2 = ij * ij
-    w = 0.5 * (l1 * l1 + l2 * l2 + ij2 - 3.0)
-    dw = l1 * l1p + l2 * l2p - jp * ij2 * ij
-    d2w = l1p * l1p + l2p * l2p + l2 * l2pp - jpp * ij2 * ij + 3.0 * jp * jp * ij2 * ij2
-    return scale * w, scale * dw, scale * d2w
-
-
-@jit_inline
-def bladder_energies(L, p):
-    """``(U, dU/dL, d2U/dL2)`` of both bladders of parameter row ``p`` (zeros in a v0 row)."""
-    uc, duc, d2uc = bladder_energy_k(
-        L, p[ix.INV_BC], p[ix.DK_C], p[ix.EL_C], p[ix.INV_LREF_C], p[ix.INV_DREF_C]
-    )
-    ue, due, d2ue = bladder_energy_k(
-        L, p[ix.INV_BE], p[ix.DK_E], p[ix.EL_E], p[ix.INV_LREF_E], p[ix.INV_DREF_E]
-    )
-    return uc + ue, duc + due, d2uc + d2ue
-
-
-@jit_inline
 def slack_gate(x):
     """Smooth step ``x^2 (3 - 2 x)`` clipped to [0, 1] and its derivative: 0 for a slack braid
     (``x <= 0``), 1 for a taut one (``x >= 1``), C1 in between."""
@@ -267,47 +224,6 @@ def cpam_tension_at(terms, pc, pe):
     return pac * dvac - pae * gc - duc, c_taut
 
 
-@jit_inline
-def stretched_thread(L, P, a, b0):
-    """Plant v2's extensible braid (Chambers and Wereley 2022: braid threads stretch under the
-    tension of the pressure): ``(b, db/dP, db/dL at fixed P)`` of a braid of rest thread ``b0``
-    loaded by the net active pressure ``P`` (>= 0).
-
-    The threads' total tension is the ideal braid's, ``T = P dV/db = P b L / (2 pi n^2)``
-    (``V = (b^2 - L^2) L / (4 pi n^2)``, Eq. 1-3 with Eq. 14: the tension whose axial part is the
-    pressure on the end cap less the push), and they stretch linearly, ``b = b0 (1 + C T)`` (``C``
-    the thread compliance, strain per N of total tension). Both are linear in ``b``, so
-    ``b = b0 / (1 - a P L)`` with ``a = C b0 / (2 pi n^2)`` (columns ``THR_AE``, ``THR_AC``); the
-    turns ``n`` stay (the braid's topology). The denominator is floored at 0.2 (a fivefold thread)
-    so a runaway stretch stays finite; the fitted plants stay far from it.
-    """
-    den = fmax(1.0 - a * P * L, 0.2)
-    b = b0 / den
-    k = a * b / den
-    return b, k * L, k * P
-
-
-@jit_inline
-def stretched_slopes(L, P, dP, a, b0, q, tan, pta2):
-    """Volume slopes of a braid with stretched threads (:func:`stretched_thread`; ``dP = dP/dL``):
-    ``(dV_out/dL, dV_air/dL, d2V_out/dL2, d2V_air/dL2, d(dV_out/dL)/dP, d(dV_air/dL)/dP)``, the
-    second length derivatives total (through ``b(L, P(L))``). With ``r = sqrt(b^2 - L^2)``,
-    :func:`braid_terms_k` in ``L, b`` reads ``dV_out/dL = (b^2 - 3 L^2) q`` and ``dV_air/dL =
-    dV_out/dL + (t_a/n) (2 L^2 - b^2) / r + pi t_a^2``, whose ``b``-slopes are ``2 b q`` and
-    ``2 b q - (t_a/n) b^3 / r^3``."""
-    b, db_dp, db_dl = stretched_thread(L, P, a, b0)
-    db_dl += db_dp * dP
-    inv_r = 1.0 / sqrt(b * b - L * L)
-    inv_r3 = inv_r * inv_r * inv_r
-    dv_out = (b * b - 3.0 * L * L) * q
-    dv_air = dv_out + tan * (2.0 * L * L - b * b) * inv_r + pta2
-    out_l = -6.0 * L * q
-    out_b = 2.0 * b * q
-    air_l = out_l + tan * L * (3.0 * b * b - 2.0 * L * L) * inv_r3
-    air_b = out_b - tan * b * b * b * inv_r3
-    return dv_out, dv_air, out_l + out_b * db_dl, air_l + air_b * db_dl, out_b * db_dp, air_b * db_dp
-
-
 @jit
 def thread_lengths(L, pc, pe, p):
     """The CPAM's and the EPAM's thread lengths ``(b_c, b_e)`` [m] at length ``L`` and gauge
@@ -319,6 +235,61 @@ def thread_lengths(L, pc, pe, p):
         stretched_thread(L, fmax(pac - pae, 0.0), p[ix.THR_AC], p[ix.BC])[0],
         stretched_thread(L, pae, p[ix.THR_AE], p[ix.BE])[0],
     )
+
+
+@jit_inline
+def _tension_only_cpam(
+    L, pc, pe, p, width, force, dforce_dl, df_dpc, df_dpe, pac, dpac, pae, dpae,
+    dvc, dvac, d2vc, d2vac, dvc_p, dvac_p, s_c, duc, d2uc,
+):  # fmt: skip
+    """The tension-only CPAM's part of :func:`force_from_slopes` (``p[SLACK_W] = width > 0``): the
+    CPAM's braid term and wall gated by the smooth step of its pull, and plant v2's seal of a slack
+    CPAM; returns ``(force, dforce_dl, df_dpc, df_dpe)`` with those added, in the order of
+    operations the force has always had (the trajectories stay bit for bit)."""
+    kappa = p[ix.KAPPA]
+    lam = p[ix.LAMBDA]
+    # the CPAM's own push (braid term plus its bladder wall, see the docstring)
+    gc = lam * dvac + (1.0 - lam) * kappa * dvc  # what multiplies -P_ae in the braid term
+    c = pac * dvac - pae * gc - duc
+    dc = dpac * dvac + pac * d2vac - dpae * gc - pae * (lam * d2vac + (1.0 - lam) * kappa * d2vc) - d2uc
+    a = fmax(-dvc, 1e-12)
+    da = -d2vc if -dvc > 1e-12 else 0.0
+    inv_wa = 1.0 / (width * a)
+    x = -c * inv_wa
+    dx = -(dc * a - c * da) * inv_wa / a
+    g, dg = slack_gate(x)
+    dc_dpc = dvac if pac > 0.0 else 0.0
+    dc_dpe = -gc if pae > 0.0 else 0.0
+    # what moves the gate's x per Pa: c's slope, and the scale a's when the CPAM stretches
+    dx_dpc = dc_dpc
+    dx_dpe = dc_dpe
+    if s_c != 0.0:
+        sc_c = pac * dvac_p - pae * (lam * dvac_p + (1.0 - lam) * kappa * dvc_p)  # dc/d(P_ac - P_ae)
+        da_p = -dvc_p if -dvc > 1e-12 else 0.0
+        dc_dpc += sc_c
+        dx_dpc = dc_dpc - c * da_p / a
+        if pae > 0.0:
+            dc_dpe -= sc_c
+            dx_dpe = dc_dpe + c * da_p / a
+        else:
+            dx_dpe = dc_dpe
+    force += (g - 1.0) * c - duc  # the braid term and the wall, now both gated: g c
+    dforce_dl += (g - 1.0) * dc + dg * dx * c - d2uc
+    df_dpc += (g - 1.0) * dc_dpc - dg * dx_dpc * inv_wa * c
+    df_dpe += (g - 1.0) * dc_dpe - dg * dx_dpe * inv_wa * c
+    a_col = p[ix.COL_A]
+    if a_col > 0.0:
+        # plant v2: a slack CPAM (buckled, or collapsed when squeezed by the annulus) carries
+        # no axial load through its braid or its bladder, which is longer than L; the cap's
+        # face then sees Pc over the CPAM's seal and Pe outside it: (Pc - Pe) A_col, a pull
+        # while Pe > Pc, faded in as the braid goes slack (1 - g) so it joins the taut braid
+        # term continuously
+        fcol = a_col * (pc - pe)
+        force += (1.0 - g) * fcol
+        dforce_dl -= dg * dx * fcol
+        df_dpc += dg * dx_dpc * inv_wa * fcol + (1.0 - g) * a_col
+        df_dpe += dg * dx_dpe * inv_wa * fcol - (1.0 - g) * a_col
+    return force, dforce_dl, df_dpc, df_dpe
 
 
 @jit_inline
@@ -383,47 +354,10 @@ def force_from_slopes(L, pc, pe, p, dvc, dvac, dvae, d2vc, d2vac, d2vae):
     dforce_dl -= d2ue
     width = p[ix.SLACK_W]
     if width > 0.0:
-        # the CPAM's own push (braid term plus its bladder wall, see the docstring)
-        gc = lam * dvac + (1.0 - lam) * kappa * dvc  # what multiplies -P_ae in the braid term
-        c = pac * dvac - pae * gc - duc
-        dc = dpac * dvac + pac * d2vac - dpae * gc - pae * (lam * d2vac + (1.0 - lam) * kappa * d2vc) - d2uc
-        a = fmax(-dvc, 1e-12)
-        da = -d2vc if -dvc > 1e-12 else 0.0
-        inv_wa = 1.0 / (width * a)
-        x = -c * inv_wa
-        dx = -(dc * a - c * da) * inv_wa / a
-        g, dg = slack_gate(x)
-        dc_dpc = dvac if pac > 0.0 else 0.0
-        dc_dpe = -gc if pae > 0.0 else 0.0
-        # what moves the gate's x per Pa: c's slope, and the scale a's when the CPAM stretches
-        dx_dpc = dc_dpc
-        dx_dpe = dc_dpe
-        if s_c != 0.0:
-            sc_c = pac * dvac_p - pae * (lam * dvac_p + (1.0 - lam) * kappa * dvc_p)  # dc/d(P_ac - P_ae)
-            da_p = -dvc_p if -dvc > 1e-12 else 0.0
-            dc_dpc += sc_c
-            dx_dpc = dc_dpc - c * da_p / a
-            if pae > 0.0:
-                dc_dpe -= sc_c
-                dx_dpe = dc_dpe + c * da_p / a
-            else:
-                dx_dpe = dc_dpe
-        force += (g - 1.0) * c - duc  # the braid term and the wall, now both gated: g c
-        dforce_dl += (g - 1.0) * dc + dg * dx * c - d2uc
-        df_dpc += (g - 1.0) * dc_dpc - dg * dx_dpc * inv_wa * c
-        df_dpe += (g - 1.0) * dc_dpe - dg * dx_dpe * inv_wa * c
-        a_col = p[ix.COL_A]
-        if a_col > 0.0:
-            # plant v2: a slack CPAM (buckled, or collapsed when squeezed by the annulus) carries
-            # no axial load through its braid or its bladder, which is longer than L; the cap's
-            # face then sees Pc over the CPAM's seal and Pe outside it: (Pc - Pe) A_col, a pull
-            # while Pe > Pc, faded in as the braid goes slack (1 - g) so it joins the taut braid
-            # term continuously
-            fcol = a_col * (pc - pe)
-            force += (1.0 - g) * fcol
-            dforce_dl -= dg * dx * fcol
-            df_dpc += dg * dx_dpc * inv_wa * fcol + (1.0 - g) * a_col
-            df_dpe += dg * dx_dpe * inv_wa * fcol - (1.0 - g) * a_col
+        force, dforce_dl, df_dpc, df_dpe = _tension_only_cpam(
+            L, pc, pe, p, width, force, dforce_dl, df_dpc, df_dpe, pac, dpac, pae, dpae,
+            dvc, dvac, d2vc, d2vac, dvc_p, dvac_p, s_c, duc, d2uc,
+        )  # fmt: skip
     else:
         force -= duc
         dforce_dl -= d2uc

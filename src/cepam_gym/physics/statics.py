@@ -9,14 +9,9 @@ from __future__ import annotations
 
 from .._jit import jit, jit_inline
 from . import layout as ix
-from .muscle import (
-    active_pressure,
-    bladder_energies,
-    contact_pressures,
-    cpam_terms,
-    epam_terms,
-    stretched_slopes,
-)
+from .bladder import bladder_energies
+from .muscle import active_pressure, contact_pressures, cpam_terms, epam_terms
+from .stretch import stretched_slopes
 
 
 @jit

@@ -100,30 +100,10 @@ def lane_substep(W, i, mode, dt, mech):
     mc, uc, me, ue = W[_w(S_MC, i)], W[_w(S_UC, i)], W[_w(S_ME, i)], W[_w(S_UE, i)]
     z1, z2, z3 = W[_w(S_Z1, i)], W[_w(S_Z2, i)], W[_w(S_Z3, i)]
     force, pc, pe, sc, se, src, sre, dmc, duc, dme, due, sup = substep_forces(
-        mode,
-        inp,
-        p,
-        W[_w(S_T, i)],
-        dt,
-        L,
-        mc,
-        uc,
-        me,
-        ue,
-        W[_w(_W_INVC, i)],
-        W[_w(_W_INVE, i)],
-        W[_w(_W_DVC, i)],
-        W[_w(_W_DVAC, i)],
-        W[_w(_W_DVAE, i)],
-        W[_w(S_SC, i)],
-        W[_w(S_SE, i)],
-        W[_w(S_SRC, i)],
-        W[_w(S_SRE, i)],
-        valves,
-        z1,
-        z2,
-        z3,
-    )
+        mode, inp, p, W[_w(S_T, i)], dt, L, mc, uc, me, ue,
+        W[_w(_W_INVC, i)], W[_w(_W_INVE, i)], W[_w(_W_DVC, i)], W[_w(_W_DVAC, i)], W[_w(_W_DVAE, i)],
+        W[_w(S_SC, i)], W[_w(S_SE, i)], W[_w(S_SRC, i)], W[_w(S_SRE, i)], valves, z1, z2, z3,
+    )  # fmt: skip
     W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)] = substep_account(
         W[_w(_W_PMAX, i)], W[_w(_W_AIR, i)], pc, pe, sup, dt
     )
@@ -132,16 +112,9 @@ def lane_substep(W, i, mode, dt, mech):
     if mech == HINGE:  # a compile-time constant: the rig's loop has no trace of it
         f_total += link_weight_force(L, p[ix.L_MAX], W[_w(_W_LINK, i)], W[_w(_W_INVR, i)])
     L, v, stop = load_step_k(
-        L,
-        W[_w(S_V, i)],
-        f_total,
-        W[_w(_W_DTM, i)],
-        W[_w(_W_DVF, i)],
-        W[_w(_W_DAMP, i)],
-        p[ix.L_MIN],
-        p[ix.L_MAX],
-        dt,
-    )
+        L, W[_w(S_V, i)], f_total, W[_w(_W_DTM, i)], W[_w(_W_DVF, i)], W[_w(_W_DAMP, i)],
+        p[ix.L_MIN], p[ix.L_MAX], dt,
+    )  # fmt: skip
     if p[ix.FR_C] > 0.0:
         W[_w(S_Z1, i)], W[_w(S_Z2, i)], W[_w(S_Z3, i)] = friction_slip(p, L - L_old, z1, z2, z3)
     vol_c_new, vol_e_new, dvc, dvac, dvae = volumes_at(L, p)

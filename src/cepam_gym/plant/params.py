@@ -24,78 +24,22 @@ import numpy as np
 
 from .. import units
 from ..errors import InputError
-from ..physics import layout as ix
 from ..physics.muscle import braid_from_rest
-from ..physics.valve import laminar_factor
-
-FORCE_MODELS = ("basic", "radial", "enhanced")  # paper sections VII, IX, XI
-FORCE_FORMS = ("paper", "virtual_work")
-BRAID_TENSIONS = ("bidirectional", "tension_only")  # v0 | v1 (docs/physics.md, plant v1)
-BLADDER_MODELS = ("spring", "neo_hookean")  # v0 | v1
-FRICTION_LAWS = ("pressure_sum", "contact_area")  # v1 | v2
-PWM_TIMINGS = ("substep", "exact")  # on/off valve edges read once per sub-step (released) | at their times
+from .param_checks import (  # noqa: F401  (the model choices' public names)
+    BLADDER_MODELS,
+    BRAID_TENSIONS,
+    FORCE_FORMS,
+    FORCE_MODELS,
+    FRICTION_LAWS,
+    PWM_TIMINGS,
+    validate,
+)
+from .param_row import fill_derived, param_row, pressure_cap_of  # noqa: F401  (the row's public names)
+from .params_yaml import changes_of
 
 
 def _f(default, unit: str, doc: str, calibrate: bool = False):
     return field(default=default, metadata={"unit": unit, "doc": doc, "calibrate": calibrate})
-
-
-# parameters that must be > 0 and >= 0 (validate)
-_POSITIVE = (
-    "cpam_rest_length",
-    "cpam_rest_diameter",
-    "epam_sleeve_free_length",
-    "epam_sleeve_free_diameter",
-    "min_length",
-    "atmospheric_pressure",
-    "supply_temperature",
-    "ambient_temperature",
-    "spool_time_constant",
-    "onoff_switch_time",
-    "pwm_frequency",
-    "end_mass",
-    "burst_pressure",
-    "polytropic_exponent",
-    "slack_width",
-    "epam_bladder_length",
-    "friction_presliding",
-)
-_NONNEG = (
-    "bladder_thickness",
-    "sleeve_thickness",
-    "kr_high",
-    "kr_low",
-    "elastic_stiffness",
-    "supply_pressure",
-    "valve_conductance",
-    "leak_conductance",
-    "onoff_conductance",
-    "dead_volume_cpam",
-    "dead_volume_epam",
-    "heat_transfer",
-    "damping",
-    "coulomb_friction",
-    "regulator_gain",
-    "spool_damping",
-    "bladder_shear_modulus",
-    "tube_shear_modulus",
-    "heat_transfer_coefficient",
-    "onoff_open_delay",
-    "onoff_close_delay",
-    "friction_coefficient",
-    "friction_mu",
-    "epam_thread_compliance",
-    "cpam_thread_compliance",
-)
-# the settings that name a model or option, and the names each may take
-_CHOICES = (
-    ("force_model", FORCE_MODELS),
-    ("force_form", FORCE_FORMS),
-    ("braid_tension", BRAID_TENSIONS),
-    ("bladder_model", BLADDER_MODELS),
-    ("friction_law", FRICTION_LAWS),
-    ("pwm_timing", PWM_TIMINGS),
-)
 
 
 @dataclass(frozen=True)
@@ -288,73 +232,9 @@ class PlantParams:
 
     # ------------------------------------------------------------------ checks
     def validate(self) -> None:
-        """Raise ``ValueError`` naming the parameter if the set is impossible."""
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, float) and not math.isfinite(v):
-                raise InputError(f"parameter {f.name} is not finite: {v}")
-        for name, allowed in _CHOICES:
-            if getattr(self, name) not in allowed:
-                raise InputError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
-        if not 0.0 <= self.collapse_seal_diameter <= self.cpam_bladder_diameter:
-            raise InputError(
-                "collapse_seal_diameter must lie between 0 and the CPAM bladder's diameter "
-                f"({self.cpam_bladder_diameter * 1e3:.3g} mm), got {self.collapse_seal_diameter * 1e3:.3g} mm"
-            )
-        if self.spool_order not in (1, 2):
-            raise InputError(f"spool_order must be 1 or 2, got {self.spool_order!r}")
-        for name in _POSITIVE:
-            if not getattr(self, name) > 0.0:
-                raise InputError(f"parameter {name} must be > 0, got {getattr(self, name)}")
-        for name in _NONNEG:
-            if not getattr(self, name) >= 0.0:
-                raise InputError(f"parameter {name} must be >= 0, got {getattr(self, name)}")
-        for name in ("cpam_rest_angle", "epam_sleeve_free_angle"):
-            a = getattr(self, name)
-            if not 0.0 < a < math.pi / 2:
-                raise InputError(
-                    f"parameter {name} must be between 0 and 90 deg, got {math.degrees(a):.3g} deg"
-                )
-        if not self.cpam_rest_angle < math.acos(1 / math.sqrt(3)):
-            raise InputError(
-                "cpam_rest_angle must be below 54.7 deg (a contractor's braid), got "
-                f"{math.degrees(self.cpam_rest_angle):.3g} deg"
-            )
-        if not 0.0 <= self.valve_critical_ratio < self.laminar_ratio < 1.0:
-            raise InputError(
-                "need 0 <= valve_critical_ratio < laminar_ratio < 1, got "
-                f"{self.valve_critical_ratio} and {self.laminar_ratio}"
-            )
-        if not self.min_length < self.max_length:
-            raise InputError(
-                f"min_length ({self.min_length} m) must be below max_length ({self.max_length} m)"
-            )
-        if self.end_mass <= 0:
-            raise InputError("end_mass must be > 0")
-        self._check_geometry()
-
-    def _check_geometry(self) -> None:
-        bc, nc = self.cpam_braid()
-        be, ne = self.epam_braid()
-        ta = self.wall_thickness()
-        for name, b in (("CPAM", bc), ("EPAM", be)):
-            if self.max_length >= b:
-                raise InputError(
-                    f"{name} braid thread ({b * 100:.3g} cm) is not longer than max_length "
-                    f"({self.max_length * 100:.3g} cm): the braid cannot reach that length; "
-                    "change the braid angle or the end stops"
-                )
-        lengths = np.linspace(self.min_length, self.max_length, 64)
-        dc = bc * np.sqrt(1 - (lengths / bc) ** 2) / (np.pi * nc)
-        de = be * np.sqrt(1 - (lengths / be) ** 2) / (np.pi * ne)
-        if np.any(dc - 2 * ta <= 0):
-            raise InputError("wall thickness (bladder_thickness + sleeve_thickness) leaves the CPAM no air")
-        if np.any(de - 2 * ta <= dc):
-            i = int(np.argmax(de - 2 * ta <= dc))
-            raise InputError(
-                f"the CPAM (outer diameter {dc[i] * 1e3:.3g} mm) does not fit inside the EPAM "
-                f"(air diameter {(de[i] - 2 * ta) * 1e3:.3g} mm) at L = {lengths[i] * 100:.3g} cm"
-            )
+        """Raise ``ValueError`` naming the parameter if the set is impossible
+        (:func:`~cepam_gym.plant.param_checks.validate`)."""
+        validate(self)
 
     # --------------------------------------------------------------- derived
     # the braid inversion is physics.muscle.braid_from_rest, run as Python here (``py_func``: the
@@ -379,67 +259,9 @@ class PlantParams:
         return self.sleeve_thickness + self.bladder_thickness if self.force_model == "enhanced" else 0.0
 
     def to_array(self) -> np.ndarray:
-        """The flat float64 parameter row the compiled kernels read (layout in physics.layout)."""
-        p = np.zeros(ix.N_PARAMS)
-        p[ix.BC], p[ix.NC] = self.cpam_braid()
-        p[ix.BE], p[ix.NE] = self.epam_braid()
-        p[ix.TA] = self.wall_thickness()
-        p[ix.RADIAL] = 0.0 if self.force_model == "basic" else 1.0
-        p[ix.DOC] = self.cpam_bladder_diameter
-        p[ix.DOE] = self.epam_bladder_diameter
-        p[ix.KR_LO] = self.kr_low
-        p[ix.KR_HI] = self.kr_high
-        paper = self.force_form == "paper"
-        p[ix.KAPPA] = self.paper_length_ratio if paper else 1.0
-        p[ix.LAMBDA] = 1.0 if paper else 0.0
-        p[ix.K_EL] = (
-            self.elastic_stiffness if self.bladder_model == "spring" else 0.0
-        )  # v1: the walls' energy replaces it
-        p[ix.L_EL0] = self.elastic_rest_length
-        p[ix.L_MIN] = self.min_length
-        p[ix.L_MAX] = self.max_length
-        p[ix.P_ATM] = self.atmospheric_pressure
-        p[ix.P_SUP] = self.atmospheric_pressure + self.supply_pressure
-        p[ix.T_SUP] = self.supply_temperature
-        p[ix.T_AMB] = self.ambient_temperature
-        p[ix.C_PROP] = self.valve_conductance
-        p[ix.B_CRIT] = self.valve_critical_ratio
-        p[ix.R_LAM] = self.laminar_ratio
-        p[ix.C_LEAK] = self.leak_conductance
-        p[ix.TAU_SPOOL] = self.spool_time_constant
-        p[ix.SPOOL_ORDER] = self.spool_order
-        p[ix.ZETA] = self.spool_damping
-        p[ix.C_ONOFF] = self.onoff_conductance
-        p[ix.TAU_SWITCH] = self.onoff_switch_time
-        p[ix.PWM_PERIOD] = 1.0 / self.pwm_frequency
-        p[ix.VD_C] = self.dead_volume_cpam
-        p[ix.VD_E] = self.dead_volume_epam
-        p[ix.HA] = self.heat_transfer
-        p[ix.P_BURST] = self.burst_pressure
-        p[ix.N_POLY] = self.polytropic_exponent
-        p[ix.M_END] = self.end_mass
-        p[ix.DAMP] = self.damping
-        p[ix.F_COUL] = self.coulomb_friction
-        p[ix.GRAV] = self.gravity
-        p[ix.REG_GAIN] = self.regulator_gain
-        p[ix.SLACK_W] = self.slack_width if self.braid_tension == "tension_only" else 0.0
-        p[ix.MU_B] = self.bladder_shear_modulus if self.bladder_model == "neo_hookean" else 0.0
-        p[ix.TB_EL] = self.bladder_thickness
-        p[ix.LREF_C] = self.cpam_rest_length
-        p[ix.LREF_E] = self.epam_bladder_length
-        p[ix.H_WALL] = self.heat_transfer_coefficient
-        p[ix.D_ON] = self.onoff_open_delay
-        p[ix.D_OFF] = self.onoff_close_delay
-        # the contact-area law (v2) replaces the v1 coefficient: fill_derived sets FR_C = mu S_e
-        p[ix.FR_C] = self.friction_coefficient if self.friction_law == "pressure_sum" else 0.0
-        p[ix.FR_D] = self.friction_presliding
-        p[ix.COL_A] = 0.25 * math.pi * self.collapse_seal_diameter**2
-        p[ix.FR_MU] = self.friction_mu if self.friction_law == "contact_area" else 0.0
-        p[ix.THR_E] = self.epam_thread_compliance
-        p[ix.THR_C] = self.cpam_thread_compliance
-        p[ix.PWM_EXACT] = 1.0 if self.pwm_timing == "exact" else 0.0
-        fill_derived(p)
-        return p
+        """The flat float64 parameter row the compiled kernels read (layout in physics.layout;
+        :func:`~cepam_gym.plant.param_row.param_row`)."""
+        return param_row(self)
 
     def replace(self, **changes: Any) -> PlantParams:
         """A copy with SI-valued fields changed (validated)."""
@@ -463,31 +285,7 @@ class PlantParams:
         data = dict(data or {})
         if "preset" in data:
             base = preset(data.pop("preset"))
-        base = base or cls()
-        keys = cls.edge_keys()
-        changes = {}
-        for key, value in data.items():
-            if key not in keys:
-                hint = [k for k in keys if k.split("_")[0] == key.split("_")[0]][:6]
-                raise InputError(
-                    f"unknown key {key!r} in {where}"
-                    + (f"; did you mean one of {hint}?" if hint else f"; valid keys: {sorted(keys)}")
-                )
-            name = keys[key]
-            f = cls.__dataclass_fields__[name]
-            unit = f.metadata["unit"]
-            default = getattr(base, name)
-            if isinstance(default, str):
-                if not isinstance(value, str):
-                    raise InputError(f"key {key!r} in {where} must be a string, got {value!r}")
-                changes[name] = value
-            elif isinstance(default, int) and not isinstance(default, bool) and name == "spool_order":
-                if not isinstance(value, int) or isinstance(value, bool):
-                    raise InputError(f"key {key!r} in {where} must be an integer, got {value!r}")
-                changes[name] = value
-            else:
-                changes[name] = _number(value, key, where) * units.EDGE_UNITS[unit]
-        return dataclasses.replace(base, **changes)
+        return dataclasses.replace(base or cls(), **changes_of(cls, data, base or cls(), where))
 
     def to_dict(self) -> dict[str, Any]:
         """Unit-named keys with edge values (the inverse of :meth:`from_dict`)."""
@@ -512,76 +310,6 @@ class PlantParams:
         if not isinstance(data, dict):
             raise InputError(f"{path}: expected a mapping of parameter keys, got {type(data).__name__}")
         return cls.from_dict(data, where=str(path))
-
-
-def pressure_cap_of(p) -> np.ndarray:
-    """:attr:`PlantParams.pressure_cap` of parameter row(s) ``p`` (randomised plants):
-    ``min(supply, burst)`` gauge [Pa]."""
-    p = np.asarray(p, dtype=float)
-    return np.minimum(p[..., ix.P_SUP] - p[..., ix.P_ATM], p[..., ix.P_BURST])
-
-
-def fill_derived(p: np.ndarray) -> np.ndarray:
-    """Fill the derived columns of parameter row(s) ``p`` (layout.INV_BC ... K_AMB) in place."""
-    from ..physics.layout import T0
-
-    q = p.T
-    ta = q[ix.TA]
-    for b_i, n_i, inv_b, qq, tbn, tan, dk, inv_pnb in (
-        (ix.BC, ix.NC, ix.INV_BC, ix.QC, ix.TBN_C, ix.TAN_C, ix.DK_C, ix.INV_PNB_C),
-        (ix.BE, ix.NE, ix.INV_BE, ix.QE, ix.TBN_E, ix.TAN_E, ix.DK_E, ix.INV_PNB_E),
-    ):
-        b, n = q[b_i], q[n_i]
-        q[inv_b] = 1.0 / b
-        q[qq] = 1.0 / (4.0 * math.pi * n * n)
-        q[tbn] = ta * b / n
-        q[tan] = ta / n
-        q[dk] = b / (math.pi * n)
-        q[inv_pnb] = 1.0 / (math.pi * n * b)
-    q[ix.PTA2] = math.pi * ta * ta
-    for lref, inv_l, inv_d, el, b_i, dk, d_o in (
-        (ix.LREF_C, ix.INV_LREF_C, ix.INV_DREF_C, ix.EL_C, ix.BC, ix.DK_C, ix.DOC),
-        (ix.LREF_E, ix.INV_LREF_E, ix.INV_DREF_E, ix.EL_E, ix.BE, ix.DK_E, ix.DOE),
-    ):
-        u = q[lref] / q[b_i]
-        q[inv_l] = 1.0 / q[lref]
-        q[inv_d] = 1.0 / (q[dk] * np.sqrt(1.0 - u * u))  # braid diameter at the bladder's rest length
-        # mu times the rubber volume of a tube of outer diameter D_o and wall t_b, pi (D_o - t_b) t_b L
-        q[el] = q[ix.MU_B] * math.pi * (q[d_o] - q[ix.TB_EL]) * q[ix.TB_EL] * q[lref]
-    # chamber wall areas at mid-stroke: CPAM bladder inside; annulus = EPAM bladder inside + CPAM outside
-    lm = 0.5 * (q[ix.L_MIN] + q[ix.L_MAX])
-    d_c = q[ix.DK_C] * np.sqrt(1.0 - (lm / q[ix.BC]) ** 2)
-    d_e = q[ix.DK_E] * np.sqrt(1.0 - (lm / q[ix.BE]) ** 2)
-    # plant v2 contact-area friction: mu times each braid's inner surface pi D L at mid-stroke
-    mu = q[ix.FR_MU]
-    v2 = mu > 0.0
-    q[ix.FR_CC] = np.where(v2, mu * math.pi * d_c * lm, 0.0)
-    q[ix.FR_C] = np.where(v2, mu * math.pi * d_e * lm, q[ix.FR_C])
-    # plant v2 extensible braids: a stretched thread is b / (1 - THR_A P L), P its net active pressure
-    q[ix.THR_AE] = q[ix.THR_E] * q[ix.BE] / (2.0 * math.pi * q[ix.NE] ** 2)
-    q[ix.THR_AC] = q[ix.THR_C] * q[ix.BC] / (2.0 * math.pi * q[ix.NC] ** 2)
-    h = q[ix.H_WALL]
-    q[ix.HA_C] = np.where(h > 0.0, h * math.pi * (d_c - 2.0 * ta) * lm, q[ix.HA])
-    q[ix.HA_E] = np.where(h > 0.0, h * math.pi * (d_e - 2.0 * ta + d_c) * lm, q[ix.HA])
-    bc = q[ix.B_CRIT]
-    q[ix.INV_1MB] = 1.0 / (1.0 - bc)
-    q[ix.LAM_K] = laminar_factor(q[ix.R_LAM], bc)
-    q[ix.K_SUP] = np.sqrt(T0 / q[ix.T_SUP])
-    q[ix.K_AMB] = np.sqrt(T0 / q[ix.T_AMB])
-    return p
-
-
-def _number(value: Any, key: str, where: str) -> float:
-    # YAML 1.1 reads "1e-3" as a string; accept numeric strings, reject everything else by name.
-    if isinstance(value, bool):
-        raise InputError(f"key {key!r} in {where} must be a number, got {value!r}")
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"key {key!r} in {where} must be a number, got {value!r}") from None
-    if not math.isfinite(out):
-        raise InputError(f"key {key!r} in {where} must be finite, got {value!r}")
-    return out
 
 
 _PRESET_DIR = Path(__file__).parents[1] / "presets"

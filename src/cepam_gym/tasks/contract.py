@@ -59,6 +59,7 @@ import math
 from dataclasses import dataclass, fields
 
 from ..errors import InputError
+from .hinge_info import INFO_KEYS as HINGE_INFO_KEYS
 from .joint import INIT_KEYS, PIN_KEYS, JointRewardWeights
 from .reward import ABS_REWARD
 from .rig_info import INFO_KEYS as RIG_INFO_KEYS
@@ -178,23 +179,7 @@ JOINT = TaskContract(
     position_unit="rad",
     stiffness_unit="N m/rad",
     weights=JointRewardWeights,
-    info_keys=(
-        "angle",
-        "angular_velocity",
-        "muscle_length",
-        "muscle_force",
-        "muscle_torque",
-        "stiffness",
-        "joint_stiffness",
-        "joint_stiffness_total",
-        "pressure_c",
-        "pressure_e",
-        "air_used",
-        "external_torque",
-        "target_angle",
-        "target_stiffness",
-        "redraws",
-    ),
+    info_keys=(*HINGE_INFO_KEYS, "redraws"),  # declared with how each is computed: tasks.hinge_info
     pin_keys=PIN_KEYS + INIT_KEYS,
     score_keys={
         "length": "angle",

@@ -15,6 +15,7 @@ from .. import plant as pl
 from ..physics import layout as ix
 from . import kernel as tk
 from .contract import JOINT
+from .hinge_info import Measured, hinge_info
 from .joint import (
     JointGeometry,
     JointRewardWeights,
@@ -158,29 +159,19 @@ class HingeTask(Task):
 
     # ------------------------------------------------------------------ info
     def info_single(self, s, scored: bool) -> dict[str, Any]:
-        """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays."""
-        g, r = self.geometry, self.geometry.lever_arm
+        """:meth:`info_arrays` of env 0 as Python floats, built without temporary arrays: the same
+        declared expressions (:mod:`cepam_gym.tasks.hinge_info`) on floats."""
+        g = self.geometry
         x, a = s.state[0].tolist(), s.aux[0].tolist()
         p = s.params[0]
         k = min(max(int(s.t_idx[0]) - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
-        theta = float(g.angle(x[pl.S_L], p))
-        ks = a[pl.A_STIFF] * r**2
-        info = {
-            "angle": theta,
-            "angular_velocity": -x[pl.S_V] / r,
-            "muscle_length": x[pl.S_L],
-            "muscle_force": a[pl.A_FORCE],
-            "muscle_torque": -r * a[pl.A_FORCE],
-            "stiffness": a[pl.A_STIFF],
-            "joint_stiffness": ks,
-            "joint_stiffness_total": ks + float(g.link_mass * p[ix.GRAV] * g.link_com * np.cos(theta)),
-            "pressure_c": a[pl.A_PC],
-            "pressure_e": a[pl.A_PE],
-            "air_used": a[pl.A_AIR] if scored else 0.0,
-            "external_torque": float(s.load[0, k]),
-            "target_angle": float(s.target_l[0, k]),
-            "target_stiffness": float(s.target_k[0, k]),
-        }
+        m = Measured(
+            x[pl.S_L], x[pl.S_V], float(g.angle(x[pl.S_L], p)), a[pl.A_FORCE], a[pl.A_STIFF],
+            a[pl.A_PC], a[pl.A_PE], a[pl.A_AIR] if scored else 0.0, float(s.load[0, k]),
+            float(s.target_l[0, k]), float(s.target_k[0, k]), float(p[ix.GRAV]),
+            g.lever_arm, g.link_mass, g.link_com,
+        )  # fmt: skip
+        info = hinge_info(m)
         if scored:
             info.update(zip(self.term_keys, s.terms[0].tolist()))
         info["redraws"] = int(s.redraws[0])
@@ -194,25 +185,14 @@ class HingeTask(Task):
         k = np.minimum(np.maximum(s.t_idx - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
         rows = np.arange(n)
         q = np.broadcast_to(s.params, (n, ix.N_PARAMS)).T
-        L, v = s.state[:, pl.S_L].copy(), s.state[:, pl.S_V]
-        theta = g.angle(L, q)
-        ks = s.aux[:, pl.A_STIFF] * g.lever_arm**2
-        out = {
-            "angle": theta,
-            "angular_velocity": -v / g.lever_arm,
-            "muscle_length": L,
-            "muscle_force": s.aux[:, pl.A_FORCE].copy(),
-            "muscle_torque": -g.lever_arm * s.aux[:, pl.A_FORCE],
-            "stiffness": s.aux[:, pl.A_STIFF].copy(),
-            "joint_stiffness": ks,
-            "joint_stiffness_total": ks + g.link_mass * q[ix.GRAV] * g.link_com * np.cos(theta),
-            "pressure_c": s.aux[:, pl.A_PC].copy(),
-            "pressure_e": s.aux[:, pl.A_PE].copy(),
-            "air_used": s.aux[:, pl.A_AIR].copy() if scored else np.zeros(n),
-            "external_torque": s.load[rows, k],
-            "target_angle": s.target_l[rows, k],
-            "target_stiffness": s.target_k[rows, k],
-        }
+        L = s.state[:, pl.S_L].copy()
+        m = Measured(
+            L, s.state[:, pl.S_V], g.angle(L, q), s.aux[:, pl.A_FORCE].copy(), s.aux[:, pl.A_STIFF].copy(),
+            s.aux[:, pl.A_PC].copy(), s.aux[:, pl.A_PE].copy(),
+            s.aux[:, pl.A_AIR].copy() if scored else np.zeros(n), s.load[rows, k],
+            s.target_l[rows, k], s.target_k[rows, k], q[ix.GRAV], g.lever_arm, g.link_mass, g.link_com,
+        )  # fmt: skip
+        out = hinge_info(m)
         if scored:
             out.update(zip(self.term_keys, np.ascontiguousarray(s.terms.T)))
         out["redraws"] = s.redraws.copy()

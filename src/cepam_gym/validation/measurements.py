@@ -94,37 +94,9 @@ def read_csv(path: str | Path) -> list[Measurement]:
     return out
 
 
-def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measurement:
-    kind = row["kind"].lower()
-    if kind not in KINDS:
-        raise InputError(f"{where}, column 'kind': unknown kind {row['kind']!r}; one of {list(KINDS)}")
-    muscle = (row.get("muscle") or "cepam").lower()
-    if muscle not in MUSCLES:
-        raise InputError(
-            f"{where}, column 'muscle': unknown muscle {row['muscle']!r}; one of {list(MUSCLES)}"
-        )
-
-    def num(column: str, required: bool, default: float | None = None) -> float | None:
-        cell = row[column]
-        if cell == "":
-            if required:
-                raise InputError(f"{where}, column {column!r}: empty, but a {kind} of the {muscle} needs it")
-            return default
-        return _number(cell, where, column)
-
-    pc = num("pc_kpa", required=muscle in ("cepam", "cpam"), default=0.0)
-    pe = num("pe_kpa", required=muscle in ("cepam", "epam"), default=0.0)
-    for column, v in (("pc_kpa", pc), ("pe_kpa", pe)):
-        if v < 0:
-            raise InputError(
-                f"{where}, column {column!r}: negative gauge pressure {v:g} kPa (suction is not modelled)"
-            )
-    if muscle == "cpam" and pe != 0:
-        raise InputError(f"{where}, column 'pe_kpa': a single CPAM has no EPAM chamber; leave it empty or 0")
-    if muscle == "epam" and pc != 0:
-        raise InputError(f"{where}, column 'pc_kpa': a single EPAM has no CPAM chamber; leave it empty or 0")
-
-    length = num("length_cm", required=kind == "force")
+def _loads(row: dict[str, str], where: str, kind: str, length: float | None) -> tuple[float, ...]:
+    """The row's hung loads [g] (``load_g``, ``;``-separated), checked against its kind and its
+    held length (``length_cm``)."""
     loads: tuple[float, ...] = ()
     if row["load_g"] != "":
         parts = [s.strip() for s in row["load_g"].split(";")]
@@ -156,6 +128,41 @@ def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measur
     if length is not None and length <= 0:
         raise InputError(f"{where}, column 'length_cm': length must be > 0, got {length:g}")
 
+    return loads
+
+
+def _parse_row(row: dict[str, str], where: str, line: int, ident: str) -> Measurement:
+    kind = row["kind"].lower()
+    if kind not in KINDS:
+        raise InputError(f"{where}, column 'kind': unknown kind {row['kind']!r}; one of {list(KINDS)}")
+    muscle = (row.get("muscle") or "cepam").lower()
+    if muscle not in MUSCLES:
+        raise InputError(
+            f"{where}, column 'muscle': unknown muscle {row['muscle']!r}; one of {list(MUSCLES)}"
+        )
+
+    def num(column: str, required: bool, default: float | None = None) -> float | None:
+        cell = row[column]
+        if cell == "":
+            if required:
+                raise InputError(f"{where}, column {column!r}: empty, but a {kind} of the {muscle} needs it")
+            return default
+        return _number(cell, where, column)
+
+    pc = num("pc_kpa", required=muscle in ("cepam", "cpam"), default=0.0)
+    pe = num("pe_kpa", required=muscle in ("cepam", "epam"), default=0.0)
+    for column, v in (("pc_kpa", pc), ("pe_kpa", pe)):
+        if v < 0:
+            raise InputError(
+                f"{where}, column {column!r}: negative gauge pressure {v:g} kPa (suction is not modelled)"
+            )
+    if muscle == "cpam" and pe != 0:
+        raise InputError(f"{where}, column 'pe_kpa': a single CPAM has no EPAM chamber; leave it empty or 0")
+    if muscle == "epam" and pc != 0:
+        raise InputError(f"{where}, column 'pc_kpa': a single EPAM has no CPAM chamber; leave it empty or 0")
+
+    length = num("length_cm", required=kind == "force")
+    loads = _loads(row, where, kind, length)
     value = _number(row["value"], where, "value") if row["value"] != "" else None
     if value is None:
         raise InputError(f"{where}, column 'value': empty")

@@ -25,11 +25,25 @@ def write_plots(
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, draw in (
+        ("validate_cepam.png", lambda: _cepam_figure(plt, experiments, rows)),
+        ("validate_single_muscles.png", lambda: _single_muscle_figure(plt, params, experiments)),
+        ("validate_thickness.png", lambda: _thickness_figure(plt, params, experiments)),
+    ):
+        fig = draw()
+        fig.tight_layout()
+        paths.append(out / name)
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths
+
+
+def _cepam_figure(plt, experiments: list[Experiment], rows: list[dict]):
+    """CE-PAM stiffness and length per pressure pair (section XII), each model level's beside the
+    reported points."""
     levels = list(dict.fromkeys(r["model_level"] for r in rows if r["model_level"] != "n/a"))
     by = {(r["id"], r["model_level"]): r for r in rows}
-    paths = []
-
-    # 1. CE-PAM stiffness and length per pressure pair (section XII)
     stiff = [e for e in experiments if e.device == "cepam" and e.measured == "stiffness"]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     x = np.arange(len(stiff))
@@ -49,33 +63,40 @@ def write_plots(
     axes[1].set_xticks(x2, [f"Pe={e.pe_kpa:g}\nPc={e.pc_kpa:g}" for e in lengths], fontsize=7)
     axes[1].set_ylabel("free length [cm]")
     axes[1].set_title("CE-PAM free length (end stops 15, 19.5 cm)")
-    fig.tight_layout()
-    paths.append(out / "validate_cepam.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    return fig
 
-    # 2. single-muscle free length vs pressure (sections II, III)
+
+def _free_length_curve(params: PlantParams, device: str, bladder: str, tb, level: str, pressures):
+    """The model's free length [cm] of a single ``device`` at each pressure [kPa]."""
+    p = params.replace(force_model=level.split("/")[0])
+    return [
+        simulate(
+            Experiment(
+                "curve",
+                "curve",
+                "length",
+                "cm",
+                1.0,
+                device=device,
+                bladder=bladder,
+                bladder_thickness_mm=tb,
+                pc_kpa=P,
+                pe_kpa=P,
+            ),  # fmt: skip
+            p,
+        ).value
+        for P in pressures
+    ]
+
+
+def _single_muscle_figure(plt, params: PlantParams, experiments: list[Experiment]):
+    """Single-muscle free length vs pressure (sections II, III), balloon and tube bladders."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     pressures = np.linspace(10.0, 500.0, 50)
     for ax, device in zip(axes, ("cpam", "epam")):
         for bladder, tb, style in (("balloon", None, "-"), ("tube", 1.0, "--")):
             for lv in ("basic/virtual_work", "enhanced/virtual_work"):
-                p = params.replace(force_model=lv.split("/")[0])
-                curve = []
-                for P in pressures:
-                    e = Experiment(
-                        "curve",
-                        "curve",
-                        "length",
-                        "cm",
-                        1.0,
-                        device=device,
-                        bladder=bladder,
-                        bladder_thickness_mm=tb,
-                        pc_kpa=P,
-                        pe_kpa=P,
-                    )
-                    curve.append(simulate(e, p).value)
+                curve = _free_length_curve(params, device, bladder, tb, lv, pressures)
                 ax.plot(pressures, curve, style, label=f"model {lv.split('/')[0]}, {bladder}")
         pts = [e for e in experiments if e.device == device and e.measured == "length"]
         for e in pts:
@@ -91,12 +112,11 @@ def write_plots(
         ax.set_ylabel("free length [cm]")
         ax.set_title(f"single {device.upper()} free length (Fig. {4 if device == 'cpam' else 10})")
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    paths.append(out / "validate_single_muscles.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    return fig
 
-    # 3. CPAM contraction vs tube wall at 500 kPa (section X)
+
+def _thickness_figure(plt, params: PlantParams, experiments: list[Experiment]):
+    """CPAM contraction vs tube wall at 500 kPa (section X), per force model."""
     fig, ax = plt.subplots(figsize=(6, 4.5))
     walls = np.linspace(0.2, 2.2, 21)
     for fm in FORCE_MODELS:
@@ -113,7 +133,7 @@ def write_plots(
                     bladder="tube",
                     bladder_thickness_mm=t,
                     pc_kpa=500.0,
-                ),
+                ),  # fmt: skip
                 p,
             ).value
             for t in walls
@@ -129,11 +149,7 @@ def write_plots(
     ax.set_ylabel("contraction at 500 kPa [%]")
     ax.set_title("CPAM contraction vs bladder thickness")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    paths.append(out / "validate_thickness.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
-    return paths
+    return fig
 
 
 def plot_fit(res: FitResult, experiments: list[Experiment], path: str | Path) -> Path:
