@@ -229,7 +229,7 @@ def test_in_training_a_terminal_observation_is_told_the_finished_episodes_plant(
     """At an autoreset the env already holds the next plant: the finished episode's last features
     (SB3's ``terminal_observation``) keep the plant it ran on, the next episode's its own."""
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
-    from cepam_gym_agents.features import make_agent_vec_env
+    from cepam_gym_agents.envs import make_agent_vec_env
 
     raw = make_sb3_vec_env(
         "cepam_gym/CEPAM-v2", num_envs=2, seed=0, max_episode_steps=3, randomize=RANDOMIZE_V2

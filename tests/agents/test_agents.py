@@ -388,7 +388,8 @@ def test_residual_features_terminal_obs_and_peek():
     from cepam_gym.control import InverseStaticController
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
     from cepam_gym_agents.config import AgentConfig
-    from cepam_gym_agents.features import Features, make_agent_vec_env
+    from cepam_gym_agents.envs import make_agent_vec_env
+    from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=5)
@@ -429,7 +430,7 @@ def test_a_residual_on_the_joint_runs_on_the_joints_baseline():
     from cepam_gym.control import make_controller
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
     from cepam_gym_agents.config import AgentConfig
-    from cepam_gym_agents.features import make_agent_vec_env
+    from cepam_gym_agents.envs import make_agent_vec_env
 
     cfg = AgentConfig(residual=True, residual_scale=0.3)
     venv = make_sb3_vec_env("cepam_gym/CEPAMJoint-v2", num_envs=2, seed=0)
