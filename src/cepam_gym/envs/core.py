@@ -126,8 +126,8 @@ class CEPAMBatch(RandomStreams):
         random streams and the bound kernels (the end of construction)."""
         self._nominal_row = nominal_row = self.nominal.to_array()
         self.has_noise = bool(self.noise_sd.any())
-        # a single env without latency or supply drift steps through one jitted call
-        # (tasks.step.env_step_single) on slabs its state's arrays are views of
+        # a single env without latency, supply drift, window or declared schedules steps through
+        # one jitted call (tasks.step.env_step_single) on slabs its state's arrays are views of
         self.fast_single = (
             n == 1 and not self.latency and not self.supply_drift and not self.n_window and not self.planned
         )
