@@ -15,7 +15,7 @@ from .. import plant as pl
 from ..physics import layout as ix
 from . import kernel as tk
 from .contract import JOINT
-from .hinge_info import Measured, hinge_info
+from .hinge_info import hinge_info
 from .joint import (
     JointGeometry,
     JointRewardWeights,
@@ -165,13 +165,12 @@ class HingeTask(Task):
         x, a = s.state[0].tolist(), s.aux[0].tolist()
         p = s.params[0]
         k = min(max(int(s.t_idx[0]) - (1 if scored else 0), 0), s.target_l.shape[1] - 1)
-        m = Measured(
+        info = hinge_info(
             x[pl.S_L], x[pl.S_V], float(g.angle(x[pl.S_L], p)), a[pl.A_FORCE], a[pl.A_STIFF],
             a[pl.A_PC], a[pl.A_PE], a[pl.A_AIR] if scored else 0.0, float(s.load[0, k]),
             float(s.target_l[0, k]), float(s.target_k[0, k]), float(p[ix.GRAV]),
             g.lever_arm, g.link_mass, g.link_com,
         )  # fmt: skip
-        info = hinge_info(m)
         if scored:
             info.update(zip(self.term_keys, s.terms[0].tolist()))
         info["redraws"] = int(s.redraws[0])
@@ -186,13 +185,12 @@ class HingeTask(Task):
         rows = np.arange(n)
         q = np.broadcast_to(s.params, (n, ix.N_PARAMS)).T
         L = s.state[:, pl.S_L].copy()
-        m = Measured(
+        out = hinge_info(
             L, s.state[:, pl.S_V], g.angle(L, q), s.aux[:, pl.A_FORCE].copy(), s.aux[:, pl.A_STIFF].copy(),
             s.aux[:, pl.A_PC].copy(), s.aux[:, pl.A_PE].copy(),
             s.aux[:, pl.A_AIR].copy() if scored else np.zeros(n), s.load[rows, k],
             s.target_l[rows, k], s.target_k[rows, k], q[ix.GRAV], g.lever_arm, g.link_mass, g.link_com,
         )  # fmt: skip
-        out = hinge_info(m)
         if scored:
             out.update(zip(self.term_keys, np.ascontiguousarray(s.terms.T)))
         out["redraws"] = s.redraws.copy()
