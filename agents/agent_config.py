@@ -41,6 +41,10 @@ class AgentConfig:
       pressures and valve commands for the shifted targets.
     * ``residual``: the policy's (remaining) two actions are added to the valve commands:
       ``clip(baseline + residual_scale * a, -1, 1)``.
+    * ``start_at_base`` (with ``residual`` or ``target_shift``): the policy's output layer starts
+      at zero, so the untrained agent is its base controller and learning starts from the base's
+      score (residual policy learning, Silver et al. 2018); an off-policy learner's first actions
+      would otherwise move the valves (or the targets) by up to their scale at random.
     * ``baseline_in_obs``: the baseline's action is appended to the observation (not with
       ``target_shift``: the baseline acts only after the policy has chosen the shift).
     * ``setpoint_gaps_in_obs``: the gaps between the baseline's set-point pressures (the nominal
@@ -85,6 +89,7 @@ class AgentConfig:
     friction_observer: bool = False
     base_controller: str = "baseline"
     plant_features: bool = False
+    start_at_base: bool = False
 
     @property
     def uses_baseline(self) -> bool:
@@ -109,7 +114,13 @@ class AgentConfig:
             as_bool(d.get("friction_observer", False), "agent.friction_observer"),
             _controller(d.get("base_controller", "baseline"), "agent.base_controller"),
             as_bool(d.get("plant_features", False), "agent.plant_features"),
+            as_bool(d.get("start_at_base", False), "agent.start_at_base"),
         )
+        if out.start_at_base and not (out.residual or out.target_shift):
+            raise ConfigError(
+                "agent.start_at_base starts the policy at its base controller, which only a residual "
+                "or a target shift has: set agent.residual or agent.target_shift, or drop agent.start_at_base"
+            )
         if out.base_controller != "baseline" and (
             out.target_shift or out.setpoint_gaps_in_obs or out.friction_observer
         ):

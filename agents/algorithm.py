@@ -180,6 +180,28 @@ def policy(algorithm: str, policy_kwargs: dict, privileged_critic: bool, env) ->
     return AsymmetricActorCriticPolicy, {**pk, "actor_dim": env.features.actor_dim}
 
 
+def zero_output_layer(model) -> None:
+    """Start ``model``'s policy at the action 0: the weights and bias of the layer that outputs
+    the action (PPO's and RecurrentPPO's ``action_net``, SAC's mean, TD3's last linear layer, and
+    TD3's target actor with it) set to zero. The layers below still learn: their gradient flows
+    once the first update has moved the output layer."""
+    import torch
+
+    p = model.policy
+    if hasattr(p, "action_net"):
+        layers = [p.action_net]
+    elif hasattr(p.actor, "log_std"):  # SAC: the Gaussian's mean; its spread stays as built
+        layers = [p.actor.mu]
+    else:  # TD3: mu is Sequential(..., Linear, Tanh)
+        layers = [[m for m in p.actor.mu if isinstance(m, torch.nn.Linear)][-1]]
+    with torch.no_grad():
+        for layer in layers:
+            layer.weight.zero_()
+            layer.bias.zero_()
+    if getattr(p, "actor_target", None) is not None:
+        p.actor_target.load_state_dict(p.actor.state_dict())
+
+
 # --------------------------------------------------------------------------- how learn() advances
 def steps_per_collection(model) -> int:
     """Steps the algorithm's ``learn`` advances by at a time: ``n_steps x n_envs`` for on-policy

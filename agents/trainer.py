@@ -14,7 +14,14 @@ from pathlib import Path
 from cepam_gym.cli_errors import guarded_load
 from cepam_gym.envs.model import model_of
 
-from .algorithm import collection_why, hyperparameters, policy, steps_per_collection, training_class
+from .algorithm import (
+    collection_why,
+    hyperparameters,
+    policy,
+    steps_per_collection,
+    training_class,
+    zero_output_layer,
+)
 from .callbacks import make_callback_class
 from .checkpoints import Checkpoints, save_model
 from .config import ConfigError, TrainConfig, dump_config
@@ -52,12 +59,15 @@ def new_model(cfg: TrainConfig, algo, raw) -> tuple:
     try:
         pol, pk = policy(cfg.algorithm, cfg.policy_kwargs, cfg.agent.privileged_critic, raw)
         hp = hyperparameters(cfg.hyperparameters)
-        return env, algo(pol, env, seed=cfg.seed, verbose=0, device="cpu", policy_kwargs=pk, **hp)
+        model = algo(pol, env, seed=cfg.seed, verbose=0, device="cpu", policy_kwargs=pk, **hp)
     except (AssertionError, ValueError, TypeError) as e:  # SB3 checks its arguments with asserts
         raise ConfigError(
             f"{cfg.algorithm} rejected the hyperparameters {cfg.hyperparameters} "
             f"or policy_kwargs {cfg.policy_kwargs}: {e}"
         ) from e
+    if cfg.agent.start_at_base:
+        zero_output_layer(model)
+    return env, model
 
 
 def check(cfg: TrainConfig) -> None:
