@@ -17,7 +17,7 @@ Layout of a config (every section optional except ``algorithm``; defaults below)
     agent:                        # what the policy sees and sends (see AgentConfig)
       residual: false             # true: action = baseline action + residual_scale * policy action
       residual_scale: 0.5
-      start_at_base: false        # with residual or target_shift: the policy's output layer starts at zero (the base's actions)
+      start_at_base: false        # with residual or target_shift: the untrained policy is its base
       baseline_in_obs: false      # append the baseline's action to the observation
       history: 1                  # stack this many consecutive observations
       target_shift: false         # true: the policy also shifts the baseline's length/stiffness targets

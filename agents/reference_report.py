@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import platform
+import time
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +20,10 @@ from cepam_gym import versions
 from .provenance import git_state, machine, now, write_json
 
 RESULTS_FORMAT = 1
-# the model-based controllers beside the agents (the MPCs plan through the rig's kernel only)
+# the model-based controllers beside the agents on the suite's episodes (the MPCs plan through the
+# rig's kernel only); on the unseen seed's, those the headline needs
 CONTROLLERS = {"rig": ("baseline", "mpc", "adaptive_mpc", "oracle"), "hinge": ("baseline",)}
+UNSEEN_CONTROLLERS = ("baseline", "oracle")
 
 
 def episode_sets(args) -> dict[str, tuple]:
@@ -46,18 +49,22 @@ class Scores:
         self.cache = json.loads(self.path.read_text()) if self.path.is_file() else {}
         # scores over other episode counts never mix: the key holds the counts
         self.tag = ",".join(f"{k}:{s}:{n}" for k, (s, n) in sets.items())
+        self.spent = 0.0  # seconds this object spent scoring
 
     def get(self, spec: str, suite: str, where: str) -> float:
         key = f"{self.tag}|{suite}|{where}|{spec}"
         if key not in self.cache:
             seed, episodes = self.sets[where]
+            t = time.perf_counter()
             self.cache[key] = _score(spec, suite, seed, episodes)
+            self.spent += time.perf_counter() - t
             write_json(self.path, self.cache)
         return self.cache[key]
 
 
-def controllers_of(env_id: str) -> tuple:
-    return CONTROLLERS[versions.get(env_id).mechanism]
+def controllers_of(env_id: str, where: str) -> tuple:
+    own = CONTROLLERS[versions.get(env_id).mechanism]
+    return own if where == "suite" else tuple(c for c in own if c in UNSEEN_CONTROLLERS)
 
 
 def curve(run: Path) -> list[list[float]]:
@@ -72,7 +79,7 @@ def run_row(learner: str, env_id: str, seed: int, run: Path, scores: Scores) -> 
     """One run of the results file: what it ran, where, for how long, and its scores."""
     import yaml
 
-    from .reference import LEARNERS, suite_of
+    from .reference_grid import LEARNERS, suite_of
 
     summary = json.loads((run / "summary.json").read_text())
     record = json.loads((run / "run.json").read_text())
@@ -99,10 +106,12 @@ def run_row(learner: str, env_id: str, seed: int, run: Path, scores: Scores) -> 
 
 def yardsticks(ids: list[str], scores: Scores) -> dict:
     """``{suite: {set: {controller: score}}}`` for the suite of every id in the grid."""
-    from .reference import suite_of
+    from .reference_grid import suite_of
 
     return {
-        suite_of(i): {w: {c: scores.get(c, suite_of(i), w) for c in controllers_of(i)} for w in scores.sets}
+        suite_of(i): {
+            w: {c: scores.get(c, suite_of(i), w) for c in controllers_of(i, w)} for w in scores.sets
+        }
         for i in ids
     }
 
@@ -128,7 +137,8 @@ def table(rows: list[dict], marks: dict, sets: dict) -> str:
     """Per id and learner: the score on each episode set (IQM over seeds, 95 % CI) and its headline,
     the median wall time and env-steps; the controllers' scores on the same episodes below."""
     lines = [
-        "| id (suite) | learner | seeds | " + " | ".join(f"{w}: score (headline)" for w in sets)
+        "| id (suite) | learner | seeds | "
+        + " | ".join(f"{w}: score (headline)" for w in sets)
         + " | wall s (median) | env-steps (median) |",
         "|---|---|---|" + "---|" * len(sets) + "---|---|",
     ]
@@ -145,13 +155,17 @@ def table(rows: list[dict], marks: dict, sets: dict) -> str:
                 cells.append(text + ("" if h is None else f" ({h:.1f})"))
             wall = np.median([r["wall_s"] for r in runs])
             steps = np.median([r["env_steps"] for r in runs])
-            lines.append(f"| {name} | {learner} | {len(runs)} | " + " | ".join(cells) + f" | {wall:.0f} | {steps:.3g} |")
+            lines.append(
+                f"| {name} | {learner} | {len(runs)} | "
+                + " | ".join(cells)
+                + f" | {wall:.0f} | {steps:.3g} |"
+            )
         for c in marks[suite][next(iter(sets))]:
             cells = []
             for w in sets:
-                v = marks[suite][w][c]
-                h = headline(v, marks[suite][w])
-                cells.append(f"{v:.4f}" + ("" if h is None else f" ({h:.1f})"))
+                v = marks[suite][w].get(c)
+                h = None if v is None else headline(v, marks[suite][w])
+                cells.append("-" if v is None else f"{v:.4f}" + ("" if h is None else f" ({h:.1f})"))
             lines.append(f"| {name} | *{c}* | - | " + " | ".join(cells) + " | - | - |")
     return "\n".join(lines) + "\n"
 
@@ -211,12 +225,62 @@ def plot(rows: list[dict], marks: dict, docs: Path) -> list[Path]:
     return paths
 
 
+PAGE = """# Reference results
+
+Every learner on every id of the recommended version, {seeds} training seeds each, the same
+wall-time budget per run, regenerated by one command ({grid_time}):
+
+```text
+{command}
+```
+
+Each run is scored on its suite's episodes and on {unseen} episodes of an unseen seed (seed
+{unseen_seed}); a learner's cell is the interquartile mean over its seeds with a 95 %
+stratified-bootstrap interval (Agarwal et al. 2021), its headline in brackets (the share of the
+baseline-to-oracle gap closed on the same episodes; the joint has no oracle). The controllers'
+rows are their scores on the same episodes. Lower scores are better. What every run did (its
+config, seed, budget, env-steps, scores, evaluation curve, package version, commit and machine):
+[`reference/reference.json`](reference/reference.json). Measured with cepam-gym {version} at
+commit {commit} on {machine}.
+
+{table}
+The best score so far (the periodic evaluations' episodes; interquartile mean over seeds) against
+wall time and against env-steps, the baseline's and the MPC's suite scores as lines:
+
+{figures}
+"""
+
+
+def page(rows: list[dict], table_md: str, figures: list[Path], meta: dict) -> str:
+    """The results page (``reference.md``) around the table and the figures."""
+    from .reference_grid import SKIPPED
+
+    commits = sorted({(r["commit"] or "unknown")[:7] + ("+dirty" if r["dirty"] else "") for r in rows})
+    t = meta["seconds"]
+    skipped = "; ".join(f"{a} is not run on the {m} ({why})" for (a, m), why in SKIPPED.items())
+    return PAGE.format(
+        seeds=max(len({r["seed"] for r in rows if r["learner"] == a}) for a in {r["learner"] for r in rows}),
+        grid_time=f"the trainings took {t['train'] / 60:.0f} minutes, the scoring {t['score'] / 60:.0f}"
+        if t["train"]
+        else "the trainings' time not recorded",
+        command=meta["command"],
+        unseen=meta["unseen_episodes"],
+        unseen_seed=meta["unseen_seed"],
+        version=rows[0]["cepam_gym"],
+        commit=", ".join(commits),
+        machine=meta["machine"],
+        table=table_md + f"\n{skipped}.\n",
+        figures="\n".join(f"![{p.stem}](reference/{p.name})" for p in figures),
+    )
+
+
 def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path, args) -> int:
-    """Score every finished run of ``grid``, write ``reference.json``, ``reference.md`` and the
-    figures into ``docs``; 1 (said why) when no run of the grid has finished."""
+    """Score every finished run of ``grid``; write ``docs/reference.md`` (the page) and, in
+    ``docs/reference/``, ``reference.json`` and the figures; 1 (said why) when no run of the grid
+    has finished."""
     from cepam_gym.progress import runs as bar
 
-    from .reference import SKIPPED, run_dir
+    from .reference_grid import SKIPPED, run_dir
 
     scores = Scores(out, episode_sets(args))
     done = [(a, i, s) for a, i in grid for s in seeds if (run_dir(out, a, i, s) / "summary.json").is_file()]
@@ -227,14 +291,16 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
     with bar(len(done) * len(scores.sets), "reference: scoring"):
         rows = [run_row(a, i, s, run_dir(out, a, i, s), scores) for a, i, s in done]
         marks = yardsticks(ids, scores)
-    docs.mkdir(parents=True, exist_ok=True)
+    meta = _meta(out, args, scores.spent)
+    files = docs / "reference"
+    files.mkdir(parents=True, exist_ok=True)
     write_json(
-        docs / "reference.json",
+        files / "reference.json",
         {
             "format": RESULTS_FORMAT,
             "written": now(),
             "git": git_state(),
-            "machine": {"platform": platform.platform(), "cpus": _cpus(), **machine()},
+            **meta,
             "episode_sets": {w: {"seed": s, "episodes": n} for w, (s, n) in scores.sets.items()},
             "skipped": [{"learner": a, "mechanism": m, "why": why} for (a, m), why in SKIPPED.items()],
             "controllers": marks,
@@ -242,12 +308,29 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
         },
     )
     md = table(rows, marks, scores.sets)
-    (docs / "reference.md").write_text(md)
-    for p in plot(rows, marks, docs):
-        print(f"wrote {p}")
+    figures = plot(rows, marks, files)
+    (docs / "reference.md").write_text(page(rows, md, figures, meta))
     print(md)
-    print(f"wrote {docs}/reference.json and reference.md")
+    print(f"wrote {docs}/reference.md, {files}/reference.json and {len(figures)} figures")
     return 0
+
+
+def _meta(out: Path, args, scoring_s: float) -> dict:
+    """The grid's command, its measured times (``out/grid_time.json``: the trainings' wall time,
+    written by the call that trained, and the scoring's, summed over the calls that scored) and
+    the machine."""
+    path = out / "grid_time.json"
+    seconds = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}
+    seconds["score"] += scoring_s
+    write_json(path, seconds)
+    return {
+        "command": "python -m cepam_gym_agents.reference " + " ".join(args.argv),
+        "seconds": seconds,
+        "unseen_seed": args.unseen_seed,
+        "unseen_episodes": args.unseen_episodes,
+        "machine": f"{platform.platform()}, {_cpus()} cores",
+        "machine_details": {"platform": platform.platform(), "cpus": _cpus(), **machine()},
+    }
 
 
 def _cpus() -> int:

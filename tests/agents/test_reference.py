@@ -1,0 +1,108 @@
+"""The reference grid of the recommended version (agents/reference.py): its cells, their configs,
+and one tiny grid trained, scored and reported end to end."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+pytestmark = pytest.mark.train
+
+
+def test_the_grid_covers_every_recommended_id_and_skips_only_what_it_says():
+    from cepam_gym import versions
+    from cepam_gym_agents.reference_grid import LEARNERS, cells, recommended_ids, skipped
+
+    ids = recommended_ids()
+    recommended = versions.get(versions.RECOMMENDED_ID).version
+    assert versions.RECOMMENDED_ID in ids and {versions.get(i).version for i in ids} == {recommended}
+    assert len(ids) == len(versions.ids(version=recommended))  # every one of them has a suite
+    grid = cells(list(LEARNERS), ids)
+    for learner in LEARNERS:
+        for i in ids:
+            assert ((learner, i) in grid) == (skipped(learner, i) is None)
+    joint = [i for i in ids if versions.get(i).mechanism == "hinge"]
+    assert joint and all(("student", i) not in grid for i in joint)
+    assert all(("PPO", i) in grid for i in ids)
+
+
+@pytest.mark.parametrize("learner", ["student", "TD3"])
+def test_a_cell_config_trains_and_scores_on_its_ids_suite(learner):
+    from cepam_gym_agents.config import load_config
+    from cepam_gym_agents.reference_grid import LEARNERS, cell_config, suite_of
+
+    shipped = load_config(LEARNERS[learner])
+    cfg = cell_config(learner, "cepam_gym/CEPAMLength-v3", 0.5)
+    suite = suite_of("cepam_gym/CEPAMLength-v3")
+    assert suite == "length-v3"
+    assert (cfg.env.id, cfg.env.suite, cfg.eval.suite, cfg.time_limit_minutes) == (
+        "cepam_gym/CEPAMLength-v3",
+        suite,
+        suite,
+        0.5,
+    )
+    assert cfg.hyperparameters == shipped.hyperparameters and cfg.env.num_envs == shipped.env.num_envs
+    if learner == "student":  # as many DAgger envs per round as the shipped config, on this suite
+        assert cfg.student.suites == {suite: sum(shipped.student.suites.values())}
+    assert (
+        cell_config(learner, "cepam_gym/CEPAMLength-v3", None).time_limit_minutes
+        == shipped.time_limit_minutes
+    )
+
+
+@pytest.mark.slow
+def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch):
+    from cepam_gym_agents import reference_report
+    from cepam_gym_agents.reference import main
+    from cepam_gym_agents.reference_report import _score
+
+    # the MPCs' planning would be most of the test's time; the headline needs these two
+    monkeypatch.setitem(reference_report.CONTROLLERS, "rig", ("baseline", "oracle"))
+
+    out, docs = tmp_path / "runs", tmp_path / "docs"
+    args = ["--learners", "PPO", "--ids", "CEPAMLength-v3", "--seeds", "1", "--minutes", "0.03"]
+    args += ["--unseen-episodes", "2", "--suite-episodes", "2", "--jobs", "1"]
+    args += ["--out", str(out), "--docs", str(docs)]
+    assert main(args) == 0
+    results = json.loads((docs / "reference" / "reference.json").read_text())
+    (row,) = results["runs"]
+    assert (row["learner"], row["env_id"], row["suite"], row["seed"]) == (
+        "PPO",
+        "cepam_gym/CEPAMLength-v3",
+        "length-v3",
+        0,
+    )
+    assert row["env_steps"] > 0 and 0 < row["wall_s"] < 60 and row["curve"]
+    assert all(np.isfinite(v) and v > 0 for v in row["scores"].values())
+    assert row["cepam_gym"] and "commit" in row and row["resolved_config"]["env"]["id"] == row["env_id"]
+    # the run's score is what the benchmark gives its directory on the same episodes
+    run = out / "PPO" / "CEPAMLength-v3" / "seed0"
+    assert row["scores"]["unseen"] == pytest.approx(_score(str(run), "length-v3", 99000, 2), rel=1e-9)
+    marks = results["controllers"]["length-v3"]
+    assert set(marks) == {"suite", "unseen"} and set(marks["suite"]) == {"baseline", "oracle"}
+    assert marks["suite"]["oracle"] < marks["suite"]["baseline"]
+    page = (docs / "reference.md").read_text()
+    assert "| CEPAMLength-v3 (length-v3) | PPO | 1 |" in page and "*oracle*" in page
+    assert "](reference/CEPAMLength-v3.png)" in page and "--minutes 0.03" in page
+    assert (docs / "reference" / "CEPAMLength-v3.png").stat().st_size > 0
+    times = json.loads((out / "grid_time.json").read_text())
+    assert times["train"] > 0 and times["score"] > 0
+    # a second call trains nothing and reports the same numbers (the cached scores)
+    assert main([*args, "--report-only"]) == 0
+    again = json.loads((docs / "reference" / "reference.json").read_text())
+    assert again["runs"][0]["scores"] == row["scores"] and again["seconds"]["train"] == times["train"]
+
+
+def test_bad_input_is_named():
+    from cepam_gym_agents.reference import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["--ids", "CEPAM-v2"])
+    assert e.value.code == 2
+    with pytest.raises(SystemExit):
+        main(["--seeds", "0"])
+    with pytest.raises(SystemExit):
+        main(["--minutes", "-1"])
