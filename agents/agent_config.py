@@ -42,9 +42,9 @@ class AgentConfig:
     * ``residual``: the policy's (remaining) two actions are added to the valve commands:
       ``clip(baseline + residual_scale * a, -1, 1)``.
     * ``start_at_base`` (with ``residual`` or ``target_shift``): the policy's output layer starts
-      at zero, so the untrained agent is its base controller and learning starts from the base's
-      score (residual policy learning, Silver et al. 2018); an off-policy learner's first actions
-      would otherwise move the valves (or the targets) by up to their scale at random.
+      at zero, so the untrained agent's deterministic action (its mean) is its base controller's
+      and its evaluations start from the base's score (residual policy learning, Silver et al.
+      2018); SAC's and PPO's samples still spread around it as built.
     * ``baseline_in_obs``: the baseline's action is appended to the observation (not with
       ``target_shift``: the baseline acts only after the policy has chosen the shift).
     * ``setpoint_gaps_in_obs``: the gaps between the baseline's set-point pressures (the nominal

@@ -181,23 +181,19 @@ def policy(algorithm: str, policy_kwargs: dict, privileged_critic: bool, env) ->
 
 
 def zero_output_layer(model) -> None:
-    """Start ``model``'s policy at the action 0: the weights and bias of the layer that outputs
-    the action (PPO's and RecurrentPPO's ``action_net``, SAC's mean, TD3's last linear layer, and
-    TD3's target actor with it) set to zero. The layers below still learn: their gradient flows
-    once the first update has moved the output layer."""
+    """Start ``model``'s deterministic policy at the action 0: the weights and bias of the linear
+    layer that outputs the action (PPO's and RecurrentPPO's ``action_net``, SAC's mean, TD3's
+    actor, each possibly followed by a squashing layer) set to zero, and TD3's target actor with
+    it. The layers below still learn: their gradient flows once the first update has moved the
+    output layer. SAC's spread (``log_std``) stays as built, so its samples still explore."""
     import torch
 
     p = model.policy
-    if hasattr(p, "action_net"):
-        layers = [p.action_net]
-    elif hasattr(p.actor, "log_std"):  # SAC: the Gaussian's mean; its spread stays as built
-        layers = [p.actor.mu]
-    else:  # TD3: mu is Sequential(..., Linear, Tanh)
-        layers = [[m for m in p.actor.mu if isinstance(m, torch.nn.Linear)][-1]]
+    out = p.action_net if hasattr(p, "action_net") else p.actor.mu  # SAC, TD3: Linear or Sequential
+    layer = [m for m in out.modules() if isinstance(m, torch.nn.Linear)][-1]  # out itself if Linear
     with torch.no_grad():
-        for layer in layers:
-            layer.weight.zero_()
-            layer.bias.zero_()
+        layer.weight.zero_()
+        layer.bias.zero_()
     if getattr(p, "actor_target", None) is not None:
         p.actor_target.load_state_dict(p.actor.state_dict())
 

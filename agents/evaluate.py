@@ -20,7 +20,7 @@ import json
 import sys
 from pathlib import Path
 
-from cepam_gym._cli_errors import CommandParser
+from cepam_gym.cli_errors import CommandParser
 from cepam_gym.bench.headline import BASELINE, LEGEND, ORACLE, headline_score
 from cepam_gym.errors import InputError
 

@@ -84,15 +84,25 @@ def _ray_trial(command: list[str], threads: int, log: str) -> int:
         return subprocess.run(command, env=thread_env(threads), stdout=f, stderr=subprocess.STDOUT).returncode
 
 
-def run_ray(trials: list[Trial], address: str | None, cpus_per_trial: int) -> None:
-    """Every trial as a Ray task needing ``cpus_per_trial`` cores, on the Ray instance at
-    ``address`` (``"auto"``: the running cluster; None: a new one on this machine)."""
+def smallest_node_cpus(ray) -> int:
+    """The CPUs of the smallest live node of the Ray instance: a task asking for more would wait
+    forever on a cluster of smaller nodes."""
+    cpus = [n["Resources"].get("CPU", 0) for n in ray.nodes() if n.get("Alive")]
+    return max(1, int(min(cpus))) if cpus else 1
+
+
+def run_ray(trials: list[Trial], address: str | None, cpus_per_trial: int | None) -> None:
+    """Every trial as a Ray task needing ``cpus_per_trial`` cores (None: a whole node; never more
+    than the smallest node has), on the Ray instance at ``address`` (``"auto"``: the running
+    cluster; None: a new one on this machine)."""
     try:
         import ray
     except ImportError:
         raise InputError(NO_RAY) from None
     if not ray.is_initialized():
         ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
+    node = smallest_node_cpus(ray)
+    cpus_per_trial = node if cpus_per_trial is None else min(cpus_per_trial, node)
     task = ray.remote(num_cpus=cpus_per_trial)(_ray_trial)
     futures = {task.remote(t.command(), cpus_per_trial, str(t.log)): t for t in trials}
     for future, t in futures.items():

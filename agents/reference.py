@@ -34,24 +34,40 @@ from cepam_gym import versions
 from cepam_gym.cli_errors import CommandParser
 
 from .config import ConfigError, dump_config
-from .reference_grid import LEARNERS, cell_config, cells, recommended_ids, run_dir
+from .reference_grid import LEARNERS, cell_config, cells, recommended_ids, run_dir, shown_command
 
 
 def trials(grid: list[tuple[str, str]], seeds: list[int], out: Path, minutes: float | None) -> list:
-    """One :class:`agents.grid.Trial` per cell and seed not yet trained (no ``summary.json``); each
-    cell's config is written once to ``out/configs/``."""
+    """One :class:`agents.grid.Trial` per cell and seed not yet trained (no ``summary.json``; what
+    an interrupted run left is removed: a run trains its whole budget in one go); each cell's
+    config is written to ``out/configs/``. ``ConfigError`` for a finished run of another budget
+    (its cell would mix budgets)."""
+    import shutil
+
+    import yaml
+
     from .grid import Trial
 
     (out / "configs").mkdir(parents=True, exist_ok=True)
     todo = []
     for learner, env_id in grid:
+        cfg = cell_config(learner, env_id, minutes)
         path = out / "configs" / f"{learner}-{versions.short_name(env_id)}.yaml"
-        dump_config(cell_config(learner, env_id, minutes), path)
+        dump_config(cfg, path)
         for seed in seeds:
             run = run_dir(out, learner, env_id, seed)
-            if not (run / "summary.json").is_file():
-                run.parent.mkdir(parents=True, exist_ok=True)
-                todo.append(Trial(str(path), seed, run))
+            if (run / "summary.json").is_file():
+                budget = yaml.safe_load((run / "config.yaml").read_text()).get("time_limit_minutes")
+                if budget != cfg.time_limit_minutes:
+                    raise ConfigError(
+                        f"{run} was trained for {budget} min, this grid's {learner} runs for "
+                        f"{cfg.time_limit_minutes} min: pass another --out (or the same --minutes)"
+                    )
+                continue
+            if run.exists():
+                shutil.rmtree(run)
+            run.parent.mkdir(parents=True, exist_ok=True)
+            todo.append(Trial(str(path), seed, run))
     return todo
 
 
@@ -64,9 +80,9 @@ def train_grid(todo: list, jobs: int, ray: str | None) -> None:
         run_ray(todo, None if ray == "local" else ray, max(1, (os.cpu_count() or 1) // max(jobs, 1)))
 
 
-def record_training_time(out: Path, seconds: float) -> None:
+def record_training(out: Path, seconds: float, argv: list[str]) -> None:
     """Add a training call's wall time to ``out/grid_time.json`` (a grid trained in several calls
-    sums them)."""
+    sums them) with its command."""
     import json
 
     from .provenance import write_json
@@ -74,6 +90,7 @@ def record_training_time(out: Path, seconds: float) -> None:
     path = out / "grid_time.json"
     times = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}
     times["train"] += seconds
+    times["command"] = shown_command(argv)
     write_json(path, times)
 
 
@@ -109,8 +126,11 @@ def _parser() -> CommandParser:
 def main(argv: list[str] | None = None) -> int:
     ap = _parser()
     args = ap.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     if args.seeds < 1 or args.jobs < 1 or args.unseen_episodes < 1 or args.minutes < 0:
         ap.error("--seeds, --jobs and --unseen-episodes must be >= 1 and --minutes >= 0")
+    if args.suite_episodes is not None and args.suite_episodes < 1:
+        ap.error("--suite-episodes must be >= 1")
     known = {**{versions.short_name(i): i for i in recommended_ids()}, **{i: i for i in recommended_ids()}}
     for i in args.ids or ():
         if i not in known:
@@ -125,15 +145,17 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(NO_RAY)
     os.environ.setdefault("MPLBACKEND", "Agg")
     out, seeds, grid = Path(args.out), list(range(args.seeds)), cells(args.learners, ids)
-    try:
-        todo = trials(grid, seeds, out, args.minutes or None)
-    except ConfigError as e:
-        ap.error(str(e))
-    args.argv = list(sys.argv[1:] if argv is None else argv)
     if not args.report_only:
+        try:
+            todo = trials(grid, seeds, out, args.minutes or None)
+        except ConfigError as e:
+            ap.error(str(e))
         t = time.perf_counter()
-        train_grid(todo, args.jobs, args.ray)
-        record_training_time(out, time.perf_counter() - t)
+        try:
+            train_grid(todo, args.jobs, args.ray)
+        except RuntimeError as e:  # a trial failed: its log says why
+            ap.error(str(e))
+        record_training(out, time.perf_counter() - t, args.argv)
     from .reference_report import report
 
     return report(grid, seeds, out, Path(args.docs), args)

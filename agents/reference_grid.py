@@ -66,3 +66,17 @@ def cells(learners: list[str], ids: list[str]) -> list[tuple[str, str]]:
 
 def run_dir(out: Path, learner: str, env_id: str, seed: int) -> Path:
     return out / learner / versions.short_name(env_id) / f"seed{seed}"
+
+
+def shown_command(argv: list[str]) -> str:
+    """The grid's command as the page shows it: without where its files went (``--out``,
+    ``--docs``: they change no number) and ``--report-only``."""
+    kept, skip = [], False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg in ("--out", "--docs"):
+            skip = True
+        elif not (arg.startswith(("--out=", "--docs=")) or arg == "--report-only"):
+            kept.append(arg)
+    return " ".join(["python -m cepam_gym_agents.reference", *kept])

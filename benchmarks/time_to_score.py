@@ -17,7 +17,8 @@ The load average is printed: another busy process slows both the learner and the
 Run: ``.venv/bin/python benchmarks/time_to_score.py`` (options: ``--ids``, ``--seeds``, ``--config``
 (another shipped config than ``fast_ppo``),
 ``--budget-s``, ``--eval-every``, ``--out`` for the run directories, ``--json`` to keep every
-evaluation, ``--report`` to re-read kept files, ``--plot`` for the curves).
+evaluation, ``--report`` to re-read kept files, ``--plot`` for the curves, ``--ray ADDRESS`` to
+train the seeds as Ray tasks on a cluster, each asking for a whole node).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -75,21 +77,12 @@ def train_one(
 ) -> list[dict]:
     """One run of the shipped ``config`` on ``env_id``, stopped at the budget or at the first
     evaluation scoring below ``stop_below`` (nothing is left to measure); its evaluations."""
-    import shutil
 
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
     from cepam_gym_agents.train import train
 
-    cfg = load_config(config)
-    env = EnvConfig.parse({"id": f"cepam_gym/{env_id}", "num_envs": cfg.env.num_envs, "suite": suite.name})
-    cfg = cfg.replace(
-        env=env,
-        eval=EvalConfig(every, suite.episodes, suite.name, suite.seed),
-        seed=seed,
-        time_limit_minutes=budget_s / 60.0,
-    )
+    cfg = run_config(env_id, suite, seed, budget_s, every, config)
     run = out / env_id / f"seed{seed}"
     if run.exists():
         shutil.rmtree(run)
@@ -108,6 +101,42 @@ def train_one(
 
     train(cfg, run, callbacks=[StopAtTarget()], quiet=True)
     return json.loads(log.read_text())
+
+
+def run_config(env_id: str, suite, seed: int, budget_s: float, every: int, config: str):
+    """The shipped ``config`` on ``env_id`` and its suite, evaluated every ``every`` steps on the
+    suite's own episodes, this seed and budget."""
+    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
+
+    cfg = load_config(config)
+    env = EnvConfig.parse({"id": f"cepam_gym/{env_id}", "num_envs": cfg.env.num_envs, "suite": suite.name})
+    return cfg.replace(
+        env=env,
+        eval=EvalConfig(every, suite.episodes, suite.name, suite.seed),
+        seed=seed,
+        time_limit_minutes=budget_s / 60.0,
+    )
+
+
+def train_on_ray(
+    env_id: str, suite, seeds: int, budget_s: float, every: int, out: Path, config: str, address
+):
+    """Every seed's run as a Ray task asking for a whole node's cores (a run's speed is what is
+    measured: two on one node would halve it), on the Ray instance at ``address`` (None: a new one
+    here); the runs' evaluations. A Ray run goes to its budget (no stop at the MPC)."""
+    from cepam_gym_agents.config import dump_config
+    from cepam_gym_agents.grid import Trial, run_ray
+
+    path = out / "configs" / f"{env_id}.yaml"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dump_config(run_config(env_id, suite, 0, budget_s, every, config), path)
+    trials = [Trial(str(path), seed, out / env_id / f"seed{seed}") for seed in range(seeds)]
+    for t in trials:  # a fresh run each time, as train_one's
+        if t.run.exists():
+            shutil.rmtree(t.run)
+        t.run.parent.mkdir(parents=True, exist_ok=True)
+    run_ray(trials, address, None)
+    return [json.loads((t.run / "evaluations.json").read_text()) for t in trials]
 
 
 def training_times(evals: list[dict]) -> list[tuple[float, float, int]]:
@@ -259,6 +288,13 @@ def main(argv=None) -> None:
     p.add_argument("--json", type=Path, default=None, help="write the results (every evaluation) here")
     p.add_argument("--report", type=Path, nargs="+", default=None, help="re-read --json files, train nothing")
     p.add_argument("--plot", type=Path, default=None, help="draw the curves into this image")
+    p.add_argument(
+        "--ray",
+        metavar="ADDRESS",
+        help="train the seeds as Ray tasks, one per node at a time: 'local' (a Ray instance here), "
+        "'auto' (the running cluster) or the head's address; on a cluster --out must be on a "
+        "filesystem every node sees",
+    )
     a = p.parse_args(argv)
     if a.report:
         results = {}
@@ -283,14 +319,16 @@ def measure(a, num_envs: int) -> dict:
         print(f"{env_id} on {suite.name}:", flush=True)
         ys = yardsticks(suite)
         budget = a.budget_s or BUDGET_S[env_id]
-        runs = []
+        if a.ray:
+            address = None if a.ray == "local" else a.ray
+            runs = train_on_ray(env_id, suite, a.seeds, budget, a.eval_every, out, a.config, address)
+        else:
+            stop = ys.get("mpc", ys["baseline"])
+            runs = [
+                train_one(env_id, suite, s, budget, a.eval_every, out, stop, a.config) for s in range(a.seeds)
+            ]
         for seed in range(a.seeds):
-            runs.append(
-                train_one(
-                    env_id, suite, seed, budget, a.eval_every, out, ys.get("mpc", ys["baseline"]), a.config
-                )
-            )
-            rows = training_times(runs[-1])
+            rows = training_times(runs[seed])
             print(
                 f"  seed {seed}: beats the baseline at {first_below(rows, ys['baseline'])} s, "
                 f"best {min(sc for _, sc, _ in rows):.4f}, {rows[-1][2] / rows[-1][0] / 1e3:.0f} k steps/s",

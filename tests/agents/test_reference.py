@@ -30,7 +30,7 @@ def test_the_grid_covers_every_recommended_id_and_skips_only_what_it_says():
 
 
 @pytest.mark.parametrize("learner", ["student", "TD3"])
-def test_a_cell_config_trains_and_scores_on_its_ids_suite(learner):
+def test_a_cell_config_is_the_shipped_one_on_its_ids_suite(learner):
     from cepam_gym_agents.config import load_config
     from cepam_gym_agents.reference_grid import LEARNERS, cell_config, suite_of
 
@@ -90,19 +90,27 @@ def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch):
     assert (docs / "reference" / "CEPAMLength-v3.png").stat().st_size > 0
     times = json.loads((out / "grid_time.json").read_text())
     assert times["train"] > 0 and times["score"] > 0
-    # a second call trains nothing and reports the same numbers (the cached scores)
+    # a second call trains only what is missing (nothing here) and reports the same numbers
+    stamp = (run / "summary.json").stat().st_mtime_ns
+    assert main(args) == 0 and (run / "summary.json").stat().st_mtime_ns == stamp
     assert main([*args, "--report-only"]) == 0
     again = json.loads((docs / "reference" / "reference.json").read_text())
-    assert again["runs"][0]["scores"] == row["scores"] and again["seconds"]["train"] == times["train"]
+    assert again["runs"][0]["scores"] == row["scores"] and again["command"] == results["command"]
+    assert "--out" not in results["command"] and "--minutes 0.03" in results["command"]
+    # runs of another budget are not mixed into a cell
+    with pytest.raises(SystemExit) as e:
+        main([*args, "--minutes", "0.05"])
+    assert e.value.code == 2
 
 
-def test_bad_input_is_named():
+@pytest.mark.parametrize(
+    "argv", [["--ids", "CEPAM-v2"], ["--seeds", "0"], ["--minutes", "-1"], ["--suite-episodes", "0"]]
+)
+def test_bad_input_is_named(argv, capsys):
     from cepam_gym_agents.reference import main
 
     with pytest.raises(SystemExit) as e:
-        main(["--ids", "CEPAM-v2"])
+        main(argv)
     assert e.value.code == 2
-    with pytest.raises(SystemExit):
-        main(["--seeds", "0"])
-    with pytest.raises(SystemExit):
-        main(["--minutes", "-1"])
+    err = capsys.readouterr().err
+    assert argv[0] in err or argv[1] in err  # the option or the value named

@@ -28,12 +28,14 @@ def _config(algorithm: str, agent: dict):
     )
 
 
-@pytest.mark.parametrize("algorithm", ["PPO", "SAC", "TD3", "RecurrentPPO"])
+@pytest.mark.parametrize("algorithm", ["PPO", "SAC", "TD3", "RecurrentPPO", "SAC-gSDE"])
 def test_the_untrained_residual_agent_sends_the_base_controllers_commands(algorithm):
     from cepam_gym_agents.algorithm import training_class
     from cepam_gym_agents.trainer import build_train_env, new_model
 
-    cfg = _config(algorithm, {"residual": True, "residual_scale": 0.3, "start_at_base": True})
+    sde = algorithm.endswith("gSDE")  # SAC's mean is then Sequential(Linear, Hardtanh)
+    algorithm = algorithm.split("-")[0]
+    cfg = _config(algorithm, {"residual": True, "residual_scale": 0.3, "start_at_base": True}, sde)
     raw = build_train_env(cfg, 0)
     env, model = new_model(cfg, training_class(cfg.algorithm, cfg.learner), raw)
     obs = env.reset()
@@ -45,7 +47,7 @@ def test_the_untrained_residual_agent_sends_the_base_controllers_commands(algori
         for a, b in zip(model.actor.parameters(), model.actor_target.parameters()):
             np.testing.assert_array_equal(a.detach().numpy(), b.detach().numpy())
     # without the option the same seed's untrained policy does act
-    plain = _config(algorithm, {"residual": True, "residual_scale": 0.3})
+    plain = _config(algorithm, {"residual": True, "residual_scale": 0.3}, sde)
     env2, other = new_model(plain, training_class(plain.algorithm, plain.learner), build_train_env(plain, 0))
     action, _ = other.predict(env2.reset(), deterministic=True)
     assert np.abs(action).max() > 0  # PPO's orthogonal init of the action layer (gain 0.01) acts small, not 0

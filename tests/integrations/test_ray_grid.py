@@ -52,3 +52,40 @@ def test_a_ray_trial_is_the_same_seeds_local_run(tmp_path):
         np.testing.assert_array_equal(a[k].numpy(), b[k].numpy(), err_msg=k)
     assert any(not np.array_equal(a[k].numpy(), other[k].numpy()) for k in a)  # the seed matters
     assert (tmp_path / "ray-s0.log").is_file() and (tmp_path / "ray-s1" / "summary.json").is_file()
+
+
+def test_time_to_score_trains_its_seeds_as_ray_tasks(tmp_path):
+    """``benchmarks/time_to_score.py --ray local``: each seed a Ray task on the whole node, its
+    evaluations read back into the same report as a local run's."""
+    import importlib.util
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location("time_to_score", root / "benchmarks" / "time_to_score.py")
+    tts = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tts)
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        tts.main(
+            ["--ids", "CEPAMLength-v3", "--seeds", "2", "--config", "fast_ppo_v3", "--budget-s", "4"]
+            + [
+                "--eval-every",
+                "16384",
+                "--out",
+                str(tmp_path),
+                "--json",
+                str(tmp_path / "r.json"),
+                "--ray",
+                "local",
+            ]
+        )
+    finally:
+        ray.shutdown()
+    (r,) = json.loads((tmp_path / "r.json").read_text()).values()
+    assert r["config"] == "fast_ppo_v3" and len(r["runs"]) == 2 and all(run for run in r["runs"])
+    for seed in (0, 1):
+        run = tmp_path / "CEPAMLength-v3" / f"seed{seed}"
+        assert json.loads((run / "run.json").read_text())["seed"] == seed
+        assert json.loads((run / "evaluations.json").read_text()) == r["runs"][seed]
+    assert tts.report({"CEPAMLength-v3": r}).count("CEPAMLength-v3") == 1
