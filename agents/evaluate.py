@@ -20,8 +20,8 @@ import json
 import sys
 from pathlib import Path
 
-from cepam_gym.cli_errors import CommandParser
 from cepam_gym.bench.headline import BASELINE, LEGEND, ORACLE, headline_score
+from cepam_gym.cli_errors import CommandParser
 from cepam_gym.errors import InputError
 
 # the model-based controller an agent is measured against between the headline's two ends

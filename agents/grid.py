@@ -85,9 +85,11 @@ def _ray_trial(command: list[str], threads: int, log: str) -> int:
 
 
 def smallest_node_cpus(ray) -> int:
-    """The CPUs of the smallest live node of the Ray instance: a task asking for more would wait
-    forever on a cluster of smaller nodes."""
+    """The CPUs of the smallest live node of the Ray instance that has any: a task asking for more
+    would wait forever on a cluster of smaller nodes. (On nodes of mixed sizes a larger node runs
+    several such tasks at once.)"""
     cpus = [n["Resources"].get("CPU", 0) for n in ray.nodes() if n.get("Alive")]
+    cpus = [c for c in cpus if c > 0]  # a head started with --num-cpus=0 runs no task
     return max(1, int(min(cpus))) if cpus else 1
 
 

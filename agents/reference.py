@@ -48,12 +48,8 @@ def trials(grid: list[tuple[str, str]], seeds: list[int], out: Path, minutes: fl
 
     from .grid import Trial
 
-    (out / "configs").mkdir(parents=True, exist_ok=True)
-    todo = []
-    for learner, env_id in grid:
-        cfg = cell_config(learner, env_id, minutes)
-        path = out / "configs" / f"{learner}-{versions.short_name(env_id)}.yaml"
-        dump_config(cfg, path)
+    configs = {cell: cell_config(*cell, minutes) for cell in grid}
+    for (learner, env_id), cfg in configs.items():  # every finished run checked before any file is written
         for seed in seeds:
             run = run_dir(out, learner, env_id, seed)
             if (run / "summary.json").is_file():
@@ -63,6 +59,14 @@ def trials(grid: list[tuple[str, str]], seeds: list[int], out: Path, minutes: fl
                         f"{run} was trained for {budget} min, this grid's {learner} runs for "
                         f"{cfg.time_limit_minutes} min: pass another --out (or the same --minutes)"
                     )
+    (out / "configs").mkdir(parents=True, exist_ok=True)
+    todo = []
+    for (learner, env_id), cfg in configs.items():
+        path = out / "configs" / f"{learner}-{versions.short_name(env_id)}.yaml"
+        dump_config(cfg, path)
+        for seed in seeds:
+            run = run_dir(out, learner, env_id, seed)
+            if (run / "summary.json").is_file():
                 continue
             if run.exists():
                 shutil.rmtree(run)
@@ -80,9 +84,9 @@ def train_grid(todo: list, jobs: int, ray: str | None) -> None:
         run_ray(todo, None if ray == "local" else ray, max(1, (os.cpu_count() or 1) // max(jobs, 1)))
 
 
-def record_training(out: Path, seconds: float, argv: list[str]) -> None:
+def record_training(out: Path, seconds: float, argv: list[str], how: str) -> None:
     """Add a training call's wall time to ``out/grid_time.json`` (a grid trained in several calls
-    sums them) with its command."""
+    sums them) with its command and ``how`` its trainings ran."""
     import json
 
     from .provenance import write_json
@@ -91,6 +95,7 @@ def record_training(out: Path, seconds: float, argv: list[str]) -> None:
     times = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}
     times["train"] += seconds
     times["command"] = shown_command(argv)
+    times["how"] = how
     write_json(path, times)
 
 
@@ -155,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
             train_grid(todo, args.jobs, args.ray)
         except RuntimeError as e:  # a trial failed: its log says why
             ap.error(str(e))
-        record_training(out, time.perf_counter() - t, args.argv)
+        how = "as Ray tasks" if args.ray else f"{args.jobs} training{'s' * (args.jobs > 1)} at a time"
+        record_training(out, time.perf_counter() - t, args.argv, how)
     from .reference_report import report
 
     return report(grid, seeds, out, Path(args.docs), args)

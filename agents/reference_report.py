@@ -52,9 +52,38 @@ class Scores:
         self.tag = ",".join(f"{k}:{s}:{n}" for k, (s, n) in sets.items())
         self.spent = 0.0  # seconds this object spent scoring
 
+    def key(self, spec: str, suite: str, where: str, version: str = "") -> str:
+        return f"{self.tag}|{suite}|{where}|{spec}{version}"
+
+    def fill(self, requests: list[tuple], jobs: int) -> None:
+        """Score the ``(spec, suite, set, version)`` requests not in the cache, ``jobs`` processes
+        at a time (each on its share of the cores: the env's kernel threads and the policy's)."""
+        todo = [r for r in dict.fromkeys(requests) if self.key(*r) not in self.cache]
+        if jobs < 2 or len(todo) < 2:
+            return
+        import multiprocessing
+        import os
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        from .grid import thread_env
+
+        print(f"reference: scoring {len(todo)} runs and controllers, {jobs} processes at a time", flush=True)
+        saved, t = dict(os.environ), time.perf_counter()
+        os.environ.update(thread_env((os.cpu_count() or 1) // jobs))  # what the spawned workers start with
+        try:
+            with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+                futures = {pool.submit(_score, r[0], r[1], *self.sets[r[2]]): r for r in todo}
+                for future in as_completed(futures):  # each score kept as it comes
+                    self.cache[self.key(*futures[future])] = future.result()
+                    write_json(self.path, self.cache)
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
+        self.spent += time.perf_counter() - t
+
     def get(self, spec: str, suite: str, where: str, version: str = "") -> float:
         """``version``: what tells a run retrained in the same directory from the one scored."""
-        key = f"{self.tag}|{suite}|{where}|{spec}{version}"
+        key = self.key(spec, suite, where, version)
         if key not in self.cache:
             seed, episodes = self.sets[where]
             t = time.perf_counter()
@@ -179,116 +208,6 @@ def table(rows: list[dict], marks: dict, sets: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def best_so_far(runs: list[dict], column: int, grid: np.ndarray) -> np.ndarray:
-    """The IQM over runs of the best evaluation score reached by each x of ``grid`` (wall seconds,
-    column 0, or env-steps, column 1); NaN where a run had no evaluation yet."""
-    from scipy.stats import trim_mean
-
-    out = []
-    for x in grid:
-        vals = []
-        for r in runs:
-            seen = [p[2] for p in r["curve"] if p[column] <= x]
-            vals.append(min(seen) if seen else np.nan)
-        vals = np.array(vals)
-        out.append(np.nan if np.isnan(vals).any() else float(trim_mean(vals, 0.25)))
-    return np.array(out)
-
-
-def plot(rows: list[dict], marks: dict, docs: Path) -> list[Path]:
-    """One figure per id: the best score so far against wall time and against env-steps (IQM over
-    seeds, the periodic evaluations' episodes), the baseline's and the MPC's suite scores as lines."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    paths = []
-    for env_id in dict.fromkeys(r["env_id"] for r in rows):
-        mine = [r for r in rows if r["env_id"] == env_id]
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-        for learner in dict.fromkeys(r["learner"] for r in mine):
-            runs = [r for r in mine if r["learner"] == learner and r["curve"]]
-            if not runs:
-                continue
-            for ax, column, scale in ((axes[0], 0, 1.0), (axes[1], 1, 1e-6)):
-                end = max(p[column] for r in runs for p in r["curve"])
-                grid = np.linspace(0.0, end, 200)
-                ax.plot(grid * scale, best_so_far(runs, column, grid), label=f"{learner} ({len(runs)} seeds)")
-        for c, style in (("baseline", "--"), ("mpc", ":")):
-            if c in marks[mine[0]["suite"]]["suite"]:
-                for ax in axes:
-                    ax.axhline(marks[mine[0]["suite"]]["suite"][c], color="k", ls=style, lw=1, label=c)
-        axes[0].set_xlabel("wall time [s]")
-        axes[1].set_xlabel("env-steps [millions]")
-        axes[1].set_xscale("symlog", linthresh=0.1)
-        axes[0].set_ylabel("best score so far, IQM over seeds (lower is better)")
-        for ax in axes:
-            ax.set_yscale("log")
-            ax.grid(alpha=0.3)
-        axes[0].legend(fontsize=8)
-        fig.suptitle(f"{versions.short_name(env_id)} ({mine[0]['suite']}): periodic evaluations")
-        fig.tight_layout()
-        path = docs / f"{versions.short_name(env_id)}.png"
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        paths.append(path)
-    return paths
-
-
-PAGE = """# Reference results
-
-Every learner on every id of the recommended version, {seeds} training seeds each, a wall-time
-budget of {budgets} per run (a student stops at the first DAgger round past it), {jobs}
-regenerated by one command ({grid_time}):
-
-```text
-{command}
-```
-
-Each run is scored on its suite's episodes and on {unseen} episodes of an unseen seed (seed
-{unseen_seed}); a learner's cell is the interquartile mean over its seeds with a 95 %
-stratified-bootstrap interval (Agarwal et al. 2021), its headline in brackets (the share of the
-baseline-to-oracle gap closed on the same episodes). The controllers' rows are their scores on
-the same episodes; the MPCs run on the suite's episodes only. Lower scores are better. A
-student's env-steps are its teacher's labels. What every run did (its
-config, seed, budget, env-steps, scores, evaluation curve, package version, commit and machine):
-[`reference/reference.json`](reference/reference.json). Measured with cepam-gym {version} at
-commit {commit} on {machine}.
-
-{table}
-The best score so far (the periodic evaluations' episodes; interquartile mean over seeds) against
-wall time and against env-steps, the baseline's and the MPC's suite scores as lines:
-
-{figures}
-"""
-
-
-def page(rows: list[dict], table_md: str, figures: list[Path], meta: dict) -> str:
-    """The results page (``reference.md``) around the table and the figures."""
-    from .reference_grid import SKIPPED
-
-    commits = sorted({(r["commit"] or "unknown")[:7] + ("+dirty" if r["dirty"] else "") for r in rows})
-    t = meta["seconds"]
-    skipped = "; ".join(f"{a} is not run on the {m} ({why})" for (a, m), why in SKIPPED.items())
-    return PAGE.format(
-        seeds=max(len({r["seed"] for r in rows if r["learner"] == a}) for a in {r["learner"] for r in rows}),
-        grid_time=f"the trainings took {t['train'] / 60:.0f} minutes, the scoring {t['score'] / 60:.0f}"
-        if t["train"]
-        else "the trainings' time not recorded",
-        command=meta["command"],
-        budgets=" or ".join(sorted({_minutes(r["budget_minutes"]) for r in rows})),
-        jobs=meta["jobs"],
-        unseen=meta["unseen_episodes"],
-        unseen_seed=meta["unseen_seed"],
-        version=rows[0]["cepam_gym"],
-        commit=", ".join(commits),
-        machine=meta["machine"],
-        table=table_md + f"\n{skipped}.\n",
-        figures="\n".join(f"![{p.stem}](reference/{p.name})" for p in figures),
-    )
-
-
 def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path, args) -> int:
     """Score every finished run of ``grid``; write ``docs/reference.md`` (the page) and, in
     ``docs/reference/``, ``reference.json`` and the figures; 1 (said why) when no run of the grid
@@ -296,6 +215,7 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
     from cepam_gym.progress import runs as bar
 
     from .reference_grid import SKIPPED, run_dir
+    from .reference_page import page, plot
 
     scores = Scores(out, episode_sets(args))
     done = [(a, i, s) for a, i in grid for s in seeds if (run_dir(out, a, i, s) / "summary.json").is_file()]
@@ -303,6 +223,7 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
         print(f"no finished run of the grid under {out}", file=sys.stderr)
         return 1
     ids = list(dict.fromkeys(i for _, i, _ in done))
+    scores.fill(_requests(done, ids, scores, out), max(1, args.jobs))
     with bar(len(done) * len(scores.sets), "reference: scoring"):
         rows = [run_row(a, i, s, run_dir(out, a, i, s), scores) for a, i, s in done]
         marks = yardsticks(ids, scores)
@@ -330,6 +251,21 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
     return 0
 
 
+def _requests(done: list[tuple], ids: list[str], scores: Scores, out: Path) -> list[tuple]:
+    """Every score the report reads: each finished run's and each controller's, on each set."""
+    from .reference_grid import run_dir, suite_of
+
+    out_ = []
+    for a, i, s in done:
+        run = run_dir(out, a, i, s)
+        summary = json.loads((run / "summary.json").read_text())
+        version = f"|{summary['steps']}|{summary['wall_s']}"
+        out_ += [(str(run), suite_of(i), w, version) for w in scores.sets]
+    for i in ids:
+        out_ += [(c, suite_of(i), w, "") for w in scores.sets for c in controllers_of(i, w)]
+    return out_
+
+
 def _meta(out: Path, args, scoring_s: float) -> dict:
     """The grid's command, its measured times (``out/grid_time.json``: the trainings' wall time,
     written by the call that trained, and the scoring's, summed over the calls that scored) and
@@ -340,20 +276,15 @@ def _meta(out: Path, args, scoring_s: float) -> dict:
     seconds = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}
     seconds["score"] += scoring_s
     write_json(path, seconds)
-    jobs = args.jobs if args.ray is None else None
     return {
         "command": seconds.get("command") or shown_command(args.argv),
-        "jobs": "as Ray tasks," if jobs is None else f"{jobs} training{'s' if jobs > 1 else ''} at a time,",
-        "seconds": {k: v for k, v in seconds.items() if k != "command"},
+        "jobs": (seconds.get("how") or "how the trainings ran not recorded") + ",",
+        "seconds": {k: seconds.get(k, 0.0) for k in ("train", "score")},
         "unseen_seed": args.unseen_seed,
         "unseen_episodes": args.unseen_episodes,
         "machine": f"{platform.platform()}, {_cpus()} cores",
         "machine_details": {"platform": platform.platform(), "cpus": _cpus(), **machine()},
     }
-
-
-def _minutes(value) -> str:
-    return "its config's own" if value is None else f"{float(value):g} min"
 
 
 def _cpus() -> int:

@@ -54,7 +54,7 @@ def test_a_cell_config_is_the_shipped_one_on_its_ids_suite(learner):
 
 
 @pytest.mark.slow
-def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch):
+def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch, capsys):
     from cepam_gym_agents import reference_report
     from cepam_gym_agents.reference import main
     from cepam_gym_agents.reference_report import _score
@@ -64,7 +64,7 @@ def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch):
 
     out, docs = tmp_path / "runs", tmp_path / "docs"
     args = ["--learners", "PPO", "--ids", "CEPAMLength-v3", "--seeds", "1", "--minutes", "0.03"]
-    args += ["--unseen-episodes", "2", "--suite-episodes", "2", "--jobs", "1"]
+    args += ["--unseen-episodes", "2", "--suite-episodes", "2", "--jobs", "2"]  # scored by 2 processes
     args += ["--out", str(out), "--docs", str(docs)]
     assert main(args) == 0
     results = json.loads((docs / "reference" / "reference.json").read_text())
@@ -97,10 +97,14 @@ def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch):
     again = json.loads((docs / "reference" / "reference.json").read_text())
     assert again["runs"][0]["scores"] == row["scores"] and again["command"] == results["command"]
     assert "--out" not in results["command"] and "--minutes 0.03" in results["command"]
-    # runs of another budget are not mixed into a cell
+    cached = json.loads((out / "reference_scores.json").read_text())
+    assert len(cached) == 2 + 2 * 2  # the run and the two controllers on each set: none twice
+    # runs of another budget are not mixed into a cell, and nothing is written
+    config = (out / "configs" / "PPO-CEPAMLength-v3.yaml").read_text()
     with pytest.raises(SystemExit) as e:
         main([*args, "--minutes", "0.05"])
-    assert e.value.code == 2
+    assert e.value.code == 2 and "trained for 0.03 min" in capsys.readouterr().err
+    assert (out / "configs" / "PPO-CEPAMLength-v3.yaml").read_text() == config
 
 
 @pytest.mark.parametrize(

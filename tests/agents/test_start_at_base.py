@@ -10,12 +10,14 @@ pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.train
 
 
-def _config(algorithm: str, agent: dict):
+def _config(algorithm: str, agent: dict, sde: bool = False):
     from cepam_gym_agents.config import TrainConfig
 
     hp = (
         {"n_steps": 16, "batch_size": 32} if algorithm in ("PPO", "RecurrentPPO") else {"learning_starts": 10}
     )
+    if sde:
+        hp["use_sde"] = True
     return TrainConfig.from_dict(
         {
             "algorithm": algorithm,
