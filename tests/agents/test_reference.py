@@ -75,7 +75,7 @@ def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch, capsy
         "length-v3",
         0,
     )
-    assert row["env_steps"] > 0 and 0 < row["wall_s"] < 60 and row["curve"]
+    assert row["env_steps"] > 0 and row["wall_s"] > 0 and row["curve"]
     assert all(np.isfinite(v) and v > 0 for v in row["scores"].values())
     assert row["cepam_gym"] and "commit" in row and row["resolved_config"]["env"]["id"] == row["env_id"]
     # the run's score is what the benchmark gives its directory on the same episodes

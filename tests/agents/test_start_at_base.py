@@ -21,7 +21,7 @@ def _config(algorithm: str, agent: dict, sde: bool = False):
     return TrainConfig.from_dict(
         {
             "algorithm": algorithm,
-            "learner": "native",
+            "learner": "sb3" if sde else "native",  # the native learner refuses gSDE
             "env": {"id": "cepam_gym/CEPAM-v3", "num_envs": 2},
             "agent": agent,
             "hyperparameters": hp,
