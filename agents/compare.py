@@ -22,10 +22,11 @@ baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from cepam_gym.cli_errors import CommandParser
+
+from .grid import RAY_HELP
 
 SUITES = ("nominal-v1", "randomized-v1")
 CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")
@@ -36,7 +37,7 @@ def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int, ray: 
     """Every (config, seed) not yet trained: ``jobs`` processes at a time on this machine, or (``ray``:
     a Ray address, ``"local"`` for a new instance here) as Ray tasks of ``cores / jobs`` cores each
     (:mod:`agents.grid`)."""
-    from .grid import Trial, run_local, run_ray
+    from .grid import Trial, run_trials
 
     todo = [
         Trial(c, s, out / f"{Path(c).stem}-s{s}")
@@ -44,10 +45,7 @@ def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int, ray: 
         for s in seeds
         if not (out / f"{Path(c).stem}-s{s}" / "model.zip").is_file()
     ]
-    if ray is None:
-        run_local(todo, jobs)
-    else:
-        run_ray(todo, None if ray == "local" else ray, max(1, (os.cpu_count() or 1) // max(jobs, 1)))
+    run_trials(todo, jobs, ray)
 
 
 def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
@@ -156,8 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--ray",
         metavar="ADDRESS",
-        help="train as Ray tasks: 'local' (a Ray instance on this machine), 'auto' (the running cluster) "
-        "or the head's address; on a cluster --out must be on a filesystem every node sees",
+        help=RAY_HELP,
     )
     ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
     ap.add_argument(

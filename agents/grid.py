@@ -111,3 +111,18 @@ def run_ray(trials: list[Trial], address: str | None, cpus_per_trial: int | None
         code = ray.get(future)
         if code != 0:
             raise _failed(t, code)
+
+
+RAY_HELP = (
+    "train as Ray tasks: 'local' (a Ray instance on this machine), 'auto' (the running cluster) "
+    "or the head's address; on a cluster --out must be on a filesystem every node sees"
+)
+
+
+def run_trials(trials: list[Trial], jobs: int, ray: str | None) -> None:
+    """``jobs`` processes at a time on this machine, or (``ray``: a Ray address, ``"local"`` for a
+    new instance here) Ray tasks of ``cores / jobs`` cores each."""
+    if ray is None:
+        run_local(trials, jobs)
+    else:
+        run_ray(trials, None if ray == "local" else ray, max(1, (os.cpu_count() or 1) // max(jobs, 1)))

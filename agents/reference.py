@@ -34,6 +34,7 @@ from cepam_gym import versions
 from cepam_gym.cli_errors import CommandParser
 
 from .config import ConfigError, dump_config
+from .grid import RAY_HELP, run_trials
 from .reference_grid import LEARNERS, cell_config, cells, recommended_ids, run_dir, shown_command
 
 
@@ -75,15 +76,6 @@ def trials(grid: list[tuple[str, str]], seeds: list[int], out: Path, minutes: fl
     return todo
 
 
-def train_grid(todo: list, jobs: int, ray: str | None) -> None:
-    from .grid import run_local, run_ray
-
-    if ray is None:
-        run_local(todo, jobs)
-    else:
-        run_ray(todo, None if ray == "local" else ray, max(1, (os.cpu_count() or 1) // max(jobs, 1)))
-
-
 def record_training(out: Path, seconds: float, argv: list[str], how: str) -> None:
     """Add a training call's wall time to ``out/grid_time.json`` (a grid trained in several calls
     sums them) with its command and ``how`` its trainings ran."""
@@ -114,8 +106,7 @@ def _parser() -> CommandParser:
     ap.add_argument(
         "--ray",
         metavar="ADDRESS",
-        help="train as Ray tasks: 'local' (a Ray instance on this machine), 'auto' (the running cluster) "
-        "or the head's address; on a cluster --out must be on a filesystem every node sees",
+        help=RAY_HELP,
     )
     ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
     ap.add_argument("--unseen-episodes", type=int, default=50, help="episodes of the unseen seed")
@@ -157,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(str(e))
         t = time.perf_counter()
         try:
-            train_grid(todo, args.jobs, args.ray)
+            run_trials(todo, args.jobs, args.ray)
         except RuntimeError as e:  # a trial failed: its log says why
             ap.error(str(e))
         how = "as Ray tasks" if args.ray else f"{args.jobs} training{'s' * (args.jobs > 1)} at a time"
