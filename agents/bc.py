@@ -24,7 +24,7 @@ import numpy as np
 from cepam_gym.cli_errors import CommandParser
 from cepam_gym.errors import InputError
 
-from .bc_policy import STD_FLOOR, BCPolicy, make_mlp, save
+from .learners.bc_policy import STD_FLOOR, BCPolicy, make_mlp, save
 
 
 def load_transitions(dataset) -> list[tuple[np.ndarray, np.ndarray]]:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from cepam_gym.cli_errors import CommandParser
 
-from .grid import RAY_HELP
+from .grid.trials import RAY_HELP
 
 SUITES = ("nominal-v1", "randomized-v1")
 CONTROLLERS = ("baseline", "mpc", "adaptive_mpc", "oracle")
@@ -36,8 +36,8 @@ UNSEEN_CONTROLLERS = ("baseline", "oracle")  # what the gap on an unseen seed ne
 def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int, ray: str | None = None) -> None:
     """Every (config, seed) not yet trained: ``jobs`` processes at a time on this machine, or (``ray``:
     a Ray address, ``"local"`` for a new instance here) as Ray tasks of ``cores / jobs`` cores each
-    (:mod:`agents.grid`)."""
-    from .grid import Trial, run_trials
+    (:mod:`agents.grid.trials`)."""
+    from .grid.trials import Trial, run_trials
 
     todo = [
         Trial(c, s, out / f"{Path(c).stem}-s{s}")
@@ -190,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.ray is not None:
         import importlib.util
 
-        from .grid import NO_RAY
+        from .grid.trials import NO_RAY
 
         if importlib.util.find_spec("ray") is None:
             ap.error(NO_RAY)

@@ -34,7 +34,7 @@ import numpy as np
 from cepam_gym import versions
 from cepam_gym.cli_errors import CommandParser
 
-from .config import ConfigError, dump_config, load_config
+from .config.files import ConfigError, dump_config, load_config
 
 # the version the study's configs (v1_*) were tuned and its curves measured on
 STUDY_VERSION = 1
@@ -48,7 +48,7 @@ RIG_CONTROLLERS = ("baseline", "mpc")
 
 def run_config(algorithm: str, env_id: str, seed: int, minutes: float):
     """The config of one run: ``v1_<algorithm>`` on ``env_id`` and its suite, this seed and budget."""
-    from .config import EnvConfig, EvalConfig
+    from .config.files import EnvConfig, EvalConfig
 
     if algorithm not in CONFIG_OF:
         raise ConfigError(f"unknown algorithm {algorithm!r}; choose from {list(CONFIG_OF)}")
@@ -56,7 +56,7 @@ def run_config(algorithm: str, env_id: str, seed: int, minutes: float):
         raise ConfigError(f"unknown env id {env_id!r}; choose from {list(SUITE_OF)}")
     import yaml
 
-    from .config import resolve_config_path
+    from .config.files import resolve_config_path
 
     cfg = load_config(CONFIG_OF[algorithm])
     suite = SUITE_OF[env_id]

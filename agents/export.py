@@ -128,9 +128,9 @@ def export(run: str | Path, out: str | Path, which: str = "auto") -> dict:
 
     from cepam_gym.cli_errors import guarded_load
 
-    from .config import algorithm_class
-    from .model_files import algorithm_of
+    from .config.files import algorithm_class
     from .policy import _normalizer, load_run_config, locate
+    from .session.model_files import algorithm_of
 
     files = locate(run, which)
     cfg = load_run_config(files.run) if files.run is not None else None

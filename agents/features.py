@@ -21,7 +21,8 @@
   whose excitation drives the window: :attr:`Features.window`).
 * ``privileged_critic``: the privileged columns (:mod:`agents.privileged`) follow, for the
   critic only: read from the env during training (``privileged`` set by
-  :func:`agents.envs.make_agent_vec_env`), NaN when deployed (:mod:`agents.asymmetric` masks them).
+  :func:`agents.session.envs.make_agent_vec_env`), NaN when deployed
+  (:mod:`agents.learners.asymmetric` masks them).
 
 The baseline (:class:`cepam_gym.control.InverseStaticController`) keeps filter and integrator
 state per env; :meth:`Features.reset` forgets it for finished episodes. Pure numpy.
@@ -36,7 +37,7 @@ import numpy as np
 
 from cepam_gym.errors import InputError
 
-from .config import AgentConfig
+from .config.files import AgentConfig
 
 _GAP_UNIT_PA = 1e5  # the set-point gaps' unit: 100 kPa, the order of the chambers' working range
 
@@ -285,7 +286,7 @@ class Features:
         when none ended). The
         last observations are featurised first (their episodes' state), then that state is
         forgotten, then every env's new observation advances the state. The agent wrapper's
-        ``step_wait`` and the native learners (:mod:`agents.native_collection`) both call it."""
+        ``step_wait`` and the native learners (:mod:`agents.learners.native_collection`) both call it."""
         term = np.zeros((0, self.dim), np.float32)
         if len(done):
             full = np.array(obs, copy=True)

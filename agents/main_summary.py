@@ -9,11 +9,11 @@ import platform
 from datetime import UTC, datetime
 from pathlib import Path
 
-from .provenance import package_versions
+from .session.provenance import package_versions
 
 
 def versions() -> dict[str, str]:
-    """The run's package versions and machine facts (:func:`.provenance.package_versions`, the
+    """The run's package versions and machine facts (:func:`.session.provenance.package_versions`, the
     ones ``run.json`` records), as text."""
     return {k: "not installed" if v is None else str(v) for k, v in package_versions().items()}
 
@@ -96,7 +96,7 @@ def _training_lines(run_dir: Path, out: Path) -> list[str]:
     """How training ended (steps, or a student's DAgger rounds), and the files the run holds."""
     run = json.loads((run_dir / "run.json").read_text())
     last = run.get("sessions", [{}])[-1]
-    if "rounds" in last:  # a student (agents/student.py): DAgger rounds of teacher labels
+    if "rounds" in last:  # a student (agents/learners/student.py): DAgger rounds of teacher labels
         rounds = last["rounds"]
         how = (
             f"Status **{run.get('status')}** after {len(rounds)} DAgger rounds, "

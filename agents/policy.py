@@ -18,10 +18,10 @@ import numpy as np
 from cepam_gym.cli_errors import guarded_load
 from cepam_gym.errors import InputError
 
-from .bc_policy import BCPolicy, is_bc_run, load_bc_policy
-from .config import AgentConfig, TrainConfig, algorithm_class
+from .config.files import AgentConfig, TrainConfig, algorithm_class
 from .features import Features, obs_batch  # noqa: F401  (obs_batch: still importable from here)
-from .model_files import (
+from .learners.bc_policy import BCPolicy, is_bc_run, load_bc_policy
+from .session.model_files import (
     NORMALIZER_NAMES,
     ZOO_RECORD,
     algorithm_of,
@@ -30,7 +30,7 @@ from .model_files import (
     zoo_params_dir,
     zoo_record,
 )
-from .torch_threads import inference_threads
+from .session.torch_threads import inference_threads
 
 MODEL_CHOICES = ("best", "final", "latest")
 
@@ -91,7 +91,7 @@ class AgentPolicy:
 # --------------------------------------------------------------------------- loading
 def _files(run: Path, which: str) -> tuple[Path, Path | None]:
     """(model zip, VecNormalize pickle or None) of a run directory."""
-    from .checkpoints import SAVED, read_index
+    from .session.checkpoints import SAVED, read_index
 
     candidates = {kind: (run / model, run / norm) for kind, (model, norm) in SAVED.items()}
     meta = read_index(run)
@@ -214,7 +214,7 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
     adapter), with the observation normalisation it was trained with (:func:`_normalizer`).
     ``which``: ``auto`` (best model, else final, else the latest checkpoint), ``best``, ``final``
     or ``latest``. A behaviour-cloning run directory (:mod:`cepam_gym_agents.bc`) gives its
-    :class:`~cepam_gym_agents.bc_policy.BCPolicy`. A model without a ``config.yaml`` drives the
+    :class:`~cepam_gym_agents.learners.bc_policy.BCPolicy`. A model without a ``config.yaml`` drives the
     valves directly (no baseline features), as RL Zoo3 and plain SB3 train."""
     import torch
 

@@ -9,12 +9,12 @@ A cell is a learner (a shipped config, :data:`LEARNERS`) on one id of the recomm
 trained and scored on that id's first headline suite: the config with the env id, the suite, the
 seed and the wall-time budget set here: the same for every learner (``--minutes``, 2 by default;
 a student stops at the first DAgger round past it), or each config's own (``--minutes 0``). Every trial is one
-``cepam-gym train`` command (:mod:`agents.grid`): ``--jobs`` at a time on this machine, sharing its
+``cepam-gym train`` command (:mod:`agents.grid.trials`): ``--jobs`` at a time on this machine, sharing its
 cores, or as Ray tasks. A cell a learner cannot run is left out and said so (:data:`SKIPPED`).
 
 Each run's final model is scored on the suite's own episodes and on ``--unseen-episodes`` of an
 unseen seed, beside the baseline, the MPC and the oracle on the same episodes
-(:mod:`agents.reference_report`). Written to ``--docs``: the page ``reference.md`` (per cell the
+(:mod:`agents.grid.report`). Written to ``--docs``: the page ``reference.md`` (per cell the
 interquartile mean over seeds with its 95 % stratified-bootstrap interval, Agarwal et al. 2021,
 and the grid's measured time) and, in ``reference/``, ``reference.json`` (every run: its config,
 seed, budget, wall time, env-steps, scores and evaluation curve, with the package version, the
@@ -33,13 +33,13 @@ from pathlib import Path
 from cepam_gym import versions
 from cepam_gym.cli_errors import CommandParser
 
-from .config import ConfigError, dump_config
-from .grid import RAY_HELP, run_trials
-from .reference_grid import LEARNERS, cell_config, cells, recommended_ids, run_dir, shown_command
+from .config.files import ConfigError, dump_config
+from .grid.cells import LEARNERS, cell_config, cells, recommended_ids, run_dir, shown_command
+from .grid.trials import RAY_HELP, run_trials
 
 
 def trials(grid: list[tuple[str, str]], seeds: list[int], out: Path, minutes: float | None) -> list:
-    """One :class:`agents.grid.Trial` per cell and seed not yet trained (no ``summary.json``; what
+    """One :class:`agents.grid.trials.Trial` per cell and seed not yet trained (no ``summary.json``; what
     an interrupted run left is removed: a run trains its whole budget in one go); each cell's
     config is written to ``out/configs/``. ``ConfigError`` for a finished run of another budget
     (its cell would mix budgets)."""
@@ -47,7 +47,7 @@ def trials(grid: list[tuple[str, str]], seeds: list[int], out: Path, minutes: fl
 
     import yaml
 
-    from .grid import Trial
+    from .grid.trials import Trial
 
     configs = {cell: cell_config(*cell, minutes) for cell in grid}
     for (learner, env_id), cfg in configs.items():  # every finished run checked before any file is written
@@ -81,7 +81,7 @@ def record_training(out: Path, seconds: float, argv: list[str], how: str) -> Non
     sums them) with its command and ``how`` its trainings ran."""
     import json
 
-    from .provenance import write_json
+    from .session.provenance import write_json
 
     path = out / "grid_time.json"
     times = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}
@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.ray is not None:
         import importlib.util
 
-        from .grid import NO_RAY
+        from .grid.trials import NO_RAY
 
         if importlib.util.find_spec("ray") is None:
             ap.error(NO_RAY)
@@ -153,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
             ap.error(str(e))
         how = "as Ray tasks" if args.ray else f"{args.jobs} training{'s' * (args.jobs > 1)} at a time"
         record_training(out, time.perf_counter() - t, args.argv, how)
-    from .reference_report import report
+    from .grid.report import report
 
     return report(grid, seeds, out, Path(args.docs), args)
 

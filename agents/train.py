@@ -36,15 +36,16 @@ from pathlib import Path
 
 from cepam_gym.cli_errors import CommandParser, debug_on, report, user_error_types
 
+from .config.files import load_config
+
 # the session's parts, importable from here as before the split into modules
-from .algorithm import ALGORITHMS, steps_per_collection
-from .callbacks import FIRST_CHECKPOINT_FRACTION, FIRST_CHECKPOINT_MINUTES
-from .config import load_config
-from .envs import make_train_env
-from .lock import LOCK_NAME, RunLock
-from .provenance import git_state, package_versions
-from .signals import EXIT_INTERRUPTED
-from .trainer import Trainer, train
+from .learners.algorithm import ALGORITHMS, steps_per_collection
+from .session.callbacks import FIRST_CHECKPOINT_FRACTION, FIRST_CHECKPOINT_MINUTES
+from .session.envs import make_train_env
+from .session.lock import LOCK_NAME, RunLock
+from .session.provenance import git_state, package_versions
+from .session.signals import EXIT_INTERRUPTED
+from .session.trainer import Trainer, train
 
 __all__ = [
     "EXIT_INTERRUPTED",
@@ -117,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.total_timesteps is not None:
             cfg = cfg.replace(total_timesteps=args.total_timesteps)
         if args.check:
-            from .trainer import check
+            from .session.trainer import check
 
             check(cfg)
             print(f"cepam-gym train: {args.config or run} checks: the config, its env and its model build")

@@ -59,7 +59,7 @@ def _env_obs(suite: str, seed: int = 7, steps: int = 200) -> np.ndarray:
 def _fit(x: np.ndarray, y: np.ndarray, steps: int = 300) -> np.ndarray:
     import torch
 
-    from cepam_gym_agents.student import _Actor, fit
+    from cepam_gym_agents.learners.student import _Actor, fit
 
     torch.set_num_threads(1)
     mean, std, scale = x.mean(0), x.std(0) + 1e-3, y.std(0) + 1e-6
@@ -82,8 +82,8 @@ STAGES = ("env", "teacher", "fit", "eval")
 
 
 def stages(which=STAGES) -> dict[str, np.ndarray]:
-    from cepam_gym_agents.config import load_config
-    from cepam_gym_agents.student import collect
+    from cepam_gym_agents.config.files import load_config
+    from cepam_gym_agents.learners.student import collect
 
     cfg = load_config("student")
     out: dict[str, np.ndarray] = {}
@@ -153,7 +153,7 @@ def main(argv=None) -> int:
     if args.compare:
         compare(*args.compare)
         return 0
-    from cepam_gym_agents.provenance import package_versions
+    from cepam_gym_agents.session.provenance import package_versions
 
     which = args.stages.split(",")
     if unknown := set(which) - set(STAGES):

@@ -2,7 +2,7 @@
 
 For each batch size N, in the same process and interleaved in rounds: the bare vector env stepped
 with random actions, SB3's PPO (``learner: sb3``: the SB3 ``VecEnv`` adapter, ``VecMonitor``,
-``VecNormalize``) and the native learner (``learner: native``, :mod:`agents.native_ppo`) on the same
+``VecNormalize``) and the native learner (``learner: native``, :mod:`agents.learners.native_ppo`) on the same
 hyperparameters and the network of ``configs/fast_ppo.yaml``, each timed over whole
 collect-and-train iterations after one warm-up iteration.
 Printed: medians over the rounds and the native/SB3 ratio. The share of a training iteration
@@ -30,9 +30,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the agents packa
 def make_model(
     learner: str, env_id: str, n: int, n_steps: int, epochs: int, minibatches: int, algorithm="PPO"
 ):
-    from cepam_gym_agents.algorithm import hyperparameters, policy, training_class
-    from cepam_gym_agents.config import TrainConfig, load_config
-    from cepam_gym_agents.envs import make_train_env, normalize
+    from cepam_gym_agents.config.files import TrainConfig, load_config
+    from cepam_gym_agents.learners.algorithm import hyperparameters, policy, training_class
+    from cepam_gym_agents.session.envs import make_train_env, normalize
 
     pk = dict(load_config("fast_ppo").policy_kwargs)  # the fast config's network
     if algorithm == "RecurrentPPO":

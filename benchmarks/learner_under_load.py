@@ -56,10 +56,10 @@ class Busy:
 
 
 def make_model(config: str, threads: str):
-    from cepam_gym_agents.algorithm import training_class
-    from cepam_gym_agents.config import load_config
-    from cepam_gym_agents.torch_threads import TorchThreads
-    from cepam_gym_agents.trainer import build_train_env, new_model
+    from cepam_gym_agents.config.files import load_config
+    from cepam_gym_agents.learners.algorithm import training_class
+    from cepam_gym_agents.session.torch_threads import TorchThreads
+    from cepam_gym_agents.session.trainer import build_train_env, new_model
 
     cfg = load_config(config)
     _, model = new_model(cfg, training_class(cfg.algorithm, cfg.learner), build_train_env(cfg, 0))

@@ -4,7 +4,7 @@ For each algorithm, on the fast config's env, batch and network (``configs/fast_
 ``fast_td3_v3.yaml``), in the same process and interleaved in rounds:
 
 * ``sb3``: stable-baselines3's algorithm through the SB3 ``VecEnv`` adapter (``learner: sb3``);
-* ``native``: the native learner (``learner: native``, :mod:`agents.native_offpolicy`): the
+* ``native``: the native learner (``learner: native``, :mod:`agents.learners.native_offpolicy`): the
   replay buffer filled from the vector env as arrays, SB3's updates in fewer Python calls;
 * ``sbx``: SBX (stable-baselines3 in JAX, ``pip install sbx-rl``) through the same adapter as
   ``sb3``, when it is installed (it is not a dependency of the project: run the script in a venv
@@ -35,7 +35,7 @@ from learner_throughput import env_rate  # noqa: E402
 
 
 def _config(algorithm: str, learner: str, gradient_steps: int):
-    from cepam_gym_agents.config import TrainConfig, load_config
+    from cepam_gym_agents.config.files import TrainConfig, load_config
 
     base = load_config(f"fast_{algorithm.lower()}_v3").to_dict()
     hp = {**base["hyperparameters"], "learning_starts": 0, "gradient_steps": gradient_steps}
@@ -43,9 +43,9 @@ def _config(algorithm: str, learner: str, gradient_steps: int):
 
 
 def make_model(algorithm: str, learner: str, gradient_steps: int):
-    from cepam_gym_agents.algorithm import hyperparameters, policy, training_class
-    from cepam_gym_agents.envs import make_train_env, normalize
-    from cepam_gym_agents.torch_threads import TorchThreads
+    from cepam_gym_agents.learners.algorithm import hyperparameters, policy, training_class
+    from cepam_gym_agents.session.envs import make_train_env, normalize
+    from cepam_gym_agents.session.torch_threads import TorchThreads
 
     cfg = _config(algorithm, "native" if learner == "native" else "sb3", gradient_steps)
     env = normalize(make_train_env(cfg, 0), cfg)

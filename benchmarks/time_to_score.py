@@ -106,7 +106,7 @@ def train_one(
 def run_config(env_id: str, suite, seed: int, budget_s: float, every: int, config: str):
     """The shipped ``config`` on ``env_id`` and its suite, evaluated every ``every`` steps on the
     suite's own episodes, this seed and budget."""
-    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
+    from cepam_gym_agents.config.files import EnvConfig, EvalConfig, load_config
 
     cfg = load_config(config)
     env = EnvConfig.parse({"id": f"cepam_gym/{env_id}", "num_envs": cfg.env.num_envs, "suite": suite.name})
@@ -124,8 +124,8 @@ def train_on_ray(
     """Every seed's run as a Ray task asking for a whole node's cores (a run's speed is what is
     measured: two on one node would halve it), on the Ray instance at ``address`` (None: a new one
     here); the runs' evaluations. A Ray run goes to its budget (no stop at the MPC)."""
-    from cepam_gym_agents.config import dump_config
-    from cepam_gym_agents.grid import Trial, run_ray
+    from cepam_gym_agents.config.files import dump_config
+    from cepam_gym_agents.grid.trials import Trial, run_ray
 
     path = out / "configs" / f"{env_id}.yaml"
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -276,7 +276,7 @@ def plot(results: dict, path: Path) -> None:
 
 def main(argv=None) -> None:
     import cepam_gym  # noqa: F401
-    from cepam_gym_agents.config import load_config
+    from cepam_gym_agents.config.files import load_config
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--ids", nargs="+", default=list(IDS))

@@ -1,4 +1,4 @@
-"""Small Ray Tune sweep over hyperparameters of our own SB3 trainer (agents/trainer.py).
+"""Small Ray Tune sweep over hyperparameters of our own SB3 trainer (agents/session/trainer.py).
 
     .venv/bin/python examples/tune_sweep.py --config quick --total-timesteps 100000 \
         --grid learning_rate=1e-4,3e-4 --grid gamma=0.97,0.98
@@ -20,7 +20,7 @@ from pathlib import Path
 def parse_grid(items: list[str]) -> dict[str, list]:
     import yaml
 
-    from cepam_gym_agents.config import parse_number  # YAML 1.1 reads "3e-4" as a string
+    from cepam_gym_agents.config.files import parse_number  # YAML 1.1 reads "3e-4" as a string
 
     grid: dict[str, list] = {}
     for item in items:
@@ -42,7 +42,7 @@ def trainable(config: dict) -> None:
 
     from ray import tune
 
-    from cepam_gym_agents.config import TrainConfig, load_config
+    from cepam_gym_agents.config.files import TrainConfig, load_config
     from cepam_gym_agents.train import train
 
     base = load_config(config["base_config"]).to_dict()
@@ -94,7 +94,11 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError:
         raise SystemExit('Ray Tune is not installed: pip install "cepam-gym[distributed]"') from None
 
-    from cepam_gym_agents.config import ConfigError, TrainConfig, load_config  # installed with cepam-gym
+    from cepam_gym_agents.config.files import (  # installed with cepam-gym
+        ConfigError,
+        TrainConfig,
+        load_config,
+    )
 
     grid = parse_grid(args.grid or ["learning_rate=1e-4,3e-4"])
     try:  # fail before starting Ray if a key or value is bad

@@ -16,7 +16,7 @@ from cepam_gym.control import make_controller  # noqa: E402
 from cepam_gym.control.baseline import UnsupportedEnvError, rig_model_of  # noqa: E402
 from cepam_gym.identify.window_identifier import plant_columns, plant_dim  # noqa: E402
 from cepam_gym.physics import layout as ix  # noqa: E402
-from cepam_gym_agents.config import AgentConfig, TrainConfig  # noqa: E402
+from cepam_gym_agents.config.files import AgentConfig, TrainConfig  # noqa: E402
 from cepam_gym_agents.features import Features  # noqa: E402
 
 CFG = AgentConfig(history=2, setpoint_gaps_in_obs=True, plant_features=True)
@@ -73,7 +73,7 @@ def test_training_features_tell_the_true_plant():
     ],
 )
 def test_a_config_told_the_plant_trains_without_a_window_and_evaluates_behind_one(changes, words):
-    from cepam_gym_agents.config import ConfigError
+    from cepam_gym_agents.config.files import ConfigError
 
     base = {
         "algorithm": "PPO",
@@ -102,10 +102,10 @@ def _agent(tmp_path, venv):
     """A saved student with random weights on ``venv``'s features (the format a run loads)."""
     import torch
 
-    from cepam_gym_agents.checkpoints import save_model
-    from cepam_gym_agents.config import dump_config
+    from cepam_gym_agents.config.files import dump_config
+    from cepam_gym_agents.learners.student import _Actor, as_ppo
     from cepam_gym_agents.policy import load_policy
-    from cepam_gym_agents.student import _Actor, as_ppo
+    from cepam_gym_agents.session.checkpoints import save_model
 
     cfg = TrainConfig.from_dict(
         {
@@ -199,8 +199,8 @@ def test_the_adaptive_student_learns_and_runs_behind_the_window(tmp_path):
     benchmark's own, never trained on), plays the window, is told its fit and tracks better than
     the baseline."""
     from cepam_gym.bench.harness import run_suite
-    from cepam_gym_agents.config import dump_config
-    from cepam_gym_agents.student import train_student
+    from cepam_gym_agents.config.files import dump_config
+    from cepam_gym_agents.learners.student import train_student
 
     cfg = TrainConfig.from_dict(
         {
@@ -229,7 +229,7 @@ def test_in_training_a_terminal_observation_is_told_the_finished_episodes_plant(
     """At an autoreset the env already holds the next plant: the finished episode's last features
     (SB3's ``terminal_observation``) keep the plant it ran on, the next episode's its own."""
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
-    from cepam_gym_agents.envs import make_agent_vec_env
+    from cepam_gym_agents.session.envs import make_agent_vec_env
 
     raw = make_sb3_vec_env(
         "cepam_gym/CEPAM-v2", num_envs=2, seed=0, max_episode_steps=3, randomize=RANDOMIZE_V2

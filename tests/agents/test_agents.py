@@ -14,7 +14,7 @@ import yaml
 pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.train
 
-from cepam_gym_agents.config import ALGORITHMS, ConfigError, TrainConfig, load_config  # noqa: E402
+from cepam_gym_agents.config.files import ALGORITHMS, ConfigError, TrainConfig, load_config  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -176,7 +176,7 @@ def test_the_logged_info_keys_are_the_training_tasks_own():
     reward terms are in the infos SB3 hands the callback (not the rig's length)."""
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
     from cepam_gym.tasks.contract import JOINT, RIG
-    from cepam_gym_agents.envs import info_keys
+    from cepam_gym_agents.session.envs import info_keys
 
     assert info_keys(RIG)[:2] == ["length", "target_length"] and "reward_length" in info_keys(RIG)
     keys = info_keys(JOINT)
@@ -361,7 +361,7 @@ def test_friction_aware_features_peek_rewinds_the_observer():
     import gymnasium as gym
 
     from cepam_gym.control import make_controller
-    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=2)
@@ -387,9 +387,9 @@ def test_residual_features_terminal_obs_and_peek():
 
     from cepam_gym.control import InverseStaticController
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
-    from cepam_gym_agents.config import AgentConfig
-    from cepam_gym_agents.envs import make_agent_vec_env
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
+    from cepam_gym_agents.session.envs import make_agent_vec_env
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=5)
@@ -429,8 +429,8 @@ def test_a_residual_on_the_joint_runs_on_the_joints_baseline():
     a zero policy action sends exactly its commands."""
     from cepam_gym.control import make_controller
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
-    from cepam_gym_agents.config import AgentConfig
-    from cepam_gym_agents.envs import make_agent_vec_env
+    from cepam_gym_agents.config.files import AgentConfig
+    from cepam_gym_agents.session.envs import make_agent_vec_env
 
     cfg = AgentConfig(residual=True, residual_scale=0.3)
     venv = make_sb3_vec_env("cepam_gym/CEPAMJoint-v2", num_envs=2, seed=0)
@@ -472,7 +472,7 @@ def test_time_limit_stops_training_and_saves(tmp_path):
 
 
 def test_shipped_config_by_name_and_missing_file(tmp_path, monkeypatch):
-    from cepam_gym_agents.config import resolve_config_path, shipped_configs
+    from cepam_gym_agents.config.files import resolve_config_path, shipped_configs
 
     monkeypatch.chdir(tmp_path)  # no configs/ here: the package data answers
     assert set(shipped_configs()) == {p.stem for p in (ROOT / "configs").glob("*.yaml")}
@@ -498,7 +498,7 @@ def test_target_shift_moves_the_baselines_targets(env_id, residual, n_act):
     import gymnasium as gym
 
     from cepam_gym.control import InverseStaticController
-    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
 
     venv = gym.make_vec(env_id, num_envs=2)
@@ -533,7 +533,7 @@ def test_target_shift_excludes_baseline_in_obs():
 def test_target_shift_filter_is_first_order_and_observed():
     import gymnasium as gym
 
-    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
@@ -559,7 +559,7 @@ def test_target_shift_filter_is_first_order_and_observed():
 def test_obs_filters_are_low_passed_observations_restarted_per_episode():
     import gymnasium as gym
 
-    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)

@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.train
 
-from cepam_gym_agents.config import ConfigError, TrainConfig  # noqa: E402
+from cepam_gym_agents.config.files import ConfigError, TrainConfig  # noqa: E402
 
 V1 = "cepam_gym/CEPAM-v1"
 SMALL_ON_POLICY = {"n_steps": 64, "batch_size": 64, "n_epochs": 1}
@@ -119,6 +119,35 @@ def test_privileged_columns_never_reach_the_saved_actor(trained):
     assert np.isfinite(pol.act(obs)).all()
 
 
+@pytest.mark.slow
+def test_a_privileged_critic_model_saved_under_the_old_class_path_loads(trained, tmp_path, monkeypatch):
+    """An SB3 zip pickles its policy class by module and name: models of privileged-critic runs
+    saved before the policy moved to ``learners.asymmetric`` name ``cepam_gym_agents.asymmetric``."""
+    import shutil
+    import zipfile
+
+    import gymnasium as gym
+
+    from cepam_gym_agents.learners.asymmetric import AsymmetricActorCriticPolicy
+    from cepam_gym_agents.policy import load_policy
+
+    venv = gym.make_vec(V1, num_envs=2, episode_seconds=2.0)
+    obs, _ = venv.reset(seed=5)
+    now = load_policy(trained / "ppo-privileged-critic", venv)
+    old = tmp_path / "old"
+    shutil.copytree(trained / "ppo-privileged-critic", old)
+    monkeypatch.setattr(AsymmetricActorCriticPolicy, "__module__", "cepam_gym_agents.asymmetric")
+    for name in ("best_model.zip", "model.zip"):
+        if (old / name).is_file():
+            now.model.save(old / name)
+            assert b"cepam_gym_agents.asymmetric" in zipfile.ZipFile(old / name).read("data")
+    monkeypatch.undo()
+    then = load_policy(old, venv)
+    assert isinstance(then.model.policy, AsymmetricActorCriticPolicy)
+    now.reset()
+    np.testing.assert_array_equal(then.act(obs), now.act(obs))
+
+
 def test_privileged_view_holds_the_true_errors_load_and_plant():
     import gymnasium as gym
 
@@ -186,7 +215,7 @@ def test_privileged_critic_is_for_ppo_only():
 
 
 def test_v1_configs_are_shipped_and_the_curve_runner_sets_id_suite_seed():
-    from cepam_gym_agents.config import shipped_configs
+    from cepam_gym_agents.config.files import shipped_configs
     from cepam_gym_agents.curves import CONFIG_OF, SUITE_OF, run_config
 
     assert set(CONFIG_OF.values()) <= set(shipped_configs())

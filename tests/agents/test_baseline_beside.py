@@ -1,5 +1,5 @@
 """A trainer's progress shows the inverse-model baseline's score on the agent's own evaluation
-episodes beside the agent's (agents/policy.py ``baseline_score``, agents/progress.py)."""
+episodes beside the agent's (agents/policy.py ``baseline_score``, agents/session/progress.py)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def test_the_baseline_beside_an_evaluation_is_the_baseline_on_the_same_episodes(
 
 
 def test_the_progress_line_shows_the_baseline_beside_the_agents_score(capsys):
-    from cepam_gym_agents.progress import ProgressBar
+    from cepam_gym_agents.session.progress import ProgressBar
 
     bar = ProgressBar(100, "PPO run", quiet=False)
     bar.open(0, None, float("inf"))

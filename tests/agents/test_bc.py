@@ -22,7 +22,7 @@ from cepam_gym.control import make_controller  # noqa: E402
 from cepam_gym.errors import InputError  # noqa: E402
 from cepam_gym.offline import record_dataset  # noqa: E402
 from cepam_gym_agents import bc  # noqa: E402
-from cepam_gym_agents.bc_policy import BCPolicy, load_bc_policy  # noqa: E402
+from cepam_gym_agents.learners.bc_policy import BCPolicy, load_bc_policy  # noqa: E402
 
 NOMINAL = "nominal-v1"
 

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.train
 from cepam_gym.errors import InputError  # noqa: E402
 from cepam_gym.rig.cli import noise_free_warning  # noqa: E402
 from cepam_gym.rig.onnx_policy import OnnxPolicy  # noqa: E402
-from cepam_gym_agents.config import TrainConfig, dump_config  # noqa: E402
+from cepam_gym_agents.config.files import TrainConfig, dump_config  # noqa: E402
 from cepam_gym_agents.export import export  # noqa: E402
 from cepam_gym_agents.policy import load_policy  # noqa: E402
 

@@ -139,7 +139,7 @@ def test_a_bare_model_without_statistics_says_so_and_needs_its_env_id(tmp_path, 
 def test_the_algorithm_of_a_bare_model_is_read_from_its_zip(tmp_path, saved):
     from stable_baselines3 import SAC
 
-    from cepam_gym_agents.model_files import algorithm_of
+    from cepam_gym_agents.session.model_files import algorithm_of
 
     root, _, _ = saved
     assert algorithm_of(root / "agent.zip") == "PPO"

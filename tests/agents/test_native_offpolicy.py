@@ -1,4 +1,4 @@
-"""The native off-policy learners (``learner: native`` with SAC or TD3, agents/native_offpolicy.py):
+"""The native off-policy learners (``learner: native`` with SAC or TD3, agents/learners/native_offpolicy.py):
 SB3's SAC and TD3 whose replay buffer is filled from the vector env as arrays. Its transitions are
 SB3's own, step for step; its runs are ordinary run directories; its config is refused where it
 cannot run."""
@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.train
 
-from cepam_gym_agents.config import ConfigError, TrainConfig  # noqa: E402
+from cepam_gym_agents.config.files import ConfigError, TrainConfig  # noqa: E402
 
 BASE = {
     "algorithm": "SAC",
@@ -49,8 +49,8 @@ def test_native_off_policy_refuses_what_it_cannot_run(changes, match):
 
 
 def _model(cls, cfg):
-    from cepam_gym_agents.algorithm import hyperparameters
-    from cepam_gym_agents.envs import make_train_env, normalize
+    from cepam_gym_agents.learners.algorithm import hyperparameters
+    from cepam_gym_agents.session.envs import make_train_env, normalize
 
     env = normalize(make_train_env(cfg, cfg.seed), cfg)
     return cls(
@@ -72,7 +72,7 @@ def test_native_transitions_are_sb3s_transitions(algorithm):
     agree, so the networks do too. 48 vector steps of 20-step episodes cross two time limits."""
     from stable_baselines3 import SAC, TD3
 
-    from cepam_gym_agents.native_offpolicy import NativeSAC, NativeTD3
+    from cepam_gym_agents.learners.native_offpolicy import NativeSAC, NativeTD3
 
     cfg = _cfg(algorithm=algorithm)
     sb3, native = {"SAC": (SAC, NativeSAC), "TD3": (TD3, NativeTD3)}[algorithm]
@@ -100,7 +100,7 @@ def test_native_transitions_are_sb3s_transitions(algorithm):
 def test_warm_up_and_noise_are_drawn_per_env():
     """Warm-up actions are uniform over the box for each env; TD3's Gaussian exploration noise is
     a separate draw per env (SB3's ``NormalActionNoise`` on a vector env adds one draw to all)."""
-    from cepam_gym_agents.native_offpolicy import NativeTD3
+    from cepam_gym_agents.learners.native_offpolicy import NativeTD3
 
     cfg = _cfg(
         algorithm="TD3",

@@ -1,4 +1,4 @@
-"""The native learner (``learner: native``, agents/native_ppo.py): SB3's PPO whose rollouts come from
+"""The native learner (``learner: native``, agents/learners/native_ppo.py): SB3's PPO whose rollouts come from
 the vector env as arrays. Its rollouts are SB3's own, step for step; its runs are ordinary run
 directories; its config is refused where it cannot run."""
 
@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytestmark = pytest.mark.train
 
-from cepam_gym_agents.config import ConfigError, TrainConfig  # noqa: E402
+from cepam_gym_agents.config.files import ConfigError, TrainConfig  # noqa: E402
 
 BASE = {
     "algorithm": "PPO",
@@ -56,8 +56,8 @@ def test_default_learner_is_sb3():
 
 def _model(cls, cfg):
     """A PPO of ``cls`` on the config's env and normalisation, as the trainer builds it."""
-    from cepam_gym_agents.algorithm import hyperparameters
-    from cepam_gym_agents.envs import make_train_env, normalize
+    from cepam_gym_agents.learners.algorithm import hyperparameters
+    from cepam_gym_agents.session.envs import make_train_env, normalize
 
     env = normalize(make_train_env(cfg, cfg.seed), cfg)
     pk = dict(cfg.policy_kwargs)
@@ -85,7 +85,7 @@ def test_native_rollouts_are_sb3s_rollouts(agent):
     64 steps of episodes of 40: every env crosses a time limit."""
     from stable_baselines3 import PPO
 
-    from cepam_gym_agents.native_ppo import NativePPO
+    from cepam_gym_agents.learners.native_ppo import NativePPO
 
     cfg = _cfg(agent=agent)
     chunk = cfg.hyperparameters["n_steps"] * cfg.env.num_envs
@@ -159,7 +159,7 @@ def test_fast_config_beats_the_baseline_on_length_v2(tmp_path):
     0.05-0.08; the bound is the baseline's stored score."""
     from cepam_gym.bench.references import stored_entry
     from cepam_gym.bench.suites import SUITES
-    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
+    from cepam_gym_agents.config.files import EnvConfig, EvalConfig, load_config
     from cepam_gym_agents.train import train
 
     suite = SUITES["length-v2"]

@@ -1,4 +1,4 @@
-"""The native recurrent learner (``learner: native`` with RecurrentPPO, agents/native_recurrent.py):
+"""The native recurrent learner (``learner: native`` with RecurrentPPO, agents/learners/native_recurrent.py):
 sb3-contrib's RecurrentPPO whose rollouts come from the vector env as arrays. Its rollouts are
 sb3-contrib's own, step for step, LSTM states included; its runs are ordinary run directories."""
 
@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("sb3_contrib")
 pytestmark = pytest.mark.train
 
-from cepam_gym_agents.config import TrainConfig  # noqa: E402
+from cepam_gym_agents.config.files import TrainConfig  # noqa: E402
 
 BASE = {
     "algorithm": "RecurrentPPO",
@@ -36,8 +36,8 @@ def _cfg(**changes) -> TrainConfig:
 
 
 def _model(cls, cfg):
-    from cepam_gym_agents.algorithm import hyperparameters
-    from cepam_gym_agents.envs import make_train_env, normalize
+    from cepam_gym_agents.learners.algorithm import hyperparameters
+    from cepam_gym_agents.session.envs import make_train_env, normalize
 
     env = normalize(make_train_env(cfg, cfg.seed), cfg)
     return cls(
@@ -57,7 +57,7 @@ def test_native_recurrent_rollouts_are_sb3_contribs_rollouts():
     every env crosses a time limit."""
     from sb3_contrib import RecurrentPPO
 
-    from cepam_gym_agents.native_recurrent import NativeRecurrentPPO
+    from cepam_gym_agents.learners.native_recurrent import NativeRecurrentPPO
 
     cfg = _cfg()
     chunk = cfg.hyperparameters["n_steps"] * cfg.env.num_envs

@@ -14,7 +14,7 @@ pytestmark = pytest.mark.train
 
 def test_the_grid_covers_every_recommended_id_and_skips_only_what_it_says():
     from cepam_gym import versions
-    from cepam_gym_agents.reference_grid import LEARNERS, cells, recommended_ids, skipped
+    from cepam_gym_agents.grid.cells import LEARNERS, cells, recommended_ids, skipped
 
     ids = recommended_ids()
     recommended = versions.get(versions.RECOMMENDED_ID).version
@@ -31,8 +31,8 @@ def test_the_grid_covers_every_recommended_id_and_skips_only_what_it_says():
 
 @pytest.mark.parametrize("learner", ["student", "TD3"])
 def test_a_cell_config_is_the_shipped_one_on_its_ids_suite(learner):
-    from cepam_gym_agents.config import load_config
-    from cepam_gym_agents.reference_grid import LEARNERS, cell_config, suite_of
+    from cepam_gym_agents.config.files import load_config
+    from cepam_gym_agents.grid.cells import LEARNERS, cell_config, suite_of
 
     shipped = load_config(LEARNERS[learner])
     cfg = cell_config(learner, "cepam_gym/CEPAMLength-v3", 0.5)
@@ -55,9 +55,9 @@ def test_a_cell_config_is_the_shipped_one_on_its_ids_suite(learner):
 
 @pytest.mark.slow
 def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch, capsys):
-    from cepam_gym_agents import reference_report
+    from cepam_gym_agents.grid import report as reference_report
+    from cepam_gym_agents.grid.report import _score
     from cepam_gym_agents.reference import main
-    from cepam_gym_agents.reference_report import _score
 
     # the MPCs' planning would be most of the test's time; the headline needs these two
     monkeypatch.setitem(reference_report.CONTROLLERS, "rig", ("baseline", "oracle"))

@@ -11,7 +11,7 @@ pytestmark = pytest.mark.train
 
 
 def _config(algorithm: str, agent: dict, sde: bool = False):
-    from cepam_gym_agents.config import TrainConfig
+    from cepam_gym_agents.config.files import TrainConfig
 
     hp = (
         {"n_steps": 16, "batch_size": 32} if algorithm in ("PPO", "RecurrentPPO") else {"learning_starts": 10}
@@ -32,8 +32,8 @@ def _config(algorithm: str, agent: dict, sde: bool = False):
 
 @pytest.mark.parametrize("algorithm", ["PPO", "SAC", "TD3", "RecurrentPPO", "SAC-gSDE"])
 def test_the_untrained_residual_agent_sends_the_base_controllers_commands(algorithm):
-    from cepam_gym_agents.algorithm import training_class
-    from cepam_gym_agents.trainer import build_train_env, new_model
+    from cepam_gym_agents.learners.algorithm import training_class
+    from cepam_gym_agents.session.trainer import build_train_env, new_model
 
     sde = algorithm.endswith("gSDE")  # SAC's mean is then Sequential(Linear, Hardtanh)
     algorithm = algorithm.split("-")[0]
@@ -58,7 +58,7 @@ def test_the_untrained_residual_agent_sends_the_base_controllers_commands(algori
 
 
 def test_start_at_base_needs_a_base():
-    from cepam_gym_agents.config import ConfigError
+    from cepam_gym_agents.config.files import ConfigError
 
     with pytest.raises(ConfigError, match="agent.start_at_base"):
         _config("SAC", {"start_at_base": True})

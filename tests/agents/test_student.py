@@ -1,4 +1,4 @@
-"""The student (agents/student.py): its config is checked, it is saved in the format every run
+"""The student (agents/learners/student.py): its config is checked, it is saved in the format every run
 loader reads, and (slow) it learns: a short DAgger run must beat the baseline on a fixed suite."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
-from cepam_gym_agents.config import ConfigError, TrainConfig  # noqa: E402
+from cepam_gym_agents.config.files import ConfigError, TrainConfig  # noqa: E402
 
 
 def _cfg(suite: str = "nominal-v1", env_id: str = "cepam_gym/CEPAM-v1", **student) -> TrainConfig:
@@ -45,7 +45,7 @@ def test_bad_student_config_is_named(student, words):
 def test_student_needs_ppo_and_normalized_inputs():
     with pytest.raises(ConfigError, match="must be PPO"):
         TrainConfig.from_dict({"algorithm": "SAC", "student": {}})
-    from cepam_gym_agents.student import check_student
+    from cepam_gym_agents.learners.student import check_student
 
     with pytest.raises(ConfigError, match="normalize.obs"):
         check_student(_cfg().replace(normalize=_cfg().normalize.__class__(obs=False)))
@@ -63,8 +63,8 @@ def test_every_shipped_student_config_passes_its_check():
     """The shipped students (the main job's two-minute one, the full-teacher one, ...) build their
     teacher with their search settings before any round runs: a setting the planner refuses fails
     here, not after the first round's labels."""
-    from cepam_gym_agents.config import load_config, shipped_configs
-    from cepam_gym_agents.student import check_student
+    from cepam_gym_agents.config.files import load_config, shipped_configs
+    from cepam_gym_agents.learners.student import check_student
 
     students = [load_config(n) for n in sorted(shipped_configs())]
     students = [c for c in students if c.student is not None]
@@ -76,7 +76,7 @@ def test_every_shipped_student_config_passes_its_check():
 
 
 def test_teacher_options_reach_the_teachers_search():
-    from cepam_gym_agents.student import collect
+    from cepam_gym_agents.learners.student import collect
 
     cfg = _cfg(teacher="mpc_known_params", teacher_options={"population": 8, "iterations": 1})
     x, y = collect(cfg, "nominal-v1", 2, seed=3)
@@ -89,10 +89,10 @@ def test_saved_student_acts_as_the_fitted_actor(tmp_path):
     import gymnasium as gym
     import torch
 
-    from cepam_gym_agents.checkpoints import save_model
-    from cepam_gym_agents.config import dump_config
+    from cepam_gym_agents.config.files import dump_config
+    from cepam_gym_agents.learners.student import Student, _Actor, as_ppo
     from cepam_gym_agents.policy import load_policy
-    from cepam_gym_agents.student import Student, _Actor, as_ppo
+    from cepam_gym_agents.session.checkpoints import save_model
 
     cfg = _cfg()
     venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=3)
@@ -125,8 +125,8 @@ def test_student_learns_to_beat_the_baseline(tmp_path):
     episodes of length-v1, the benchmark's own (never trained on). A regression in the env, the
     features, the teacher or the fit shows here."""
     from cepam_gym.bench.harness import run_suite
-    from cepam_gym_agents.config import dump_config
-    from cepam_gym_agents.student import train_student
+    from cepam_gym_agents.config.files import dump_config
+    from cepam_gym_agents.learners.student import train_student
 
     cfg = _cfg("length-v1", "cepam_gym/CEPAMLength-v1", suites={"length-v1": 8}, iterations=2)
     search = {"population": 16, "iterations": 2}
@@ -156,7 +156,7 @@ def test_setpoint_gaps_are_the_nominal_models_pressure_gaps():
     import gymnasium as gym
 
     from cepam_gym.control import InverseStaticController
-    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
 
     venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=3)
@@ -253,7 +253,7 @@ def test_base_controller_config_is_checked():
         TrainConfig.from_dict(
             {"algorithm": "PPO", "agent": {"setpoint_gaps_in_obs": True, "base_controller": "mpc"}}
         )
-    from cepam_gym_agents.student import check_student
+    from cepam_gym_agents.learners.student import check_student
 
     cfg = _cfg()
     bad = cfg.replace(agent=cfg.agent.__class__(residual=True, residual_scale=0.0))
@@ -268,9 +268,9 @@ def test_a_residual_student_is_fitted_to_what_the_teacher_adds_to_its_base():
     import gymnasium as gym
 
     from cepam_gym.control import make_controller
-    from cepam_gym_agents.config import AgentConfig
+    from cepam_gym_agents.config.files import AgentConfig
     from cepam_gym_agents.features import Features
-    from cepam_gym_agents.student import collect
+    from cepam_gym_agents.learners.student import collect
 
     cfg = _cfg()
     cfg = cfg.replace(agent=AgentConfig(residual=True, residual_scale=0.5, baseline_in_obs=True))

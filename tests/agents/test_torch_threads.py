@@ -12,8 +12,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 torch = pytest.importorskip("torch")
 
-from cepam_gym_agents.config import ConfigError, TrainConfig, load_config  # noqa: E402
-from cepam_gym_agents.torch_threads import (  # noqa: E402
+from cepam_gym_agents.config.files import ConfigError, TrainConfig, load_config  # noqa: E402
+from cepam_gym_agents.session.torch_threads import (  # noqa: E402
     ChosenThreadsTrain,
     TorchThreads,
     inference_threads,
@@ -54,7 +54,7 @@ def test_fixed_threads_are_applied_and_auto_starts_serial():
 def test_the_chooser_keeps_the_class_name_and_is_not_saved(tmp_path):
     from stable_baselines3 import PPO
 
-    from cepam_gym_agents.algorithm import training_class
+    from cepam_gym_agents.learners.algorithm import training_class
 
     cls = training_class("PPO")
     assert issubclass(cls, ChosenThreadsTrain) and issubclass(cls, PPO) and cls.__name__ == "PPO"

@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def tiny(tmp_path):
     import yaml
 
-    from cepam_gym_agents.config import load_config
+    from cepam_gym_agents.config.files import load_config
 
     d = load_config(str(ROOT / "configs" / "quick.yaml")).to_dict()
     d["env"]["num_envs"] = 4

@@ -81,7 +81,7 @@ def test_hyperparams_files_have_all_ids(algo):
 
     pytest.importorskip("stable_baselines3")
     from cepam_gym.bench.suites import SUITES
-    from cepam_gym_agents.config import load_config
+    from cepam_gym_agents.config.files import load_config
     from cepam_gym_agents.curves import CONFIG_OF, SUITE_OF
 
     with open(ROOT / "hyperparams" / f"{algo}.yml") as f:

@@ -1,4 +1,4 @@
-"""A grid's trials as Ray tasks (``compare --ray``, agents/grid.py): each trial's run is the same
+"""A grid's trials as Ray tasks (``compare --ray``, agents/grid/trials.py): each trial's run is the same
 seed's run trained here as a plain process. Runs where Ray is installed (``.venv-ray``; the main
 venv skips it)."""
 
@@ -30,7 +30,7 @@ CONFIG = {
 
 
 def test_a_ray_trial_is_the_same_seeds_local_run(tmp_path):
-    from cepam_gym_agents.grid import Trial, run_local, run_ray
+    from cepam_gym_agents.grid.trials import Trial, run_local, run_ray
 
     config = tmp_path / "tiny.yaml"
     config.write_text(yaml.safe_dump(CONFIG))

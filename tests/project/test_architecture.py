@@ -127,8 +127,8 @@ def test_the_graph_reader_sees_imports_inside_functions():
     assert "cepam_gym.control" in _graph()["cepam_gym.video"]
     assert "cepam_gym.mujoco.rig" in _graph()["cepam_gym.envs.shared"]  # inside mujoco_frames()
     agents = _graph(AGENTS)
-    assert "cepam_gym_agents.student" in agents["cepam_gym_agents.trainer"]  # inside train()
-    assert "cepam_gym.bench.suites" in agents["cepam_gym_agents.config_schema"]  # inside a method
+    assert "cepam_gym_agents.learners.student" in agents["cepam_gym_agents.session.trainer"]  # inside train()
+    assert "cepam_gym.bench.suites" in agents["cepam_gym_agents.config.schema"]  # inside a method
     assert set(agents) == set(AGENT_MODULES) and "cepam_gym_agents.main_job" in agents
     assert _find_cycle({"a": {"b": 1}, "b": {"c": 1}, "c": {"a": 1}}) == ["a", "b", "c", "a"]
     assert _find_cycle({"a": {"b": 1}, "b": {}}) is None

@@ -35,7 +35,7 @@ def run_dir(tmp_path_factory):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from cepam_gym_agents.config import dump_config, load_config
+    from cepam_gym_agents.config.files import dump_config, load_config
     from cepam_gym_agents.train import make_train_env
 
     run = tmp_path_factory.mktemp("run")

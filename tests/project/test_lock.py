@@ -62,7 +62,7 @@ def test_makefile_installs_every_venv_with_its_constraints():
 
 
 def test_a_run_records_the_versions_and_the_machine_its_numbers_depend_on():
-    from cepam_gym_agents.provenance import package_versions
+    from cepam_gym_agents.session.provenance import package_versions
 
     v = package_versions()
     for name in ("numpy", "numba", "llvmlite", "scipy", "gymnasium", "torch", "stable-baselines3"):

@@ -12,7 +12,7 @@ import pytest
 from cepam_gym.bench.suites import SUITES
 from cepam_gym.cli import main
 from cepam_gym_agents import main_job
-from cepam_gym_agents.config import load_config
+from cepam_gym_agents.config.files import load_config
 from cepam_gym_agents.main_job import fresh_dir
 from cepam_gym_agents.main_summary import write_summary
 

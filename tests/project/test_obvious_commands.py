@@ -148,7 +148,7 @@ def test_a_vector_env_refuses_a_wrong_action_shape(num_envs, shape):
 
 
 def test_the_readmes_first_train_example_trains_on_the_recommended_id():
-    from cepam_gym_agents.config import load_config
+    from cepam_gym_agents.config.files import load_config
 
     readme = (ROOT / "README.md").read_text()
     name = re.search(r"cepam-gym train --config (\w+)", readme).group(1)

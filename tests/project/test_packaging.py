@@ -79,8 +79,8 @@ def test_wheel_has_no_top_level_agents_and_ships_data(wheel):
     tops = {n.split("/")[0] for n in names}
     dist_info = f"cepam_gym-{cepam_gym.__version__}.dist-info"
     assert tops == {"cepam_gym", "cepam_gym_agents", dist_info}, tops
-    for src in (ROOT / "agents").glob("*.py"):
-        assert f"cepam_gym_agents/{src.name}" in names
+    for src in (ROOT / "agents").rglob("*.py"):
+        assert f"cepam_gym_agents/{src.relative_to(ROOT / 'agents').as_posix()}" in names
     for cfg in (ROOT / "configs").glob("*.yaml"):
         assert f"cepam_gym_agents/configs/{cfg.name}" in names
     for shipped in (
@@ -149,7 +149,7 @@ def test_installed_wheel_runs_from_any_directory(wheel, tmp_path):
         "import importlib.util, sys, cepam_gym\n"
         f"assert cepam_gym.__file__.startswith({str(venv)!r}), cepam_gym.__file__\n"
         "assert importlib.util.find_spec('agents') is None\n"
-        "from cepam_gym_agents.config import load_config\n"
+        "from cepam_gym_agents.config.files import load_config\n"
         "cfg = load_config('quick')\n"
         "assert cfg.algorithm == 'PPO' and cfg.total_timesteps > 0\n"
         "from cepam_gym.control.registry import agent_loaders\n"

@@ -385,7 +385,7 @@ def test_an_agent_trained_on_the_identified_plant_scores_on_the_rig_what_its_sim
     from cepam_gym.plant.params import PlantParams
     from cepam_gym.rig.onnx_policy import OnnxPolicy
     from cepam_gym.rig.score import log_score, simulate
-    from cepam_gym_agents.config import EnvConfig, EvalConfig, load_config
+    from cepam_gym_agents.config.files import EnvConfig, EvalConfig, load_config
     from cepam_gym_agents.export import export
     from cepam_gym_agents.train import train
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import inspect
 from typing import Any
 
-from .config_checks import ConfigError, as_bool, as_float, as_int, as_mapping
+from ..config.checks import ConfigError, as_bool, as_float, as_int, as_mapping
 
 ALGORITHMS = ("SAC", "PPO", "TD3", "RecurrentPPO")
 ON_POLICY = ("PPO", "RecurrentPPO")
@@ -56,10 +56,10 @@ def algorithm_class(name: str):
 def training_class(algorithm: str, learner: str = "sb3"):
     """The class a session trains with: :func:`algorithm_class`, or for ``learner: native`` the
     PPO, RecurrentPPO, SAC or TD3 that collects from the vector env as arrays
-    (:mod:`agents.native_ppo`, ``native_recurrent``, ``native_offpolicy``; their models load as
+    (:mod:`agents.learners.native_ppo`, ``native_recurrent``, ``native_offpolicy``; their models load as
     SB3's), with its gradient steps on the
-    session's torch threads (:class:`~.torch_threads.ChosenThreadsTrain`)."""
-    from .torch_threads import with_chosen_threads
+    session's torch threads (:class:`~..session.torch_threads.ChosenThreadsTrain`)."""
+    from ..session.torch_threads import with_chosen_threads
 
     if learner == "native":
         from .native_offpolicy import NativeSAC, NativeTD3

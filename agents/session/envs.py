@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .config import TrainConfig
+from ..config.files import TrainConfig
 
 
 def make_train_env(cfg: TrainConfig, seed: int):
@@ -67,7 +67,7 @@ def make_agent_vec_env(venv, cfg):
     from gymnasium import spaces
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    from .features import Features
+    from ..features import Features
 
     class AgentVecEnv(VecEnvWrapper):
         def __init__(self, venv, features: Features):

@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import ConfigError, TrainConfig
-from .features import Features
-from .provenance import RunRecord, write_json
-from .torch_threads import TorchThreads
+from ..config.files import ConfigError, TrainConfig
+from ..features import Features
+from ..session.provenance import RunRecord, write_json
+from ..session.torch_threads import TorchThreads
 
 # VecNormalize's clip of normalized observations: the fit sees what the deployed policy will see
 _CLIP_OBS = 10.0
@@ -170,7 +170,7 @@ def fit(
     actor: _Actor, x, y, mean, std, scale, steps: int, batch: int, lr: float, seed: int, threads=None
 ) -> float:
     """``steps`` Adam steps (cosine-decayed) of the mean squared error on actions / ``scale``, each
-    on ``threads`` (a :class:`~.torch_threads.TorchThreads`) when given; returns the last 100
+    on ``threads`` (a :class:`~..session.torch_threads.TorchThreads`) when given; returns the last 100
     steps' mean loss."""
     import torch
 
@@ -205,7 +205,7 @@ def as_ppo(cfg: TrainConfig, actor: _Actor, mean, std, scale, seed: int):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from .envs import make_train_env
+    from ..session.envs import make_train_env
 
     env = VecNormalize(make_train_env(cfg, seed), norm_obs=True, norm_reward=False, clip_obs=_CLIP_OBS)
     env.obs_rms.mean = mean.astype(np.float64)
@@ -236,8 +236,8 @@ def _score_and_record(
 ):
     """Score the saved student on the config's evaluation episodes beside the baseline, and write
     the run directory's evaluations, summary and status."""
-    from .envs import eval_env_spec
-    from .policy import baseline_score, evaluate, load_policy
+    from ..policy import baseline_score, evaluate, load_policy
+    from ..session.envs import eval_env_spec
 
     env_id, kwargs, spec = eval_env_spec(cfg)
     metrics = evaluate(
@@ -259,7 +259,7 @@ def _score_and_record(
 def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -> int:
     """DAgger rounds, then save and score the student (the run directory's usual files)."""
 
-    from .checkpoints import save_model
+    from ..session.checkpoints import save_model
 
     check_student(cfg)
     threads = TorchThreads(cfg.torch_threads)

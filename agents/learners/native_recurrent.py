@@ -2,7 +2,7 @@
 (``learner: native`` with ``algorithm: RecurrentPPO``).
 
 sb3-contrib's ``RecurrentPPO`` (an LSTM actor and critic; Schulman et al. 2017, Hochreiter and
-Schmidhuber 1997) steps a ``VecEnv`` with the per-env costs :mod:`agents.native_ppo` describes, and
+Schmidhuber 1997) steps a ``VecEnv`` with the per-env costs :mod:`agents.learners.native_ppo` describes, and
 values each env cut by the time limit in a call of its own. :class:`NativeRecurrentPPO` keeps the
 rest of it (policy, LSTM states, loss, saving: a run of it is an sb3-contrib ``RecurrentPPO``
 model) and collects from the vector env's arrays; the truncated envs' last observations are

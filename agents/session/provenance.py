@@ -77,7 +77,7 @@ def machine() -> dict:
 
 
 def git_state() -> dict:
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]  # agents/session/ -> the checkout
     try:
         commit = subprocess.run(
             ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10

@@ -18,7 +18,7 @@ only ``collect_rollouts`` with one that works on the vector env's arrays:
   limit: ``r += gamma * V(s_T)``).
 
 The callbacks see ``infos`` as one dict of arrays (a finished env's entries are its last step's),
-not a list of dicts; :mod:`agents.callbacks` reads both."""
+not a list of dicts; :mod:`agents.session.callbacks` reads both."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .config import TrainConfig
+from ..config.files import TrainConfig
 from .progress import ProgressBar
 
 FIRST_CHECKPOINT_FRACTION = 0.1  # of the session's steps

@@ -1,6 +1,6 @@
 """The training config's schema: one frozen dataclass per section (env, normalize, agent, eval,
 checkpoint) and :class:`TrainConfig` holding them, each with the ``parse`` that checks its section
-of the YAML (the layout and the defaults are described in :mod:`cepam_gym_agents.config`)."""
+of the YAML (the layout and the defaults are described in :mod:`cepam_gym_agents.config.files`)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from typing import Any
 
 from cepam_gym.versions import RECOMMENDED_ID
 
-from .agent_config import AgentConfig
-from .algorithm import ALGORITHMS, ON_POLICY, check_hyperparameters, check_policy_kwargs
-from .config_checks import (
+from ..learners.algorithm import ALGORITHMS, ON_POLICY, check_hyperparameters, check_policy_kwargs
+from .agent import AgentConfig
+from .checks import (
     ConfigError,
     as_bool,
     as_float,
@@ -224,10 +224,11 @@ NATIVE_ALGORITHMS = ("PPO", "RecurrentPPO", "SAC", "TD3")
 
 
 def _learner(name: Any, algo: str, hp: dict, agent: AgentConfig, student: Any) -> str:
-    """The checked ``learner``: ``native`` (:mod:`agents.native_ppo`, :mod:`agents.native_offpolicy`)
-    runs PPO, RecurrentPPO, SAC or TD3 on arrays from the vector env, through the agent's features
-    (:mod:`agents.native_collection`) but for the privileged critic and the plant's columns (they
-    read the env beside the features: not carried to the native learner)."""
+    """The checked ``learner``: ``native`` (:mod:`agents.learners.native_ppo`,
+    :mod:`agents.learners.native_offpolicy`) runs PPO, RecurrentPPO, SAC or TD3 on arrays from the
+    vector env, through the agent's features (:mod:`agents.learners.native_collection`) but for the
+    privileged critic and the plant's columns (they read the env beside the features: not carried
+    to the native learner)."""
     if name not in LEARNERS:
         raise ConfigError(f"learner must be one of {list(LEARNERS)}, got {name!r}")
     if name == "sb3":
@@ -263,7 +264,7 @@ class TrainConfig:
     algorithm: str
     total_timesteps: int = 100_000
     seed: int = 0
-    torch_threads: int | str = 1  # or "auto": chosen while the run goes on (agents.torch_threads)
+    torch_threads: int | str = 1  # or "auto": chosen while the run goes on (agents.session.torch_threads)
     env: EnvConfig = field(default_factory=EnvConfig)
     normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
     agent: AgentConfig = field(default_factory=AgentConfig)

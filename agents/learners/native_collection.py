@@ -1,7 +1,7 @@
 """What the native learners share (``learner: native``): the vector env beneath the SB3 wrappers,
 stepped as arrays, with ``VecNormalize``'s statistics and ``VecMonitor``'s episode log kept by the
-same formulas in the same order, on whole arrays (:mod:`agents.native_ppo`,
-:mod:`agents.native_offpolicy`). With an ``agent`` section, the agent's features
+same formulas in the same order, on whole arrays (:mod:`agents.learners.native_ppo`,
+:mod:`agents.learners.native_offpolicy`). With an ``agent`` section, the agent's features
 (:class:`agents.features.Features`: set-point gaps, history, a residual...) are the agent wrapper's
 own object, applied in the wrapper's order: the policy's action mapped to the env's, the step,
 the finished envs' last observations featurised before their state is forgotten, then the new
@@ -18,7 +18,7 @@ from cepam_gym.envs.vector import CEPAMVectorEnv
 
 def _unwrap(env):
     """(the CE-PAM vector env beneath the SB3 wrappers, the ``VecNormalize`` among them or None, the
-    agent's features wrapper (:func:`agents.envs.make_agent_vec_env`) or None)."""
+    agent's features wrapper (:func:`agents.session.envs.make_agent_vec_env`) or None)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     norm = agent = None

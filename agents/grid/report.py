@@ -18,7 +18,7 @@ import numpy as np
 
 from cepam_gym import versions
 
-from .provenance import git_state, machine, now, write_json
+from ..session.provenance import git_state, machine, now, write_json
 
 RESULTS_FORMAT = 1
 # the model-based controllers beside the agents on the suite's episodes (the MPCs plan through the
@@ -67,7 +67,7 @@ class Scores:
         import os
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        from .grid import thread_env
+        from .trials import thread_env
 
         print(f"reference: scoring {len(todo)} runs and controllers, {jobs} processes at a time", flush=True)
         saved, t = dict(os.environ), time.perf_counter()
@@ -116,7 +116,7 @@ def run_row(learner: str, env_id: str, seed: int, run: Path, scores: Scores) -> 
     """One run of the results file: what it ran, where, for how long, and its scores."""
     import yaml
 
-    from .reference_grid import LEARNERS, suite_of
+    from .cells import LEARNERS, suite_of
 
     summary = json.loads((run / "summary.json").read_text())
     record = json.loads((run / "run.json").read_text())
@@ -146,7 +146,7 @@ def run_row(learner: str, env_id: str, seed: int, run: Path, scores: Scores) -> 
 
 def yardsticks(ids: list[str], scores: Scores) -> dict:
     """``{suite: {set: {controller: score}}}`` for the suite of every id in the grid."""
-    from .reference_grid import suite_of
+    from .cells import suite_of
 
     return {
         suite_of(i): {
@@ -216,8 +216,8 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
     has finished."""
     from cepam_gym.progress import runs as bar
 
-    from .reference_grid import SKIPPED, run_dir
-    from .reference_page import page, plot
+    from .cells import SKIPPED, run_dir
+    from .page import page, plot
 
     scores = Scores(out, episode_sets(args))
     done = [(a, i, s) for a, i in grid for s in seeds if (run_dir(out, a, i, s) / "summary.json").is_file()]
@@ -255,7 +255,7 @@ def report(grid: list[tuple[str, str]], seeds: list[int], out: Path, docs: Path,
 
 def _requests(done: list[tuple], ids: list[str], scores: Scores, out: Path) -> list[tuple]:
     """Every score the report reads: each finished run's and each controller's, on each set."""
-    from .reference_grid import run_dir, suite_of
+    from .cells import run_dir, suite_of
 
     out_ = []
     for a, i, s in done:
@@ -272,7 +272,7 @@ def _meta(out: Path, args, scoring_s: float) -> dict:
     """The grid's command, its measured times (``out/grid_time.json``: the trainings' wall time,
     written by the call that trained, and the scoring's, summed over the calls that scored) and
     the machine."""
-    from .reference_grid import shown_command
+    from .cells import shown_command
 
     path = out / "grid_time.json"
     seconds = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}

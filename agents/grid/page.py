@@ -100,7 +100,7 @@ wall time and against env-steps, the baseline's and the MPC's suite scores as li
 
 def page(rows: list[dict], table_md: str, figures: list[Path], meta: dict) -> str:
     """The results page (``reference.md``) around the table and the figures."""
-    from .reference_grid import SKIPPED
+    from .cells import SKIPPED
 
     commits = sorted({(r["commit"] or "unknown")[:7] + ("+dirty" if r["dirty"] else "") for r in rows})
     t = meta["seconds"]

@@ -1,5 +1,5 @@
 """Training configs: YAML files (``configs/``, shipped as package data) read into frozen dataclasses
-(:mod:`.config_schema`), validated on load. This module finds and reads the files and is where every
+(:mod:`.schema`), validated on load. This module finds and reads the files and is where every
 config name is imported from.
 
 Layout of a config (every section optional except ``algorithm``; defaults below)::
@@ -46,9 +46,9 @@ from pathlib import Path
 import yaml
 
 # the public names of the config, importable from here as before the split
-from .algorithm import ACTIVATIONS, ALGORITHMS, NOISE_TYPES, ON_POLICY, algorithm_class, policy_name
-from .config_checks import ConfigError, parse_number
-from .config_schema import (
+from ..learners.algorithm import ACTIVATIONS, ALGORITHMS, NOISE_TYPES, ON_POLICY, algorithm_class, policy_name
+from .checks import ConfigError, parse_number
+from .schema import (
     AgentConfig,
     CheckpointConfig,
     EnvConfig,
@@ -84,7 +84,7 @@ def shipped_configs() -> dict:
     of the repository, installed as the package data ``cepam_gym_agents.configs``."""
     from importlib.resources import files
 
-    root = files(f"{__package__}.configs")
+    root = files("cepam_gym_agents.configs")
     return {f.name.rsplit(".", 1)[0]: f for f in root.iterdir() if f.name.endswith((".yaml", ".yml"))}
 
 

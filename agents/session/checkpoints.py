@@ -1,7 +1,7 @@
 """The models a run directory holds and how a session saves and finds them: the final and best
 models (each with its VecNormalize statistics), ``checkpoints/`` with its index ``latest.json``
 (pruned to the newest ``checkpoint.keep``), the resumable models newest first, and loading the
-newest one that loads. :mod:`.policy` finds a run's models through the same names."""
+newest one that loads. :mod:`..policy` finds a run's models through the same names."""
 
 from __future__ import annotations
 

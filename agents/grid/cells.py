@@ -7,7 +7,7 @@ from pathlib import Path
 
 from cepam_gym import versions
 
-from .config import load_config
+from ..config.files import load_config
 
 # learner -> the shipped config it runs (configs/), all on the recommended id CEPAM-v3
 LEARNERS = {
@@ -43,7 +43,7 @@ def cell_config(learner: str, env_id: str, minutes: float | None):
     periodic evaluation and a student's DAgger suites), its budget ``minutes`` (None: the config's)."""
     import dataclasses
 
-    from .config_schema import EnvConfig, EvalConfig
+    from ..config.schema import EnvConfig, EvalConfig
 
     cfg = load_config(LEARNERS[learner])
     suite = suite_of(env_id)

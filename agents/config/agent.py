@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from .config_checks import ConfigError, as_bool, as_float, as_int, as_mapping, check_keys
+from .checks import ConfigError, as_bool, as_float, as_int, as_mapping, check_keys
 
 
 def _filters(value: Any, where: str) -> list:
@@ -63,7 +63,7 @@ class AgentConfig:
     * ``privileged_critic`` (PPO): an asymmetric actor-critic (Pinto et al. 2018). During training
       the critic also sees what only the simulator knows (:mod:`agents.privileged`: the true plant
       parameters, the load, the true errors); the actor's input masks those columns out, and a
-      deployed policy is given NaN there (:mod:`agents.asymmetric`).
+      deployed policy is given NaN there (:mod:`agents.learners.asymmetric`).
     * ``plant_features``: the actor is told the plant (an adaptive agent in the manner of RMA,
       Kumar et al. 2021, its adaptation module the project's identification): the log ratios to
       the nominal plant of the parameter columns the identification window's fit moves

@@ -14,7 +14,8 @@ from pathlib import Path
 from cepam_gym.cli_errors import guarded_load
 from cepam_gym.envs.model import model_of
 
-from .algorithm import (
+from ..config.files import ConfigError, TrainConfig, dump_config
+from ..learners.algorithm import (
     collection_why,
     hyperparameters,
     policy,
@@ -24,7 +25,6 @@ from .algorithm import (
 )
 from .callbacks import make_callback_class
 from .checkpoints import Checkpoints, save_model
-from .config import ConfigError, TrainConfig, dump_config
 from .envs import eval_env_spec, info_keys, make_train_env, normalize
 from .lock import RunLock
 from .progress import ProgressBar
@@ -177,8 +177,8 @@ class Trainer:
 
     # ----------------------------------------------------------------- evaluation and saving
     def evaluate(self, n: int) -> dict:
-        from .features import Features
-        from .policy import AgentPolicy, evaluate
+        from ..features import Features
+        from ..policy import AgentPolicy, evaluate
 
         cfg = self.cfg
         normalizer = self.vecnorm if (self.vecnorm is not None and cfg.normalize.obs) else None
@@ -214,7 +214,7 @@ class Trainer:
         return m
 
     def _baseline_score(self) -> float | None:
-        from .policy import baseline_score
+        from ..policy import baseline_score
 
         cfg = self.cfg
         score = baseline_score(
@@ -366,7 +366,7 @@ def train(
         else:
             dump_config(cfg, run / "config.yaml")  # total_timesteps may have been raised
         if cfg.student is not None:  # distilled from a teacher (DAgger), no RL loop to resume
-            from .student import train_student
+            from ..learners.student import train_student
 
             if resume:
                 raise ConfigError(f"{run}: a student run cannot be resumed; train it again with --out")
