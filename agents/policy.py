@@ -17,9 +17,10 @@ import numpy as np
 
 from cepam_gym.cli_errors import guarded_load
 from cepam_gym.errors import InputError
+from cepam_gym.policies import Features, FeatureSpec, obs_batch
 
-from .config.files import AgentConfig, TrainConfig, algorithm_class
-from .features import Features, obs_batch  # noqa: F401  (obs_batch: still importable from here)
+from .config.agent import feature_spec
+from .config.files import TrainConfig, algorithm_class
 from .learners.bc_policy import BCPolicy, is_bc_run, load_bc_policy
 from .session.model_files import (
     NORMALIZER_NAMES,
@@ -245,7 +246,7 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
         device="cpu",
     )
     normalizer = _normalizer(files, cfg)
-    features = Features(env, cfg.agent if cfg is not None else AgentConfig(), env_model.obs_dim)
+    features = Features(env, feature_spec(cfg.agent) if cfg is not None else FeatureSpec(), env_model.obs_dim)
     return AgentPolicy(model, features, normalizer)
 
 

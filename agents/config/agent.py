@@ -3,8 +3,10 @@ observation and action (:class:`AgentConfig`, parsed and checked by ``AgentConfi
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
+
+from cepam_gym.policies import FeatureSpec
 
 from .checks import ConfigError, as_bool, as_float, as_int, as_mapping, check_keys
 
@@ -61,7 +63,7 @@ class AgentConfig:
     * ``obs_filters_s``: low-passed copies of the observation (one per time constant, seconds,
       restarted with each episode) are appended: a cheap memory over seconds.
     * ``privileged_critic`` (PPO): an asymmetric actor-critic (Pinto et al. 2018). During training
-      the critic also sees what only the simulator knows (:mod:`agents.privileged`: the true plant
+      the critic also sees what only the simulator knows (:mod:`cepam_gym.policies.privileged`: the true plant
       parameters, the load, the true errors); the actor's input masks those columns out, and a
       deployed policy is given NaN there (:mod:`agents.learners.asymmetric`).
     * ``plant_features``: the actor is told the plant (an adaptive agent in the manner of RMA,
@@ -140,3 +142,10 @@ class AgentConfig:
                 "agent.target_shift (the baseline acts after the policy has chosen the shift); drop one"
             )
         return out
+
+
+def feature_spec(agent: AgentConfig) -> FeatureSpec:
+    """What :class:`cepam_gym.policies.Features` reads of an ``agent`` section: every field of
+    :class:`~cepam_gym.policies.FeatureSpec`, by name (``start_at_base`` is the trainer's alone)."""
+    values = {f.name: getattr(agent, f.name) for f in fields(FeatureSpec)}
+    return FeatureSpec(**{**values, "obs_filters_s": tuple(agent.obs_filters_s)})

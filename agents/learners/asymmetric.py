@@ -1,7 +1,7 @@
 """An asymmetric actor-critic policy for PPO: the critic sees the whole input, the actor only the
 observation columns (Pinto et al. 2018).
 
-The training env appends the privileged columns (:mod:`agents.privileged`) after the agent's
+The training env appends the privileged columns (:mod:`cepam_gym.policies.privileged`) after the agent's
 features. SB3's ``ActorCriticPolicy`` builds one MLP extractor for both heads on inputs of one
 width, so the actor is given the same width with the privileged columns replaced by zeros
 (``torch.where``, not a product: a NaN there cannot leak through ``0 * NaN``). A deployed policy

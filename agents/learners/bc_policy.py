@@ -16,8 +16,7 @@ import numpy as np
 
 from cepam_gym.cli_errors import guarded_load
 from cepam_gym.errors import InputError
-
-from ..features import obs_batch
+from cepam_gym.policies import obs_batch
 
 WEIGHTS = "bc_policy.pt"
 INFO = "bc.json"

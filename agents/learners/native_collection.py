@@ -2,7 +2,7 @@
 stepped as arrays, with ``VecNormalize``'s statistics and ``VecMonitor``'s episode log kept by the
 same formulas in the same order, on whole arrays (:mod:`agents.learners.native_ppo`,
 :mod:`agents.learners.native_offpolicy`). With an ``agent`` section, the agent's features
-(:class:`agents.features.Features`: set-point gaps, history, a residual...) are the agent wrapper's
+(:class:`cepam_gym.policies.Features`: set-point gaps, history, a residual...) are the agent wrapper's
 own object, applied in the wrapper's order: the policy's action mapped to the env's, the step,
 the finished envs' last observations featurised before their state is forgotten, then the new
 observation."""
@@ -125,7 +125,7 @@ class NativeCollection:
     @staticmethod
     def _featurise(agent, obs: np.ndarray, dones: np.ndarray, infos: dict):
         """The agent's features of a step's observations and of the finished envs' last ones
-        (``final_obs``), by the wrapper's own :meth:`agents.features.Features.after_step`."""
+        (``final_obs``), by the wrapper's own :meth:`cepam_gym.policies.Features.after_step`."""
         done = np.flatnonzero(dones)
         out, agent._base, term = agent.features.after_step(
             obs, done, infos["final_obs"][done] if done.size else None

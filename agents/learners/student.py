@@ -6,7 +6,7 @@ load and reference horizon) or, in the shipped ``configs/student.yaml``, the MPC
 true parameters (``mpc_known_params``: privileged only in what a history can reveal, and smooth;
 the oracle's labels follow hidden state and are noisy, and its student scored worse on both
 suites: README, "Agents that adapt"). The student sees only
-the agent's features of the observation (:mod:`agents.features`: an observation history, low-passed
+the agent's features of the observation (:mod:`cepam_gym.policies`: an observation history, low-passed
 copies). DAgger (Ross et al. 2011) trains it: round 0 records the teacher driving the envs; every
 later round lets the student drive (the teacher taking over a step with probability ``beta``) and
 asks the teacher what it would have sent in each state the student reached; the student is fitted
@@ -31,8 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
+from cepam_gym.policies import Features
+
+from ..config.agent import feature_spec
 from ..config.files import ConfigError, TrainConfig
-from ..features import Features
 from ..session.provenance import RunRecord, write_json
 from ..session.torch_threads import TorchThreads
 
@@ -139,7 +141,7 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
     try:
         teacher = make_controller(cfg.student.teacher, venv, **cfg.student.teacher_options)
         env_model = model_of(venv)
-        features = Features(venv, cfg.agent, env_model.obs_dim)
+        features = Features(venv, feature_spec(cfg.agent), env_model.obs_dim)
         if features.plant_dim:  # the student is told the true plant (deployed: the window's fit)
             features.use_true_plant()
         rng = np.random.default_rng(seed)

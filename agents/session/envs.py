@@ -61,13 +61,15 @@ def info_keys(contract) -> list[str]:
 
 def make_agent_vec_env(venv, cfg):
     """Wrap an SB3 VecEnv of the CE-PAM env so that it shows and takes the agent's features
-    (:class:`agents.features.Features` of the config's ``agent`` section ``cfg``; identity when it
-    is trivial). Imports stable-baselines3."""
+    (:class:`cepam_gym.policies.Features` of the config's ``agent`` section ``cfg``; identity when
+    it is trivial). Imports stable-baselines3."""
     import numpy as np
     from gymnasium import spaces
     from stable_baselines3.common.vec_env import VecEnvWrapper
 
-    from ..features import Features
+    from cepam_gym.policies import Features
+
+    from ..config.agent import feature_spec
 
     class AgentVecEnv(VecEnvWrapper):
         def __init__(self, venv, features: Features):
@@ -96,7 +98,7 @@ def make_agent_vec_env(venv, cfg):
                 infos[i]["terminal_observation"] = term[j]
             return f, rewards, dones, infos
 
-    features = Features(venv, cfg, venv.observation_space.shape[0])
+    features = Features(venv, feature_spec(cfg), venv.observation_space.shape[0])
     if features.trivial:
         return venv
     if features.priv_dim:  # training: the privileged columns come from this env

@@ -177,14 +177,18 @@ class Trainer:
 
     # ----------------------------------------------------------------- evaluation and saving
     def evaluate(self, n: int) -> dict:
-        from ..features import Features
+        from cepam_gym.policies import Features
+
+        from ..config.agent import feature_spec
         from ..policy import AgentPolicy, evaluate
 
         cfg = self.cfg
         normalizer = self.vecnorm if (self.vecnorm is not None and cfg.normalize.obs) else None
 
         def make(venv):
-            return AgentPolicy(self.model, Features(venv, cfg.agent, model_of(venv).obs_dim), normalizer)
+            return AgentPolicy(
+                self.model, Features(venv, feature_spec(cfg.agent), model_of(venv).obs_dim), normalizer
+            )
 
         t = time.perf_counter()
         m = evaluate(make, self.eval_id, self.eval_kwargs, cfg.eval.episodes, cfg.eval.seed, self.eval_traces)

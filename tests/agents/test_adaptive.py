@@ -16,8 +16,9 @@ from cepam_gym.control import make_controller  # noqa: E402
 from cepam_gym.control.baseline import UnsupportedEnvError, rig_model_of  # noqa: E402
 from cepam_gym.identify.window_identifier import plant_columns, plant_dim  # noqa: E402
 from cepam_gym.physics import layout as ix  # noqa: E402
+from cepam_gym.policies import Features, FeatureSpec  # noqa: E402
+from cepam_gym_agents.config.agent import feature_spec  # noqa: E402
 from cepam_gym_agents.config.files import AgentConfig, TrainConfig  # noqa: E402
-from cepam_gym_agents.features import Features  # noqa: E402
 
 CFG = AgentConfig(history=2, setpoint_gaps_in_obs=True, plant_features=True)
 
@@ -49,7 +50,7 @@ def test_training_features_tell_the_true_plant():
     venv = gym.make_vec("cepam_gym/CEPAM-v2", num_envs=3, randomize=RANDOMIZE_V2)
     obs, _ = venv.reset(seed=2)
     model = rig_model_of(venv)
-    f = Features(venv, CFG, obs.shape[1])
+    f = Features(venv, feature_spec(CFG), obs.shape[1])
     f.use_true_plant()
     x, _ = f(obs)
     k = plant_dim(model.nominal)
@@ -92,7 +93,7 @@ def test_a_config_told_the_plant_trains_without_a_window_and_evaluates_behind_on
 def test_deployed_it_needs_an_identification_window():
     venv = gym.make_vec("cepam_gym/CEPAM-v2", num_envs=1)
     obs, _ = venv.reset(seed=0)
-    f = Features(venv, CFG, obs.shape[1])
+    f = Features(venv, feature_spec(CFG), obs.shape[1])
     with pytest.raises(UnsupportedEnvError, match="plant_features.*id_window_s"):
         f(obs)
     venv.close()
@@ -118,7 +119,7 @@ def _agent(tmp_path, venv):
         }
     )
     obs_dim = venv.observation_space.shape[1]
-    dim = Features(venv, cfg.agent, obs_dim).actor_dim
+    dim = Features(venv, feature_spec(cfg.agent), obs_dim).actor_dim
     rng = np.random.default_rng(0)
     actor = _Actor(dim, [16, 16], seed=0)
     with torch.no_grad():
@@ -173,7 +174,7 @@ def test_export_refuses_it_by_name(tmp_path):
 def test_the_told_plants_setpoint_gaps_are_the_nominal_ones_on_the_nominal_plant_only():
     """With ``setpoint_gaps_in_obs`` each frame holds the nominal model's set-point gaps, then the
     told plant's: on the nominal plant the two agree, on a randomized one they differ."""
-    cfg = AgentConfig(history=1, setpoint_gaps_in_obs=True, plant_features=True)
+    cfg = FeatureSpec(history=1, setpoint_gaps_in_obs=True, plant_features=True)
     for randomize, same in ((None, True), (RANDOMIZE_V2, False)):
         venv = gym.make_vec("cepam_gym/CEPAM-v2", num_envs=3, randomize=randomize)
         obs, _ = venv.reset(seed=5)

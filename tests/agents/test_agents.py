@@ -361,12 +361,11 @@ def test_friction_aware_features_peek_rewinds_the_observer():
     import gymnasium as gym
 
     from cepam_gym.control import make_controller
-    from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
+    from cepam_gym.policies import Features, FeatureSpec
 
     venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=2)
     obs, _ = venv.reset(seed=5)
-    cfg = AgentConfig(setpoint_gaps_in_obs=True, friction_observer=True)
+    cfg = FeatureSpec(setpoint_gaps_in_obs=True, friction_observer=True)
     feats = Features(venv, cfg, venv.unwrapped.core.obs_dim)
     twin = Features(venv, cfg, venv.unwrapped.core.obs_dim)
     ref = make_controller("baseline_friction", venv)
@@ -387,14 +386,14 @@ def test_residual_features_terminal_obs_and_peek():
 
     from cepam_gym.control import InverseStaticController
     from cepam_gym.integrations.sb3 import make_sb3_vec_env
+    from cepam_gym.policies import Features, FeatureSpec
     from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
     from cepam_gym_agents.session.envs import make_agent_vec_env
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=5)
     feats = Features(
-        venv, AgentConfig(residual=True, baseline_in_obs=True, history=3), venv.unwrapped.core.obs_dim
+        venv, FeatureSpec(residual=True, baseline_in_obs=True, history=3), venv.unwrapped.core.obs_dim
     )
     ref = InverseStaticController(venv)
     f, base = feats(obs)
@@ -498,13 +497,12 @@ def test_target_shift_moves_the_baselines_targets(env_id, residual, n_act):
     import gymnasium as gym
 
     from cepam_gym.control import InverseStaticController
-    from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
+    from cepam_gym.policies import Features, FeatureSpec
 
     venv = gym.make_vec(env_id, num_envs=2)
     obs, _ = venv.reset(seed=2)
     dim = venv.unwrapped.core.obs_dim
-    cfg = AgentConfig(
+    cfg = FeatureSpec(
         target_shift=True, residual=residual, target_shift_length_mm=4.0, target_shift_stiffness=0.5
     )
     feats = Features(venv, cfg, dim)
@@ -533,12 +531,11 @@ def test_target_shift_excludes_baseline_in_obs():
 def test_target_shift_filter_is_first_order_and_observed():
     import gymnasium as gym
 
-    from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
+    from cepam_gym.policies import Features, FeatureSpec
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
     obs, _ = venv.reset(seed=2)
-    feats = Features(venv, AgentConfig(target_shift=True, target_shift_filter_s=0.1), 9)
+    feats = Features(venv, FeatureSpec(target_shift=True, target_shift_filter_s=0.1), 9)
     assert feats.dim == 11  # observation + the two filtered shifts
     alpha = 1 - np.exp(-0.02 / 0.1)
     f, _ = feats(obs)
@@ -559,11 +556,10 @@ def test_target_shift_filter_is_first_order_and_observed():
 def test_obs_filters_are_low_passed_observations_restarted_per_episode():
     import gymnasium as gym
 
-    from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
+    from cepam_gym.policies import Features, FeatureSpec
 
     venv = gym.make_vec("cepam_gym/CEPAM-v0", num_envs=2)
-    feats = Features(venv, AgentConfig(obs_filters_s=[0.1, 1.0]), 9)
+    feats = Features(venv, FeatureSpec(obs_filters_s=(0.1, 1.0)), 9)
     assert feats.dim == 27 and not feats.trivial
     x0, x1 = np.zeros((2, 9), np.float32), np.ones((2, 9), np.float32)
     f0, _ = feats(x0)
@@ -586,3 +582,33 @@ def test_eval_states_no_goals_of_a_plan():
     from cepam_gym_agents import evaluate
 
     assert not [n for n in vars(evaluate) if "GOAL" in n.upper()]
+
+
+def test_the_feature_spec_of_an_agent_section_carries_what_the_features_read():
+    """:func:`feature_spec` is the one place the ``agent`` section becomes the library's
+    :class:`~cepam_gym.policies.FeatureSpec`: every field by name, ``start_at_base`` (the
+    trainer's) left out."""
+    from dataclasses import fields
+
+    from cepam_gym.policies import FeatureSpec
+    from cepam_gym_agents.config.agent import AgentConfig, feature_spec
+
+    agent = AgentConfig.parse(
+        {
+            "residual": True,
+            "residual_scale": 0.3,
+            "setpoint_gaps_in_obs": True,
+            "history": 3,
+            "obs_filters_s": [0.1, 1.0],
+            "privileged_critic": True,
+            "friction_observer": True,
+            "plant_features": True,
+            "start_at_base": True,
+        }
+    )
+    spec = feature_spec(agent)
+    assert {f.name for f in fields(AgentConfig)} - {f.name for f in fields(FeatureSpec)} == {"start_at_base"}
+    for f in fields(FeatureSpec):
+        want = getattr(agent, f.name)
+        assert getattr(spec, f.name) == (tuple(want) if isinstance(want, list) else want), f.name
+    assert spec.uses_baseline and hash(spec) == hash(feature_spec(agent))

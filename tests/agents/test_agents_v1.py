@@ -153,7 +153,7 @@ def test_privileged_view_holds_the_true_errors_load_and_plant():
 
     from cepam_gym import plant as pl
     from cepam_gym.envs.model import model_of
-    from cepam_gym_agents.privileged import PrivilegedView
+    from cepam_gym.policies.privileged import PrivilegedView
 
     venv = gym.make_vec(V1, num_envs=3, randomize={"end_mass_g": [15.0, 25.0]})
     venv.reset(seed=3)

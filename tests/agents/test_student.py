@@ -156,12 +156,11 @@ def test_setpoint_gaps_are_the_nominal_models_pressure_gaps():
     import gymnasium as gym
 
     from cepam_gym.control import InverseStaticController
-    from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
+    from cepam_gym.policies import Features, FeatureSpec
 
     venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=3)
     obs, _ = venv.reset(seed=3)
-    feats = Features(venv, AgentConfig(setpoint_gaps_in_obs=True), obs.shape[1])
+    feats = Features(venv, FeatureSpec(setpoint_gaps_in_obs=True), obs.shape[1])
     f, _ = feats(obs)
     assert f.shape == (3, obs.shape[1] + 2)
     ref = InverseStaticController(venv)
@@ -268,8 +267,8 @@ def test_a_residual_student_is_fitted_to_what_the_teacher_adds_to_its_base():
     import gymnasium as gym
 
     from cepam_gym.control import make_controller
+    from cepam_gym.policies import Features, FeatureSpec
     from cepam_gym_agents.config.files import AgentConfig
-    from cepam_gym_agents.features import Features
     from cepam_gym_agents.learners.student import collect
 
     cfg = _cfg()
@@ -281,7 +280,7 @@ def test_a_residual_student_is_fitted_to_what_the_teacher_adds_to_its_base():
 
     venv = gym.make_vec("cepam_gym/CEPAM-v1", num_envs=2)
     obs, _ = venv.reset(seed=2)
-    feats = Features(venv, AgentConfig(residual=True, base_controller="mpc_friction"), obs.shape[1])
+    feats = Features(venv, FeatureSpec(residual=True, base_controller="mpc_friction"), obs.shape[1])
     ref = make_controller("mpc_friction", venv)
     for _ in range(5):
         _f, base = feats(obs)

@@ -186,6 +186,7 @@ def test_importing_the_library_loads_no_torch_and_no_training_code():
         "import cepam_gym.integrations, cepam_gym.integrations.rllib, cepam_gym.rllib\n"
         "import cepam_gym.offline, cepam_gym.offline.cli, cepam_gym.offline.store\n"
         "import cepam_gym.rig.cli, cepam_gym.rig.deploy, cepam_gym.rig.emulator, cepam_gym.rig.onnx_policy\n"
+        "import cepam_gym.policies, cepam_gym.policies.privileged\n"
         "from cepam_gym.control import controller_names\n"
         "controller_names()\n"
         "bad = [m for m in sys.modules if m.split('.')[0] in "
@@ -259,6 +260,7 @@ FOLDER_LAYERS = (
     "offline",  # offline-RL datasets (Minari) of the benchmark's rollouts
     "validation",  # the paper's experiments, calibration, the fitting core
     "identify",  # fitting the plant's dynamics to a rig's logs (on the fitting core)
+    "policies",  # what a learned policy sees and sends: residual, target shift, history, plant features
     "rig",  # a rig's protocol and transport, the safety supervisor, deployment, the emulated rig
     "integrations",  # adapters to SB3 and RLlib
 )

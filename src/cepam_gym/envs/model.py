@@ -17,7 +17,7 @@ It declares two kinds of facts:
   auxiliary outputs, the episode's target and load schedules and each env's current step. Read
   by the privileged controllers only: ``oracle`` and ``oracle_causal`` (all of them),
   ``mpc_known_params`` and ``mpc_friction_known_params`` (the parameter rows), and the training
-  package's asymmetric critic (``cepam_gym_agents.privileged``).
+  package's asymmetric critic (:mod:`cepam_gym.policies.privileged`).
 
 Nothing is written back: every array is a read-only view of the env's own (no copy; writing to
 it raises ``ValueError: assignment destination is read-only``). A controller acts on the env only

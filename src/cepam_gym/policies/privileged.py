@@ -1,6 +1,6 @@
 """What only the simulator knows, for an asymmetric critic (Pinto et al. 2018, "Asymmetric actor
 critic for image-based robot learning"): the critic of a training run may condition its value on
-the true plant and load, the actor never does (:mod:`agents.learners.asymmetric`).
+the true plant and load, the actor never does (the training package's asymmetric policy).
 
 One row per env, read from the privileged facts of the env's plant model
 (:class:`cepam_gym.envs.model.EnvModel`) after a step, all scaled to order one:

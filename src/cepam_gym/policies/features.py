@@ -1,28 +1,19 @@
-"""What the agent sees and sends, shared by training (a VecEnv wrapper) and deployment
-(:func:`agents.policy.load_policy`), so that both run exactly the same code.
+"""What a learned policy sees and sends (:class:`~.spec.FeatureSpec`): one code path for training
+(the training package's VecEnv wrapper and its native learners), deployment (its loader of trained
+agents as controllers) and export, so that all run exactly the same arithmetic.
 
-* ``target_shift``: the policy's first actions shift the targets (length, stiffness) that the
-  inverse-model baseline is given; the baseline's valve commands for them go to the env.
-* ``residual``: the policy's (last) two actions are added: ``clip(baseline + residual_scale * a, -1, 1)``.
-* ``baseline_in_obs``: the baseline's action is appended to the env observation.
-* ``setpoint_gaps_in_obs``: the baseline's set-point pressure gaps (model minus measured, per
-  chamber, in units of 100 kPa) are appended.
-* ``friction_observer``: the baseline's load estimate includes its friction elements' force.
-* ``base_controller``: the registered controller in the baseline's place (``residual``,
-  ``baseline_in_obs``), e.g. ``mpc_friction``.
-* ``obs_filters_s``: low-passed copies of the observation are appended (memory over seconds).
-* ``history``: the last ``history`` feature vectors are stacked (oldest first); a new episode
-  starts with copies of its first one.
-* ``plant_features``: the plant's parameter columns follow the (stacked) frames, for the actor
-  (with ``setpoint_gaps_in_obs``, each frame also holds the set-point gaps of the told plant's
-  inverse static model after the nominal model's):
-  the true plant's during training (:meth:`Features.use_true_plant`), deployed the fit of the
-  episode's identification window (:class:`cepam_gym.identify.window_identifier.WindowIdentifier`,
-  whose excitation drives the window: :attr:`Features.window`).
-* ``privileged_critic``: the privileged columns (:mod:`agents.privileged`) follow, for the
-  critic only: read from the env during training (``privileged`` set by
-  :func:`agents.session.envs.make_agent_vec_env`), NaN when deployed
-  (:mod:`agents.learners.asymmetric` masks them).
+:class:`Features` turns a batch of env observations into the policy's input (the observation, the
+baseline's action and set-point gaps, the target shifts' filter state, low-passed copies, a
+history of frames, the plant's columns, the privileged columns) and the policy's action into the
+env's (target shifts through the inverse-model baseline, a residual on its valve commands).
+
+* The plant's columns (``plant_features``) are the true plant's during training
+  (:meth:`Features.use_true_plant`); deployed, the fit of the episode's identification window
+  (:class:`cepam_gym.identify.window_identifier.WindowIdentifier`, whose excitation drives the
+  window: :attr:`Features.window`).
+* The privileged columns (``privileged_critic``, :mod:`.privileged`) follow, for the critic only:
+  read from the env during training (:attr:`Features.privileged` set by the training env), NaN
+  when deployed (the asymmetric policy masks them from the actor).
 
 The baseline (:class:`cepam_gym.control.InverseStaticController`) keeps filter and integrator
 state per env; :meth:`Features.reset` forgets it for finished episodes. Pure numpy.
@@ -37,7 +28,7 @@ import numpy as np
 
 from cepam_gym.errors import InputError
 
-from .config.files import AgentConfig
+from .spec import FeatureSpec
 
 _GAP_UNIT_PA = 1e5  # the set-point gaps' unit: 100 kPa, the order of the chambers' working range
 
@@ -53,55 +44,55 @@ def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
 
 
 class Features:
-    def __init__(self, env, cfg: AgentConfig, raw_dim: int):
-        self.cfg = cfg
+    def __init__(self, env, spec: FeatureSpec, raw_dim: int):
+        self.spec = spec
         self.raw_dim = int(raw_dim)
         self.baseline = None
         self.n_shift = 0
-        if cfg.uses_baseline:
+        if spec.uses_baseline:
             from cepam_gym import plant as pl
             from cepam_gym.control import InverseStaticController, make_controller
             from cepam_gym.envs.model import model_of
 
-            if cfg.base_controller == "baseline" and model_of(env).mech == pl.RIG:
-                self.baseline = InverseStaticController(env, friction_observer=cfg.friction_observer)
+            if spec.base_controller == "baseline" and model_of(env).mech == pl.RIG:
+                self.baseline = InverseStaticController(env, friction_observer=spec.friction_observer)
             else:  # another registered controller under the residual (an InverseStaticController
                 # too), or the joint's baseline (make_controller resolves ``baseline`` to it)
-                self.baseline = make_controller(cfg.base_controller, env)
+                self.baseline = make_controller(spec.base_controller, env)
             track_k = self.baseline.task.track_stiffness
-            if cfg.target_shift:
+            if spec.target_shift:
                 self.n_shift = 2 if track_k else 1
                 # observation columns of the targets and the length scaling (tasks.layout)
                 layout = self.baseline.layout
                 self._col_l = layout.column("target_length")
                 self._col_k = layout.column("target_stiffness") if track_k else None
-                self._dl = cfg.target_shift_length_mm * 1e-3 / layout.scale("target_length")
-                tau = cfg.target_shift_filter_s
+                self._dl = spec.target_shift_length_mm * 1e-3 / layout.scale("target_length")
+                tau = spec.target_shift_filter_s
                 self._alpha = 1.0 - np.exp(-self.baseline.dt / tau) if tau > 0 else 1.0
         # target shifts, then two valve commands (residual, or the valves themselves without a
         # baseline in the loop)
-        self.n_actions = self.n_shift + (2 if (cfg.residual or not cfg.target_shift) else 0)
+        self.n_actions = self.n_shift + (2 if (spec.residual or not spec.target_shift) else 0)
         # with filtered shifts, the filter state is observed too (else the policy cannot know it)
-        self._shift_obs = self.n_shift if (cfg.target_shift and cfg.target_shift_filter_s > 0) else 0
+        self._shift_obs = self.n_shift if (spec.target_shift and spec.target_shift_filter_s > 0) else 0
         self.frame_dim = (
             self.raw_dim
-            + (2 if cfg.baseline_in_obs else 0)
-            + (2 if cfg.setpoint_gaps_in_obs else 0)
-            + (2 if cfg.setpoint_gaps_in_obs and cfg.plant_features else 0)
+            + (2 if spec.baseline_in_obs else 0)
+            + (2 if spec.setpoint_gaps_in_obs else 0)
+            + (2 if spec.setpoint_gaps_in_obs and spec.plant_features else 0)
             + self._shift_obs
-            + self.raw_dim * len(cfg.obs_filters_s)
+            + self.raw_dim * len(spec.obs_filters_s)
         )
-        if cfg.obs_filters_s:
+        if spec.obs_filters_s:
             from cepam_gym.envs.model import model_of
 
             dt = model_of(env).control_dt
-            self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in cfg.obs_filters_s])
+            self._ema_alpha = np.array([1.0 - np.exp(-dt / tau) for tau in spec.obs_filters_s])
         self._ema: np.ndarray | None = None  # (n_filters, N, raw_dim)
         self._ema_fresh: np.ndarray | None = None
         # privileged columns (training: a PrivilegedView of the env; deployed: NaN)
         self.privileged = None  # the view the columns are read from: set for training only
         self.priv_dim = 0
-        if cfg.privileged_critic:
+        if spec.privileged_critic:
             from cepam_gym.control.baseline import rig_model_of
 
             from .privileged import PrivilegedView
@@ -111,7 +102,7 @@ class Features:
         # the plant's columns (training: the true rows; deployed: the window's fit)
         self.plant_dim, self._rig, self._true_plant, self.identifier = 0, None, False, None
         self.window = None  # deployed with plant_features: (in the window (N,), its actions (N, 2))
-        if cfg.plant_features:
+        if spec.plant_features:
             from cepam_gym.control.baseline import rig_model_of
             from cepam_gym.identify.window_identifier import plant_dim
 
@@ -121,7 +112,7 @@ class Features:
         self._plant_rows_now: np.ndarray | None = None  # the told plant's rows (N, N_PARAMS)
         self._plant_true: np.ndarray | None = None  # training: the true rows of the last frame
         self._plant_weight: np.ndarray | None = None  # its filtered load estimate [N]; NaN: new episode
-        self.actor_dim = self.frame_dim * cfg.history + self.plant_dim
+        self.actor_dim = self.frame_dim * spec.history + self.plant_dim
         self.dim = self.actor_dim + self.priv_dim
         self._priv_last: np.ndarray | None = None  # the rows before the latest autoreset
         self._hist: np.ndarray | None = None  # (N, history, frame_dim)
@@ -135,8 +126,8 @@ class Features:
         """True when features are the raw observation and actions pass through unchanged."""
         return (
             self.baseline is None
-            and self.cfg.history == 1
-            and not self.cfg.obs_filters_s
+            and self.spec.history == 1
+            and not self.spec.obs_filters_s
             and not self.priv_dim
             and not self.plant_dim
         )
@@ -144,7 +135,7 @@ class Features:
     @property
     def acts_late(self) -> bool:
         """The baseline acts in :meth:`action` (after the policy), not in :meth:`__call__`."""
-        return self.cfg.target_shift
+        return self.spec.target_shift
 
     def use_true_plant(self) -> None:
         """Training: the plant columns are the env's true plant (read from its model each step)."""
@@ -186,8 +177,8 @@ class Features:
         self._obs = obs
         plant = self._plant_rows(obs) if self.plant_dim else None
         base = self.baseline.act(obs) if (self.baseline is not None and not self.acts_late) else None
-        frame = np.concatenate([obs, base], axis=1) if self.cfg.baseline_in_obs else obs
-        if self.cfg.setpoint_gaps_in_obs:
+        frame = np.concatenate([obs, base], axis=1) if self.spec.baseline_in_obs else obs
+        if self.spec.setpoint_gaps_in_obs:
             gap = (self.baseline.last_gap / _GAP_UNIT_PA).astype(np.float32)
             frame = np.concatenate([frame, gap], axis=1)
             if plant is not None:
@@ -199,7 +190,7 @@ class Features:
                 else np.nan_to_num(self._shift)
             )
             frame = np.concatenate([frame, state.astype(np.float32)], axis=1)
-        if self.cfg.obs_filters_s:
+        if self.spec.obs_filters_s:
             n = obs.shape[0]
             if self._ema is None or self._ema.shape[1] != n:
                 self._ema = np.repeat(obs[None].astype(np.float64), len(self._ema_alpha), axis=0)
@@ -210,17 +201,17 @@ class Features:
                 self._ema += self._ema_alpha[:, None, None] * (obs[None] - self._ema)
             frame = np.concatenate([frame, *self._ema.astype(np.float32)], axis=1)
         n = obs.shape[0]
-        if self.cfg.history == 1:
+        if self.spec.history == 1:
             f = frame.astype(np.float32)
         else:
             if self._hist is None or self._hist.shape[0] != n:
-                self._hist = np.repeat(frame[:, None], self.cfg.history, axis=1)
+                self._hist = np.repeat(frame[:, None], self.spec.history, axis=1)
                 self._fresh = np.zeros(n, dtype=bool)
             else:
                 self._hist[self._fresh] = frame[self._fresh, None]
                 self._fresh[:] = False
                 self._hist = np.concatenate([self._hist[:, 1:], frame[:, None]], axis=1)
-            f = self._hist.reshape(n, self.frame_dim * self.cfg.history).astype(np.float32)
+            f = self._hist.reshape(n, self.frame_dim * self.spec.history).astype(np.float32)
         if plant is not None:
             f = np.concatenate([f, plant], axis=1)
         if self.priv_dim:
@@ -286,7 +277,7 @@ class Features:
         when none ended). The
         last observations are featurised first (their episodes' state), then that state is
         forgotten, then every env's new observation advances the state. The agent wrapper's
-        ``step_wait`` and the native learners (:mod:`agents.learners.native_collection`) both call it."""
+        ``step_wait`` and the native learners (the training package's native learners) both call it."""
         term = np.zeros((0, self.dim), np.float32)
         if len(done):
             full = np.array(obs, copy=True)
@@ -350,7 +341,7 @@ class Features:
         if a.ndim != 2 or a.shape[1] != self.n_actions:
             raise ValueError(f"policy action must have shape (N, {self.n_actions}), got {a.shape}")
         a = np.clip(a, -1.0, 1.0)
-        if self.cfg.target_shift:
+        if self.spec.target_shift:
             shift = a[:, : self.n_shift].astype(np.float64)
             if self._alpha < 1.0:
                 if self._shift is None or self._shift.shape != shift.shape:
@@ -363,12 +354,12 @@ class Features:
             o = np.array(self._obs, dtype=np.float64)
             o[:, self._col_l] += self._dl * shift[:, 0]
             if self._col_k is not None:
-                o[:, self._col_k] *= np.exp(self.cfg.target_shift_stiffness * shift[:, 1])
+                o[:, self._col_k] *= np.exp(self.spec.target_shift_stiffness * shift[:, 1])
             base = self.baseline.act(o)
-        if self.cfg.residual:
-            return np.clip(base + self.cfg.residual_scale * a[:, self.n_shift :], -1.0, 1.0).astype(
+        if self.spec.residual:
+            return np.clip(base + self.spec.residual_scale * a[:, self.n_shift :], -1.0, 1.0).astype(
                 np.float32
             )
-        if self.cfg.target_shift:
+        if self.spec.target_shift:
             return base.astype(np.float32)
         return a
