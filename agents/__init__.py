@@ -9,7 +9,8 @@ loader of trained agents as controllers): never by an import.
 Needs the ``[train]`` extra (stable-baselines3, torch). Importing this package imports nothing
 heavy; the modules do. The top level holds the commands (``cepam-gym run``, ``train``, ``eval``,
 ``export``; ``python -m cepam_gym_agents.<command>``) and the ``agent`` loader of trained agents;
-the subpackages hold what they are made of.
+the subpackages hold what they are made of. What the agent sees and sends (the baseline
+residual, target shifts, history, plant features) is the library's :mod:`cepam_gym.policies`.
 
 | module of ``cepam_gym_agents`` | what |
 |---|---|
@@ -26,6 +27,5 @@ the subpackages hold what they are made of.
 | ``learners/`` | the SB3 algorithms, the native learners, the asymmetric policy, the student, the BC policy |
 | ``session/`` | one training session and its run directory: trainer, envs, callbacks, checkpoints |
 | ``grid/`` | where a grid's trials run; the reference grid's cells, scoring and page |
-| ``features``, ``privileged`` | what the agent sees and sends; the privileged critic's view |
 | ``asymmetric`` | the policy class path saved privileged-critic models name (see the module) |
 """
