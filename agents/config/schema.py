@@ -275,7 +275,7 @@ class TrainConfig:
     log_every_steps: int = 5000
     time_limit_minutes: float | None = None
     student: StudentConfig | None = None
-    learner: str = "sb3"  # "native": rollouts from the vector env as arrays (agents.native_*)
+    learner: str = "sb3"  # "native": rollouts from the vector env as arrays (agents.learners.native_*)
 
     @classmethod
     def from_dict(cls, data: Any) -> TrainConfig:
