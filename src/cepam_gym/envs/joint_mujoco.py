@@ -46,6 +46,9 @@ from .step import NONFINITE, reward_terms, terminated
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 
+# JointTask fields v0 does not take: it draws set-points only (no v1 reference fields) and ends an
+# episode on the published terminations (a burst)
+_NOT_OPTIONS = ("scales", "references", "move_s", "terminations")
 REWARD_TERMS = JOINT.reward_terms  # tasks.reward.JOINT_ABS_REWARD's terms, in order
 _TERM_KEYS = JOINT.term_keys
 
@@ -110,13 +113,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.nominal = resolve_params(plant)
         self.randomize = check_randomize(randomize)
         self.geometry = JointGeometry.from_kwargs(joint)
-        # v0: set-points only (no v1 reference fields), the published terminations (a burst)
-        opts = check_kwargs(
-            JointTask,
-            task_options,
-            "task_options",
-            exclude=("scales", "references", "move_s", "terminations"),
-        )
+        opts = check_kwargs(JointTask, task_options, "task_options", exclude=_NOT_OPTIONS)
         self.task = JointTask(**{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()})
         self.weights = JointRewardWeights(
             **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
