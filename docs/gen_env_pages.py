@@ -148,9 +148,9 @@ def env_facts(env_id: str) -> dict:
 
 
 def _task_arguments_refused(task_class) -> list[str]:
-    """The arguments of :func:`cepam_gym.tasks.registry.make_task` (the env's task kwargs) that
+    """The arguments of :func:`cepam_gym.envs.task_registry.make_task` (the env's task kwargs) that
     this task class does not take (the rig takes no ``joint``)."""
-    from cepam_gym.tasks.registry import make_task
+    from cepam_gym.envs.task_registry import make_task
 
     takes = inspect.signature(task_class.from_kwargs).parameters
     return [k for k in inspect.signature(make_task).parameters if k != "task" and k not in takes]
@@ -163,8 +163,8 @@ def _task_fields(env_id: str, task, spec) -> dict:
     constructor)."""
     import gymnasium as gym
 
+    from cepam_gym.envs.task_registry import make_task
     from cepam_gym.errors import InputError
-    from cepam_gym.tasks.registry import make_task
 
     out = {}
     for f in dataclasses.fields(task):

@@ -23,9 +23,9 @@ def _drop_stale_caches() -> None:
     """Numba's on-disk cache is keyed by each function's own source file, not by what it inlined
     from other files. The kernels inline the column layouts and the physics (``physics/*.py``,
     ``plant/*.py``: constants and ``forceinline`` functions) into kernels of other files
-    (``plant/kernel.py``, ``tasks/kernel.py``...): after an edit there, those would load machine
-    code built from the old text. The same holds of the declared records (``tasks/records.py``,
-    ``tasks/state.py``, ``tasks/task_params.py``: their fields' places are compiled into the single
+    (``plant/kernel.py``, ``envs/step_kernel.py``...): after an edit there, those would load machine
+    code built from the old text. The same holds of the declared records (``envs/records.py``,
+    ``envs/state.py``, ``envs/task_params.py``: their fields' places are compiled into the single
     env's step). So the text of those two folders and those files is stamped, and every cached
     kernel of the package is dropped when it changes (best effort: a read-only install keeps its
     caches, which were built with its own sources)."""

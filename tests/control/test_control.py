@@ -9,8 +9,8 @@ import pytest
 import cepam_gym  # noqa: F401
 from cepam_gym.control import InverseStaticController
 from cepam_gym.physics import api
+from cepam_gym.planning.schedules import stiffness_interval
 from cepam_gym.tasks import TASKS
-from cepam_gym.tasks.schedules import stiffness_interval
 
 
 def _grid(core):

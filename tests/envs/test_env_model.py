@@ -17,8 +17,8 @@ from cepam_gym import plant as pl
 from cepam_gym.control import make_controller
 from cepam_gym.control.baseline import UnsupportedEnvError
 from cepam_gym.envs import EnvModel, NoModelError, model_of
+from cepam_gym.envs import step_kernel as tk
 from cepam_gym.plant.params import PlantParams
-from cepam_gym.tasks import kernel as tk
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "cepam_gym"
 

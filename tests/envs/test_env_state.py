@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from cepam_gym import plant as pl
+from cepam_gym.envs import step
+from cepam_gym.envs import step_kernel as tk
 from cepam_gym.envs.core import CEPAMBatch
+from cepam_gym.envs.records import allocate
+from cepam_gym.envs.single_slabs import SLABS
+from cepam_gym.envs.state import EnvState, dims
 from cepam_gym.plant.actions import plant_inputs
-from cepam_gym.tasks import kernel as tk
-from cepam_gym.tasks import step
-from cepam_gym.tasks.records import allocate
-from cepam_gym.tasks.single import SLABS
-from cepam_gym.tasks.state import EnvState, dims
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "cepam_gym"
 

@@ -289,12 +289,12 @@ def test_joint_baseline_settles_on_the_nominal_plant(mujoco, mode):
 
 
 def test_joint_reward_terms_are_the_rig_terms_over_the_mechanism_map(mujoco):
-    """The joint scores with the rig's reward function (tasks.step.reward_terms) on the angle
+    """The joint scores with the rig's reward function (envs.step.reward_terms) on the angle
     and the joint stiffness, and its terms are the documented ones."""
     import math
 
+    from cepam_gym.envs.step import reward_terms
     from cepam_gym.tasks.reward import MAX_TERMS
-    from cepam_gym.tasks.step import reward_terms
 
     env = CEPAMJointEnv(action_mode="pressure", reward_weights={"air": 0.3})
     assert env.terms.shape == (MAX_TERMS,)

@@ -8,9 +8,9 @@ import pytest
 import cepam_gym  # noqa: F401
 from cepam_gym import plant as pl
 from cepam_gym.envs import core as core_mod
+from cepam_gym.envs import rig_task
 from cepam_gym.physics import layout as ix
 from cepam_gym.plant.params import PlantParams
-from cepam_gym.tasks import rig_task
 
 
 @pytest.mark.parametrize(

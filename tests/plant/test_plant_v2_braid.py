@@ -133,7 +133,7 @@ def test_the_baseline_sets_pressures_that_hold_the_stretching_plant_at_its_targe
     try:
         base = make_controller("baseline", env)
         row = base.params
-        from cepam_gym.tasks.schedules import stiffness_interval
+        from cepam_gym.planning.schedules import stiffness_interval
 
         L = np.array([0.170, 0.175, 0.180])
         W = np.full(3, 0.1 * 9.81)

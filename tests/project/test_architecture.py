@@ -252,7 +252,8 @@ def test_the_commands_of_the_training_package_load_without_torch():
 FOLDER_LAYERS = (
     "physics",  # pure functions over parameter rows: no state layout, no RNG, no reward
     "plant",  # parameters, state layout, the sub-step and its compiled kernels, the MuJoCo coupling
-    "tasks",  # references, loads, observation layouts, reward terms, termination; the joint's task
+    "tasks",  # task declarations: targets, loads, observation layouts, reward terms, info, schedules
+    "planning",  # the reset's planner: each episode's targets, loads, starting point, plant draws
     "mujoco",  # rendering and the MuJoCo reference simulations only
     "envs",  # the Gymnasium API, single and batched: the rig's and both joints'
     "control",  # every controller behind one protocol and a registry

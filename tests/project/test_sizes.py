@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[2]
 FOLDERS = (ROOT / "src" / "cepam_gym", ROOT / "agents")
 MAX_FILE_LINES = 400
 MAX_FUNCTION_LINES = 80
-# generated code (tasks/step_source writes it), held to its generator instead
+# generated code (envs/step_source writes it), held to its generator instead
 GENERATED = {"_reward_builtin.py"}
 
 

@@ -85,10 +85,10 @@ def test_each_vector_env_masks_its_contracts_keys(env_id):
 
 def test_the_kernel_and_the_envs_read_their_names_from_the_contracts():
     from cepam_gym.envs import joint, joint_mujoco, shared
-    from cepam_gym.tasks.hinge_task import HingeTask
+    from cepam_gym.envs.hinge_task import HingeTask
+    from cepam_gym.envs.rig_task import RigTask
     from cepam_gym.tasks.joint import JointRewardWeights
     from cepam_gym.tasks.reward import ABS_REWARD, JOINT_ABS_REWARD, JOINT_SCORE_REWARD, SCORE_REWARD
-    from cepam_gym.tasks.rig_task import RigTask
     from cepam_gym.tasks.spec import RewardWeights
 
     assert ABS_REWARD.names == SCORE_REWARD.names == RIG.reward_terms

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import cepam_gym  # noqa: F401  (registers the ids)
+from cepam_gym.envs import step_source
+from cepam_gym.envs.hinge_task import JOINT_SCORE_WEIGHTS
 from cepam_gym.errors import InputError
-from cepam_gym.tasks import step_source
-from cepam_gym.tasks.hinge_task import JOINT_SCORE_WEIGHTS
 from cepam_gym.tasks.joint import JointRewardWeights
 from cepam_gym.tasks.reward import (
     ABS_REWARD,
@@ -32,8 +32,8 @@ RATE_REWARD = dataclasses.replace(SCORE_REWARD, name="score_rate", terms=(*SCORE
 
 
 def test_the_compiled_builtin_reward_is_generated_from_the_declarations():
-    """tasks/_reward_builtin.py is what the declarations generate (regenerate it with
-    ``python -m cepam_gym.tasks.step_source`` after editing tasks/reward.py)."""
+    """envs/_reward_builtin.py is what the declarations generate (regenerate it with
+    ``python -m cepam_gym.envs.write_reward_builtin`` after editing tasks/reward.py)."""
     assert step_source._BUILTIN_FILE.read_text() == step_source.builtin_text()
 
 

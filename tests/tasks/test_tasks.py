@@ -10,11 +10,11 @@ import pytest
 
 import cepam_gym  # noqa: F401
 from cepam_gym.control import InverseStaticController
+from cepam_gym.envs import step_kernel as tk
+from cepam_gym.envs.step import reward_terms
 from cepam_gym.plant.params import PlantParams, pressure_cap_of
 from cepam_gym.tasks import OBS_FIELDS, TASKS, TERMINATION_REASONS, ObsColumn, ObsLayout, rig_layout
-from cepam_gym.tasks import kernel as tk
 from cepam_gym.tasks.reward import MAX_TERMS
-from cepam_gym.tasks.step import reward_terms
 
 
 def _si_values(rng, n):
@@ -141,9 +141,19 @@ def test_rig_reward_terms_are_the_shared_function():
 
 
 def test_termination_codes_have_names():
-    assert TERMINATION_REASONS[tk.termination(True, False)] == "none"
-    assert TERMINATION_REASONS[tk.termination(True, True)] == "burst"
-    assert TERMINATION_REASONS[tk.termination(False, True)] == "non_finite_state"
+    """The package's compiled terminations: a burst ends an episode with its code; the step's own
+    code for a non-finite state follows the declared ones."""
+    from cepam_gym.envs import step
+    from cepam_gym.envs.core import CEPAMBatch
+
+    core = CEPAMBatch(1, task="cepam_v3")
+
+    def code(burst):
+        return step.terminated(0.17, 0.17, 0.0, 800.0, 800.0, 0.0, 0.0, 0.0, burst, True, core.task_params)
+
+    assert TERMINATION_REASONS[code(False)] == "none"
+    assert TERMINATION_REASONS[code(True)] == "burst"
+    assert TERMINATION_REASONS[step.NONFINITE] == "non_finite_state"
 
 
 def test_pressure_mode_maps_actions_to_the_pressure_cap():

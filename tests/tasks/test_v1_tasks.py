@@ -9,9 +9,9 @@ from gymnasium.utils.env_checker import check_env
 
 import cepam_gym  # noqa: F401
 from cepam_gym.physics import layout as ix
+from cepam_gym.planning.references import pressure_rate_ratio
+from cepam_gym.planning.schedules import stiffness_interval
 from cepam_gym.registration import ENV_IDS, PREVIEW_STEPS
-from cepam_gym.tasks.references import pressure_rate_ratio
-from cepam_gym.tasks.schedules import stiffness_interval
 
 V1_IDS = [i for i in ENV_IDS if i.endswith("-v1")]
 

@@ -6,9 +6,9 @@ import numpy as np
 
 from ..control import make_controller
 from ..control.trivial import RandomController, ZeroController  # noqa: F401  (their old home)
+from ..envs.id_window import INFO_KEY as WINDOW_KEY
 from ..envs.model import NoModelError, model_of
 from ..progress import advance
-from ..tasks.window import INFO_KEY as WINDOW_KEY
 from .metrics import RIG, TraceSpec, score_traces
 from .suites import SUITES, Suite
 
@@ -31,7 +31,7 @@ def _env_facts(venv) -> tuple[int, float, bool, int]:
 
 def drop_window(traces: dict, window: np.ndarray) -> dict:
     """The traces of :func:`record` without the identification window's steps (``window`` (T, N)
-    bool, ``info["window"]``: :mod:`cepam_gym.tasks.window`): the leading rows in which every
+    bool, ``info["window"]``: :mod:`cepam_gym.envs.id_window`): the leading rows in which every
     episode is in its window. An episode that failed in its window stays failed (a later window
     of the env, after its autoreset, is not scored: the episode is no longer alive)."""
     lead = int(np.argmin(window.all(axis=1))) if not window.all() else len(window)
@@ -55,7 +55,7 @@ def record(
     periodic evaluation and of the offline datasets: ``observer`` (optional) is told
     ``start(obs, info)`` after the reset and ``step(actions, obs, rewards, terminated, truncated,
     info)`` after every step (:mod:`cepam_gym.offline.episodes` keeps the transitions). An
-    identification window (:mod:`cepam_gym.tasks.window`) is run and left out of the traces
+    identification window (:mod:`cepam_gym.envs.id_window`) is run and left out of the traces
     (:func:`drop_window`); ``max_steps`` counts the steps after it."""
     import gymnasium as gym
 

@@ -234,14 +234,14 @@ def _suites_of_version(rows) -> list[Suite]:
     return sorted(out, key=lambda s: order[s.stem]) + windowed
 
 
-# The identification window's default length [s] (tasks.window): the measured trade-off of
+# The identification window's default length [s] (envs.id_window): the measured trade-off of
 # docs/identify_then_control.md (the fitted braid angles' error against the window's length).
 ID_WINDOW_S = 10.0
 
 
 def with_id_window(suite: Suite, seconds: float = ID_WINDOW_S, name: str | None = None) -> Suite:
     """``suite`` with an unscored identification window of ``seconds`` before each episode's
-    tracking (:mod:`cepam_gym.tasks.window`), named ``name`` (default: ``<stem>-id-vN``, the stem
+    tracking (:mod:`cepam_gym.envs.id_window`), named ``name`` (default: ``<stem>-id-vN``, the stem
     and version of the suite's scenario and id). The same seed: its scored episodes are the suite's
     own plants, references and loads."""
     from .. import versions

@@ -16,7 +16,7 @@ Per control step, for every env of a batch (shape ``(N, obs_dim)`` or a single `
    weight, a 2x2 solve (:func:`~cepam_gym.physics.api.static_pressures`). **Infeasible targets**
    are projected with this rule: the force balance is kept exact and ``K*`` is moved to the
    nearest reachable stiffness at ``(L*, W)``
-   (:func:`~cepam_gym.tasks.schedules.stiffness_interval`); if no stiffness is reachable the
+   (:func:`~cepam_gym.planning.schedules.stiffness_interval`); if no stiffness is reachable the
    pressures are clipped to ``[0, min(supply, burst)]``. Without a stiffness target (the length
    task) the middle of the reachable interval is used.
 4. **Pressure loop** per chamber, by action mode: ``"pressure"`` sends the set-points;
@@ -33,8 +33,8 @@ from .. import plant as pl
 from ..envs.model import EnvModel, NoModelError, model_of
 from ..physics import api
 from ..physics import layout as ix
+from ..planning.schedules import stiffness_interval
 from ..plant.actions import pressure_actions
-from ..tasks.schedules import stiffness_interval
 from .friction_observer import FrictionObserver
 
 
@@ -60,6 +60,8 @@ class InverseStaticController:
         model = rig_model_of(env)
         self.task = model.task_spec
         self.layout = model.obs_layout
+        self.mechanism = model.mechanism
+        self.setpoint_max = model.nominal.pressure_cap
         self._configure(
             model.nominal,
             model.nominal.to_array(),
@@ -116,10 +118,11 @@ class InverseStaticController:
 
     # ------------------------------------------------------------------ helpers
     def _decode(self, obs: np.ndarray):
-        """Measured length, pressures and targets (SI) from the observation, by column name."""
-        v = self.layout.decode(obs)
+        """Measured position, pressures and targets (SI, the mechanism's coordinates: the rig's
+        length) from the observation, by column name."""
+        v, m = self.layout.decode(obs), self.mechanism
         target_k = v["target_stiffness"] if self.layout.has("target_stiffness") else None
-        return v["length"], v["pressure_c"], v["pressure_e"], v["target_length"], target_k
+        return v[m.position], v["pressure_c"], v["pressure_e"], v[m.target], target_k
 
     def setpoints(self, L_target, K_target, weight, params=None):
         """Projected inverse static model: gauge pressures ``(Pc*, Pe*)`` [Pa] (arrays) of the
@@ -165,13 +168,14 @@ class InverseStaticController:
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
         obs = np.atleast_2d(np.asarray(obs, dtype=float))
-        L, pc, pe, L_t, K_t = self._decode(obs)
-        p = self.params
-        w_now = -self.measured_force(L, pc, pe, p[None])  # Eq. 25 balance: weight = -F
-        w_min = p[ix.M_END] * p[ix.GRAV]
-        weight = np.maximum(self._filtered(w_now), w_min)
-        pc_set, pe_set = self.setpoints(L_t, K_t, weight)
-        return self._drive(pc_set, pe_set, L, pc, pe, self.p_cap, single)
+        x, pc, pe, x_t, k_t = self._decode(obs)
+        p, m = self.params, self.mechanism
+        L = m.muscle_length(x, p)
+        # the load whose static balance the measured force is (Eq. 25 on the rig: weight = -F)
+        load_now = m.load_from_force(self.measured_force(L, pc, pe, p[None]), x, p)
+        weight = m.muscle_weight(x_t, self._filtered(load_now), p)
+        pc_set, pe_set = self.setpoints(m.muscle_length(x_t, p), m.muscle_stiffness(k_t), weight)
+        return self._drive(pc_set, pe_set, L, pc, pe, self.setpoint_max, single)
 
     def measured_force(self, L, pc, pe, rows) -> np.ndarray:
         """The model's force (N,) [N] at the measured length and pressures, whose static balance
@@ -181,8 +185,8 @@ class InverseStaticController:
         return f if self.friction is None else f + self.friction.force(L, pc, pe, rows)
 
     def _filtered(self, load_now: np.ndarray) -> np.ndarray:
-        """Low-pass filter of the load estimate (the hanging weight here; subclasses may filter
-        another load, e.g. a joint torque); an env that just started takes the estimate as is."""
+        """Low-pass filter of the load estimate (in the mechanism's units: the rig's hanging
+        weight, the joint's external torque); an env that just started takes the estimate as is."""
         n = load_now.shape[0]
         if self._weight is None or self._weight.shape[0] != n:
             self._weight = np.full(n, np.nan)

@@ -4,11 +4,8 @@ it reads the env's nominal plant, geometry and observation layout."""
 
 from __future__ import annotations
 
-import numpy as np
-
-from ..physics import api
-from ..physics import layout as ix
 from ..tasks.joint import JointGeometry
+from ..tasks.mechanism import HingeMechanism
 from .baseline import InverseStaticController
 
 
@@ -17,6 +14,7 @@ class JointInverseStaticController(InverseStaticController):
     through the joint geometry; ``reset(indices=None)`` / ``act(obs, info=None)`` like the
     benchmark harness's controllers, on single ``(9,)`` or batched ``(N, 9)`` observations.
 
+    Its ``act`` is the rig's, through the joint's :class:`~cepam_gym.tasks.mechanism.HingeMechanism`.
     Per control step, with the *nominal* plant and geometry:
 
     1. angle, pressures and targets from the observation (by column name); muscle lengths
@@ -36,27 +34,13 @@ class JointInverseStaticController(InverseStaticController):
     ):
         j = find_joint_env(env)
         self.geometry = j.geometry
+        self.mechanism = HingeMechanism(geometry=j.geometry)
         self.setpoint_max = j.setpoint_max
         self.layout = j.obs_layout
         self.task = j.task.muscle_spec(j.geometry, j.nominal_row)
         self._configure(
             j.nominal, j.nominal_row.copy(), j.action_mode, j.control_dt, gap_fraction, kp, ki, load_filter_s
         )
-
-    def act(self, obs, info=None) -> np.ndarray:
-        single = np.ndim(obs) == 1
-        obs = np.atleast_2d(np.asarray(obs, dtype=float))
-        p, g = self.params, self.geometry
-        v = self.layout.decode(obs)
-        th, pc, pe, th_t = v["angle"], v["pressure_c"], v["pressure_e"], v["target_angle"]
-        k_t = v["target_stiffness"] / g.lever_arm**2
-        L = g.length(th, p)
-        r, grav = g.lever_arm, p[ix.GRAV]
-        tau_now = -r * (api.force(L, pc, pe, p) + p[ix.M_END] * grav) - g.gravity_torque(th, grav)
-        # the filtered load is the external torque [N m] here
-        weight = g.equivalent_weight(th_t, np.maximum(self._filtered(tau_now), 0.0), p)
-        pc_set, pe_set = self.setpoints(g.length(th_t, p), k_t, weight)
-        return self._drive(pc_set, pe_set, L, pc, pe, self.setpoint_max, single)
 
 
 def find_joint_env(env):

@@ -25,9 +25,9 @@ import dataclasses
 import numpy as np
 
 from .. import plant as pl
+from ..envs import step_kernel as tk
 from ..envs.model import NoModelError, model_of
 from ..physics import layout as ix
-from ..tasks import kernel as tk
 from .baseline import UnsupportedEnvError
 from .objective import scored_steps, spec_of_core, version_of_core
 from .planner import CEMConfig, planner_for
@@ -129,7 +129,7 @@ class OracleController:
     def act(self, obs, info=None) -> np.ndarray:
         m = self.model
         if m.window_steps and (m.t_idx < m.window_steps).all():
-            # an identification window (tasks.window) is not scored and the plant restarts at rest
+            # an identification window (envs.id_window) is not scored and the plant restarts at rest
             # after it, whatever was done in it: the valves stay shut, nothing is planned
             a = np.zeros((m.num_envs, 2), dtype=np.float32)
         else:

@@ -35,8 +35,8 @@ import numpy as np
 from numba import njit
 
 from .. import plant as pl
+from ..envs import step_kernel as tk
 from ..errors import InputError
-from ..tasks import kernel as tk
 from .objective import RIG, STIFFNESS_NORM, TraceSpec
 from .rollout import rollout_cost
 

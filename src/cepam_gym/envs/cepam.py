@@ -11,7 +11,6 @@ from gymnasium.error import ResetNeeded
 from gymnasium.utils import EzPickle
 
 from ..errors import InputError
-from ..tasks.single import NONFINITE_ACTION
 from ..viewer import FrameWindow
 from .core import CEPAMBatch
 from .shared import (
@@ -26,6 +25,7 @@ from .shared import (
     restore_episode,
     seed_core,
 )
+from .single_slabs import NONFINITE_ACTION
 
 _REFUSED = NONFINITE_ACTION  # bound once: the hot path's
 
@@ -64,7 +64,11 @@ class CEPAMEnv(gym.Env, EzPickle):
         self._step_single = self.core.step_module.env_step_single  # the task's reward compiled in
         self._step_keys = self.core.task.step_keys if self.core.fast_single else None
         self._redraws = 0
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.core.control_dt)}
+        self.metadata = {
+            **self.metadata,
+            "render_fps": round(1.0 / self.core.control_dt),
+            "termination_reasons": self.core.task.termination_names,  # the task's (tasks.termination)
+        }
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         clip = self.core.obs_layout.clip  # the kernel clips every column to it
         self.observation_space = spaces.Box(-clip, clip, (self.core.obs_dim,), np.float32)

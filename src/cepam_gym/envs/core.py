@@ -18,27 +18,27 @@ from .. import plant as pl
 from .._jit import bound
 from ..errors import InputError
 from ..physics import layout as ix
+from ..planning.episodes import PARALLEL_MIN_ENVS
+from ..planning.randomization import MAX_REDRAWS
 from ..plant.actions import check_action_mode
-from ..tasks import kernel as tk
 from ..tasks import schedule as sched
-from ..tasks import window as win
-from ..tasks.planner import PARALLEL_MIN_ENVS
-from ..tasks.randomization import MAX_REDRAWS
-from ..tasks.records import allocate, build
-from ..tasks.registry import make_task
-from ..tasks.single import single_slabs
-from ..tasks.state import EnvState, StepSettings, dims
-from ..tasks.step_source import step_module
-from ..tasks.task import Task
+from . import id_window as win
+from . import step_kernel as tk
 from .checks import as_actions, check_noise, check_randomize, check_threads, check_timing, resolve_params
+from .records import allocate, build
+from .single_slabs import single_slabs
+from .state import EnvState, StepSettings, dims
+from .step_source import step_module
 from .streams import RandomStreams
+from .task import Task
+from .task_registry import make_task
 from .threads import KernelThreads, numba_threads
 
 
 class CEPAMBatch(RandomStreams):
     """N CE-PAM envs as arrays. Not a Gymnasium class: see :mod:`cepam_gym.envs.cepam`.
 
-    What the envs are asked to do is the :class:`~cepam_gym.tasks.task.Task` object ``task`` (a
+    What the envs are asked to do is the :class:`~cepam_gym.envs.task.Task` object ``task`` (a
     task name, rig or joint, or a Task): its mechanism (the rig's free end or a hinge), layout,
     task vector, plant checks, references, starting point, reset options and info. The core holds
     the plant and the arrays, and steps them with the one compiled kernel whatever the task."""
@@ -74,7 +74,7 @@ class CEPAMBatch(RandomStreams):
         self.action_mode = action_mode
         self.n_sub, n_tracked = check_timing(control_dt, sub_dt, episode_seconds)
         self.control_dt, self.sub_dt = float(control_dt), float(sub_dt)
-        # the identification window's steps come first (tasks.window); n_steps counts both
+        # the identification window's steps come first (envs.id_window); n_steps counts both
         self.n_window = win.window_steps(self.task.spec, self.control_dt)
         self.n_tracked, self.n_steps = n_tracked, self.n_window + n_tracked
         self.nominal = resolve_params(plant)
@@ -103,7 +103,8 @@ class CEPAMBatch(RandomStreams):
         self.planned = self._declared_schedules(n)
         self.obs_layout = self.task.layout
         self.task_params = self.task.params
-        self.step_module = step_module(self.task.reward)  # the step compiled with the task's reward
+        # the step compiled with the task's reward and terminations
+        self.step_module = step_module(self.task.reward, self.task.terminations)
         self.obs_dim = self.obs_layout.size
         self.settings = build(StepSettings, mech=self.mech, mode=self.mode, dt=self.sub_dt, n_sub=self.n_sub)
         self._allocate(n)
@@ -127,7 +128,7 @@ class CEPAMBatch(RandomStreams):
         self._nominal_row = nominal_row = self.nominal.to_array()
         self.has_noise = bool(self.noise_sd.any())
         # a single env without latency, supply drift, window or declared schedules steps through
-        # one jitted call (tasks.step.env_step_single) on slabs its state's arrays are views of
+        # one jitted call (envs.step.env_step_single) on slabs its state's arrays are views of
         self.fast_single = (
             n == 1 and not self.latency and not self.supply_drift and not self.n_window and not self.planned
         )
@@ -249,7 +250,7 @@ class CEPAMBatch(RandomStreams):
 
     def _plan(self, rngs, rows: np.ndarray) -> tuple:
         """``(target_l, target_k, load, initial)`` of the task (:meth:`Task.plan`), the
-        identification window's steps in front (:func:`~cepam_gym.tasks.window.prepend`)."""
+        identification window's steps in front (:func:`~cepam_gym.envs.id_window.prepend`)."""
         return win.prepend(self.task.plan(rngs, rows, self.n_tracked, self.control_dt), self.n_window)
 
     def _schedules(self, idx: np.ndarray) -> tuple:

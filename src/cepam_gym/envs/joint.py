@@ -3,18 +3,18 @@
 The same hinge as ``cepam_gym/CEPAMJoint-v0`` (:mod:`cepam_gym.envs.joint_mujoco`, which MuJoCo
 integrates), here integrated by the plant's own block kernel: :func:`cepam_gym.plant.advance_block_hinge`
 runs the hinge as the rig's load step in muscle coordinates (:mod:`cepam_gym.physics.hinge`), and
-the task kernel (:mod:`cepam_gym.tasks.step`) scores it through the mechanism map
+the task kernel (:mod:`cepam_gym.envs.step`) scores it through the mechanism map
 (angle ``(L_max - L) / r``, joint stiffness ``K r^2``). The env is the rig's
 (:mod:`cepam_gym.envs.cepam`) given the joint's Task object
-(:class:`~cepam_gym.tasks.hinge_task.HingeTask`); the classes here only name that default task and
+(:class:`~cepam_gym.envs.hinge_task.HingeTask`); the classes here only name that default task and
 carry the spec sheet. MuJoCo stays the reference (``tests/envs/test_joint_v1.py`` checks the two agree)
 and draws the frames (:class:`~cepam_gym.mujoco.joint_view.BatchJointFrames`).
 """
 
 from __future__ import annotations
 
-from ..tasks.hinge_task import INFO_KEYS, JOINT_TASKS, REWARD_TERMS
 from .cepam import TERMINATION_NAMES, CEPAMEnv, CEPAMVectorEnv
+from .hinge_task import INFO_KEYS, JOINT_TASKS, REWARD_TERMS
 
 __all__ = [
     "INFO_KEYS",

@@ -28,30 +28,27 @@ from ..mujoco._mj import require_mujoco
 from ..mujoco.joint_sim import JointSimulator
 from ..mujoco.joint_view import JointView
 from ..physics import layout as ix
+from ..planning.joint import apply_reset_options, joint_schedules
+from ..planning.randomization import MAX_REDRAWS, sample_params
 from ..plant.actions import check_action_mode, valve_commands
-from ..tasks import kernel as tk
 from ..tasks.contract import JOINT
-from ..tasks.joint import (
-    JointGeometry,
-    JointRewardWeights,
-    JointTask,
-    apply_reset_options,
-    joint_layout,
-    joint_schedules,
-)
-from ..tasks.randomization import MAX_REDRAWS, sample_params
+from ..tasks.joint import JointGeometry, JointRewardWeights, JointTask, joint_layout
 from ..tasks.reward import JOINT_ABS_REWARD, MAX_TERMS
-from ..tasks.spec import TERMINATION_NAMES, TERMINATION_NONFINITE, TERMINATION_REASONS, check_kwargs
-from ..tasks.step import reward_terms
+from ..tasks.spec import TERMINATION_NAMES, TERMINATION_REASONS, check_kwargs
+from . import step_kernel as tk
 from .checks import (
     as_actions,
     check_randomize,
     check_timing,
     resolve_params,
 )
+from .step import NONFINITE, reward_terms, terminated
 
 __all__ = ["CEPAMJointEnv", "REWARD_TERMS", "TERMINATION_REASONS"]
 
+# JointTask fields v0 does not take: it draws set-points only (no v1 reference fields) and ends an
+# episode on the published terminations (a burst)
+_NOT_OPTIONS = ("scales", "references", "move_s", "terminations")
 REWARD_TERMS = JOINT.reward_terms  # tasks.reward.JOINT_ABS_REWARD's terms, in order
 _TERM_KEYS = JOINT.term_keys
 
@@ -116,10 +113,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.nominal = resolve_params(plant)
         self.randomize = check_randomize(randomize)
         self.geometry = JointGeometry.from_kwargs(joint)
-        # v0 draws set-points only: the v1 reference fields are not options here
-        opts = check_kwargs(
-            JointTask, task_options, "task_options", exclude=("scales", "references", "move_s")
-        )
+        opts = check_kwargs(JointTask, task_options, "task_options", exclude=_NOT_OPTIONS)
         self.task = JointTask(**{k: tuple(v) if isinstance(v, list) else v for k, v in opts.items()})
         self.weights = JointRewardWeights(
             **check_kwargs(JointRewardWeights, reward_weights, "reward_weights", "terms")
@@ -224,7 +218,7 @@ class CEPAMJointEnv(gym.Env, EzPickle):
         self.prev_action[:] = a
         th, om = self.joint_state()
         burst = self.aux[pl.A_BURST] != 0.0
-        reward = reward_terms(
+        quantities = (
             th,
             float(self.target_angle[k]),
             om,
@@ -236,17 +230,17 @@ class CEPAMJointEnv(gym.Env, EzPickle):
             burst,
             True,
             self.task_params,
-            self.terms,
         )
+        reward = reward_terms(*quantities, self.terms)
         self.t_idx += 1
         finite = self.aux[pl.A_FINITE] != 0.0 and math.isfinite(th) and math.isfinite(om)
-        reason = tk.termination(finite, burst)
+        reason = terminated(*quantities) if finite else NONFINITE
         info = self._info(scored=True, k=k)
         info.update(zip(_TERM_KEYS, self.terms.tolist()))
         info["termination_reason"] = int(reason)  # named by metadata["termination_reasons"]
         if self.render_mode == "human":
             self.render()
-        return self._obs(), (0.0 if reason == TERMINATION_NONFINITE else reward), reason != 0, False, info
+        return self._obs(), (0.0 if reason == NONFINITE else reward), reason != 0, False, info
 
     # ------------------------------------------------------------ measurements
     def joint_state(self) -> tuple[float, float]:

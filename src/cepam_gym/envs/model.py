@@ -40,6 +40,7 @@ from ..plant.params import PlantParams, preset
 if TYPE_CHECKING:  # types only: this module imports no env class
     from ..tasks.contract import TaskContract
     from ..tasks.layout import ObsLayout
+    from ..tasks.mechanism import Mechanism
     from ..tasks.spec import TaskSpec
 
 
@@ -61,12 +62,13 @@ class EnvModel:
     Fixed facts (fields):
 
     * ``num_envs``; ``mech``: :data:`cepam_gym.plant.RIG` (a hanging load on the free end) or
-      :data:`cepam_gym.plant.HINGE` (the joint);
+      :data:`cepam_gym.plant.HINGE` (the joint), and ``mechanism`` its
+      :class:`~cepam_gym.tasks.mechanism.Mechanism` (load mapping, measured view, geometry);
     * ``action_mode`` (``"valve"``, ``"pwm"``, ``"pressure"``) and ``mode``, its kernel code;
     * ``control_dt`` [s], ``sub_dt`` [s] the integration step, ``n_sub`` sub-steps per control
       step, ``n_steps`` control steps per episode (the identification window's included),
       ``window_steps`` the unscored identification window's control steps at the episode's
-      start (0 without one: :mod:`cepam_gym.tasks.window`);
+      start (0 without one: :mod:`cepam_gym.envs.id_window`);
     * ``nominal``: the nominal :class:`~cepam_gym.plant.params.PlantParams` (never randomized);
     * ``setpoint_max`` [Pa]: the gauge pressure a command of +1 asks for in ``pressure`` mode;
     * ``track_stiffness``: whether the task scores stiffness; ``task_spec``: its
@@ -86,6 +88,7 @@ class EnvModel:
 
     num_envs: int
     mech: int
+    mechanism: Mechanism = field(repr=False)
     action_mode: str
     mode: int
     control_dt: float
@@ -112,6 +115,7 @@ class EnvModel:
         return cls(
             num_envs=int(core.num_envs),
             mech=int(core.mech),
+            mechanism=core.task.mechanism,
             action_mode=core.action_mode,
             mode=int(core.mode),
             control_dt=core.control_dt,
@@ -135,13 +139,13 @@ class EnvModel:
     @property
     def task_params(self):
         """The task's settings as the compiled step reads them
-        (:class:`~cepam_gym.tasks.task_params.TaskParams`): the observation encoding that a rig's
+        (:class:`~cepam_gym.envs.task_params.TaskParams`): the observation encoding that a rig's
         measurements go through too (:mod:`cepam_gym.rig.observation`)."""
         return self._core.task_params
 
     @property
     def hinge(self) -> np.ndarray:
-        """(1, N_HINGE) the hinge's constants (lever arm ``[:, tasks.kernel.H_R]``, ...), one row
+        """(1, N_HINGE) the hinge's constants (lever arm ``[:, envs.step_kernel.H_R]``, ...), one row
         shared by the batch; unused on the rig."""
         return _read_only(self._core.hinge)
 

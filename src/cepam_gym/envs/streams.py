@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..tasks import kernel as tk
-from ..tasks.rng import Streams
+from ..planning.rng import Streams
+from . import step_kernel as tk
 
 # standard normals drawn per env and step (5 sensor-noise channels, 1 supply drift), buffered
 _N_NORMALS = 6

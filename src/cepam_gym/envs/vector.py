@@ -14,7 +14,7 @@ from gymnasium.utils import EzPickle
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from ..errors import InputError
-from ..tasks import kernel as tk
+from . import step_kernel as tk
 from .core import CEPAMBatch
 from .shared import (
     ENV_KWARGS,
@@ -118,6 +118,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
         self._mujoco = None
         check_kwargs(kwargs, ENV_KWARGS + VECTOR_KWARGS, type(self).__name__)
         self.core = CEPAMBatch(num_envs, task=self.default_task if task is None else task, **kwargs)
+        self.metadata = {**self.metadata, "termination_reasons": self.core.task.termination_names}
         self.renderer = check_renderer(self.core, renderer)
         if self.renderer == "mujoco":
             from ..mujoco._mj import require_mujoco
@@ -194,7 +195,7 @@ class CEPAMVectorEnv(VectorEnv, EzPickle):
             self._elapsed += 1
         terminated = core.reasons != 0
         if self.max_episode_steps:
-            # the identification window (tasks.window) does not count towards the episode's length
+            # the identification window (envs.id_window) does not count towards the episode's length
             truncated = (self._elapsed >= self.max_episode_steps + core.n_window) & ~terminated
         else:
             truncated = np.zeros(self.num_envs, dtype=bool)

@@ -1,6 +1,6 @@
 """Identify, then control: the MPC on a plant fitted to the episode's identification window.
 
-On an env whose episodes start with an identification window (:mod:`cepam_gym.tasks.window`), per
+On an env whose episodes start with an identification window (:mod:`cepam_gym.envs.id_window`), per
 env and from the sensors only:
 
 1. **the window** and **the fit** (:class:`~cepam_gym.identify.window_identifier.WindowIdentifier`):

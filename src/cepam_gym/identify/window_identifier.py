@@ -1,6 +1,6 @@
 """The identification window's side of a sensor-only controller: excite, log, fit.
 
-On an env whose episodes start with an identification window (:mod:`cepam_gym.tasks.window`),
+On an env whose episodes start with an identification window (:mod:`cepam_gym.envs.id_window`),
 per env and from the sensors only:
 
 1. **in the window** it plays the project's excitation (:func:`cepam_gym.identify.excite.schedule`

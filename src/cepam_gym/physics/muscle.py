@@ -194,7 +194,7 @@ def cpam_tension(L, pc, pe, p):
     (gate 1, the force model is the paper's) for ``c <= c_taut`` and slack for ``c >= 0``. Both
     are affine in the active pressures ``P - P_r`` (taken unclipped here) at a fixed length, so a
     static target's tautness is a linear condition
-    (:func:`cepam_gym.tasks.schedules.stiffness_interval`). ``(-inf, 0)`` for a bidirectional
+    (:func:`cepam_gym.planning.schedules.stiffness_interval`). ``(-inf, 0)`` for a bidirectional
     braid (``p[SLACK_W] = 0``: always "taut")."""
     if p[ix.SLACK_W] <= 0.0:
         return -math.inf, 0.0

@@ -29,7 +29,7 @@ def static_pressures(L, K, weight, p):
     is not found by this 2x2 solve).
 
     Plant v2's extensible braids are taken at their rest threads here: the force is then no longer
-    affine in the pressures, and the tasks' planning (:mod:`cepam_gym.tasks.reach`) relies on this
+    affine in the pressures, and the tasks' planning (:mod:`cepam_gym.planning.reach`) relies on this
     affine solve; :func:`static_pressures_exact` is the exact inverse of a stretching plant.
     """
     return solve_static(static_terms(L, p), K, weight)

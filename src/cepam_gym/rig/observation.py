@@ -1,10 +1,10 @@
 """A rig's measurements as the env's observation, through the env's own encoding.
 
 :class:`RigObserver` writes a :class:`~cepam_gym.rig.protocol.Reading` into a one-env
-:class:`~cepam_gym.tasks.state.EnvState` (the length and its rate into the plant state row, the
+:class:`~cepam_gym.envs.state.EnvState` (the length and its rate into the plant state row, the
 pressures into the ``aux`` row, the supply into the parameter row, the episode's targets into its
 schedules, the last applied command) and runs the envs' observation kernel on it
-(:func:`cepam_gym.tasks.kernel.observe`: the layout's scaling, clip and the reference preview).
+(:func:`cepam_gym.envs.step_kernel.observe`: the layout's scaling, clip and the reference preview).
 So a policy sees on the rig exactly the columns it saw in training, computed by the same code.
 
 A rig does not measure the length's rate: it is the finite difference of the readings, low-passed
@@ -19,11 +19,11 @@ import numpy as np
 
 from .. import plant as pl
 from .._jit import bound
+from ..envs.records import allocate
+from ..envs.state import EnvState, dims
+from ..envs.step_kernel import observe
 from ..errors import InputError
 from ..physics import layout as ix
-from ..tasks.kernel import observe
-from ..tasks.records import allocate
-from ..tasks.state import EnvState, dims
 from .protocol import Reading
 
 

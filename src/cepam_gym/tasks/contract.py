@@ -11,7 +11,7 @@ A :class:`TaskContract` holds the names and facts every layer reads:
   (``info["termination_reason"]`` is an index into :data:`TERMINATION_NAMES`);
 * the ``reset(options=...)`` keys it pins;
 * with the rig tasks' option ``id_window_s`` (an unscored identification window before the
-  tracking, :mod:`cepam_gym.tasks.window`), one more info key, ``window``: True for a step taken
+  tracking, :mod:`cepam_gym.envs.id_window`), one more info key, ``window``: True for a step taken
   in the window (and at a reset that starts one); the window's reward is its burst term alone and
   the score leaves its steps out;
 * what the benchmark's score reads of the info (``score_keys``: trace column -> info key) and its

@@ -1,7 +1,7 @@
 """The joint's step info, declared once: each key with its value as an expression of what the
 step measured, in :func:`hinge_info`. The joint's contract (:data:`cepam_gym.tasks.contract.JOINT`)
 takes its keys from here, and both info builders of the hinge task
-(:class:`~cepam_gym.tasks.hinge_task.HingeTask`: Python floats for a single env, arrays for a
+(:class:`~cepam_gym.envs.hinge_task.HingeTask`: Python floats for a single env, arrays for a
 batch) evaluate the same expressions, so the two can never disagree on what a key holds."""
 
 from __future__ import annotations

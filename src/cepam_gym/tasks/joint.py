@@ -2,8 +2,8 @@
 
 The hinge geometry maps the muscle to the joint (length <-> angle, muscle stiffness <-> joint
 stiffness, loads <-> the rig's equivalent hanging weight); through it the joint reuses the task
-layer: target schedules (:mod:`cepam_gym.tasks.schedules`), reward terms, termination and action
-mapping (:mod:`cepam_gym.tasks.kernel`), observation layout (:mod:`cepam_gym.tasks.layout`). Here:
+layer: target schedules (:mod:`cepam_gym.planning.schedules`), reward terms, termination and action
+mapping (:mod:`cepam_gym.envs.step_kernel`), observation layout (:mod:`cepam_gym.tasks.layout`). Here:
 the geometry, targets and torque profiles, reward weights and scales, the observation layout, and
 the MJCF model. The env itself is :mod:`cepam_gym.envs.joint_mujoco`; docs/mujoco.md explains the
 mechanism and the coupling."""
@@ -21,14 +21,9 @@ from ..errors import InputError
 from ..physics import layout as ix
 from ..physics.hinge import H_DAMP, H_INERTIA, H_MASS_MOMENT, H_R, N_HINGE
 from .layout import ObsColumn, ObsLayout, preview_fields
-from .plan_vectors import joint_mechanism
-from .planner import plan
 from .reward import JOINT_ABS_REWARD, Reward
-from .schedules import load_profile, segments, stiffness_interval
 from .spec import LOAD_KINDS, TaskScales, TaskSpec
-
-_CANDIDATES = 8  # target candidates drawn per segment before the vectorised feasibility check
-_TRIES = 8
+from .termination import DEFAULT_TERMINATIONS, Termination, reason_names
 
 
 @dataclass(frozen=True)
@@ -140,7 +135,7 @@ class JointTask:
     load_kinds: tuple[str, ...] = LOAD_KINDS  # profile of the external torque
     segment_duration: tuple[float, float] = (2.0, 4.0)
     pressure_margin: float = 0.85
-    # reference shapes drawn per episode (tasks.references; ("step",): the v0 set-points)
+    # reference shapes drawn per episode (planning.references; ("step",): the v0 set-points)
     references: tuple[str, ...] = ("step",)
     move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s]
     # the joint task always tracks a joint stiffness (read by the bench, the trainer's logging)
@@ -153,6 +148,8 @@ class JointTask:
     # (tasks.reward: the score's form on the v3 joint)
     weights: JointRewardWeights = JointRewardWeights()
     reward: Reward = JOINT_ABS_REWARD
+    # what ends an episode (tasks.termination), checked in order after every step
+    terminations: tuple[Termination, ...] = DEFAULT_TERMINATIONS
 
     def __post_init__(self):
         lo, hi = self.angle_range
@@ -172,10 +169,17 @@ class JointTask:
             pressure_margin=self.pressure_margin,
             references=tuple(self.references),
             move_s=self.move_s,
+            terminations=self.terminations,
         )
+        object.__setattr__(self, "terminations", tuple(self.terminations))
         if not isinstance(self.reward, Reward):
             raise InputError(f"reward must be a tasks.reward.Reward, got {type(self.reward).__name__}")
         self.reward.weight_values(self.weights)
+
+    @property
+    def termination_names(self) -> tuple[str, ...]:
+        """The step's termination reasons, index = code (tasks.termination)."""
+        return reason_names(self.terminations)
 
     @property
     def reward_form(self) -> str:
@@ -193,8 +197,8 @@ class JointTask:
 
     def muscle_spec(self, geom: JointGeometry, p) -> TaskSpec:
         """The same task seen by the muscle (lengths, stiffness K = K_joint / r^2), for the
-        plant-side helpers (:func:`~cepam_gym.tasks.schedules.stiffness_interval`,
-        :func:`~cepam_gym.tasks.schedules.load_profile`). Its ``load_range`` holds the *torque*
+        plant-side helpers (:func:`~cepam_gym.planning.schedules.stiffness_interval`,
+        :func:`~cepam_gym.planning.schedules.load_profile`). Its ``load_range`` holds the *torque*
         range [N m]: it only shapes the external-torque profile."""
         r2 = geom.lever_arm**2
         l_hi, l_lo = (float(geom.length(a, p)) for a in self.angle_range)
@@ -209,21 +213,6 @@ class JointTask:
             references=tuple(self.references),
             move_s=self.move_s,
         )
-
-    def unreachable_torque(self, geom: JointGeometry, p) -> float | None:
-        """An external torque [N m] of the task's range (held constant) for which no target angle
-        has a reachable joint stiffness on plant row ``p`` (``None`` when both ends are feasible):
-        a necessary condition for the schedules to be solvable, as the rig's
-        :func:`~cepam_gym.tasks.randomization.unreachable_load`."""
-        spec = self.muscle_spec(geom, p)
-        th = np.linspace(*self.angle_range, 33)
-        L = geom.length(th, p)
-        for tau in self.torque_range:
-            w = geom.equivalent_weight(th, tau, p)
-            k_lo, k_hi = stiffness_interval(L, w, w, p, spec)
-            if not np.any(k_hi > k_lo):
-                return float(tau)
-        return None
 
 
 # the quantities the joint env measures, in the order of the rig's OBS_FIELDS
@@ -268,124 +257,5 @@ def joint_layout(
     return ObsLayout(cols, JOINT_FIELDS + names, s.obs_clip, preview_steps, "angle")
 
 
-def joint_schedules(
-    rng: np.random.Generator, task: JointTask, geom: JointGeometry, p, n_steps: int, dt: float
-):
-    """One episode: ``(target_angle, target_stiffness, external_torque)`` arrays of ``n_steps``
-    and the initial ``(angle, stiffness)``. Every (angle, stiffness) target holds for a segment and
-    is reachable (inverse static model, pressures within the margin) at both torque extremes of
-    its segment, and therefore in between (the static model is affine in the load)."""
-    spec = task.muscle_spec(geom, p)
-    r2 = geom.lever_arm**2
-    torque = load_profile(rng, spec, n_steps, dt)
-    segs = segments(rng, spec, n_steps, dt) + [(0, 1)]  # the last one is the initial state
-    ta = np.full(n_steps, np.nan)
-    tk = np.full(n_steps, np.nan)
-    initial = None
-    for s, (a, b) in enumerate(segs):
-        t_lo, t_hi = torque[a:b].min(), torque[a:b].max()
-        for _ in range(_TRIES):
-            th = rng.uniform(*task.angle_range, size=_CANDIDATES)
-            u = rng.uniform(0.05, 0.95, size=_CANDIDATES)
-            L = geom.length(th, p)
-            k_lo, k_hi = stiffness_interval(
-                L, geom.equivalent_weight(th, t_lo, p), geom.equivalent_weight(th, t_hi, p), p, spec
-            )
-            ok = np.flatnonzero(k_hi > k_lo)
-            if ok.size:
-                c = ok[0]
-                target = th[c], (k_lo[c] + u[c] * (k_hi[c] - k_lo[c])) * r2
-                break
-        else:
-            raise RuntimeError(
-                f"joint task: found no reachable (angle, stiffness) target for external torques "
-                f"{t_lo:.3g}-{t_hi:.3g} N m; lower torque_range or the link mass, or raise the supply"
-            )
-        if s == len(segs) - 1:
-            initial = target
-        else:
-            ta[a:b], tk[a:b] = target
-    return ta, tk, torque, initial
-
-
-def joint_planned_schedules(
-    rngs, task: JointTask, geom: JointGeometry, params, nominal_row, n_steps: int, dt: float
-):
-    """Schedules of several joint envs at once, ``(target_angle, target_stiffness,
-    external_torque, initial)`` (arrays (n_envs, n_steps), ``initial`` (n_envs, 2) = angle, joint
-    stiffness): the rig's planner (:func:`~cepam_gym.tasks.planner.plan`) through the joint's
-    mechanism (targets drawn as muscle lengths of the nominal plant, ``task.muscle_spec``; env i
-    draws only from ``rngs[i]``), each episode's targets shaped by a reference kind drawn from
-    ``task.references`` in muscle coordinates under the equivalent hanging load (the link's weight
-    depends on the angle, so a shaped reference is projected once more at its own angles; one that
-    cannot be made reachable falls back to ``min_jerk`` moves, then to the set-points). With
-    references other than ``step`` an episode starts at rest on its reference's first point.
-    ``RuntimeError`` when a plant row leaves the task's angles outside the joint's range or has no
-    reachable target (the env redraws it)."""
-    params = np.atleast_2d(np.asarray(params, dtype=float))
-    for row in params:
-        try:
-            task.check_range(geom, row)
-        except ValueError as e:
-            raise RuntimeError(str(e)) from None
-    spec = task.muscle_spec(geom, nominal_row)
-    mechanism = joint_mechanism(geom, nominal_row, task.angle_range)
-    return plan(rngs, spec, params, n_steps, dt, mechanism)
-
-
 PIN_KEYS = ("target_angle", "target_stiffness", "external_torque")  # reset options held all episode
 INIT_KEYS = ("initial_angle", "initial_stiffness")  # reset options of the starting point
-
-
-_OPTION_UNITS = {
-    "target_angle": "rad",
-    "target_stiffness": "N m/rad",
-    "external_torque": "N m",
-    "initial_angle": "rad",
-    "initial_stiffness": "N m/rad",
-}
-
-
-def _option_number(options, key: str) -> float:
-    """Reset option ``key`` as a float (``InputError`` naming the key and its unit)."""
-    value = options[key]
-    try:
-        if isinstance(value, (str, bytes, bool)) or np.iscomplexobj(value):
-            raise TypeError
-        return float(value)
-    except (TypeError, ValueError):
-        raise InputError(
-            f"reset option {key} must be a number [{_OPTION_UNITS[key]}], got {value!r}"
-        ) from None
-
-
-def apply_reset_options(options, schedules, initial, geom: JointGeometry, p):
-    """``reset(options=...)`` of the joint env on one episode's ``schedules`` (target angle,
-    target stiffness, external torque: pinned in place by :data:`PIN_KEYS`) and ``initial``
-    ``(angle, stiffness)`` (replaced by :data:`INIT_KEYS`, no reachability check); returns the
-    initial pair. ``ValueError`` naming an unknown key or a bad value."""
-    options = dict(options or {})
-    bad = set(options) - set(PIN_KEYS) - set(INIT_KEYS)
-    if bad:
-        raise InputError(f"reset options: unknown keys {sorted(bad)}; valid: {list(PIN_KEYS + INIT_KEYS)}")
-    for key, arr in zip(PIN_KEYS, schedules):
-        if key in options:
-            v = _option_number(options, key)
-            if not math.isfinite(v):
-                raise InputError(f"reset option {key} must be finite, got {options[key]!r}")
-            if key == "target_stiffness" and not v > 0:  # the reward divides by it
-                raise InputError(f"reset option target_stiffness must be > 0 N m/rad, got {v!r}")
-            if key == "target_angle" and not 0.0 <= v <= geom.max_angle(p):
-                raise InputError(
-                    f"reset option target_angle is in radians and must lie within "
-                    f"[0, {geom.max_angle(p):.3g}] rad, got {v!r}"
-                )
-            arr[:] = v
-    a0 = _option_number(options, "initial_angle") if "initial_angle" in options else float(initial[0])
-    k0 = _option_number(options, "initial_stiffness") if "initial_stiffness" in options else float(initial[1])
-    if not (0.0 <= a0 <= geom.max_angle(p)) or not (math.isfinite(k0) and k0 > 0):
-        raise InputError(
-            f"initial_angle must be within [0, {geom.max_angle(p):.3g}] rad and "
-            f"initial_stiffness > 0, got {a0}, {k0}"
-        )
-    return a0, k0

@@ -6,7 +6,7 @@ envs); its task picks and scales them into the observation with an :class:`ObsLa
     obs[j] = clip((value[source_j] - offset_j) / scale_j, -clip, clip)
     value  = obs[j] * scale_j + offset_j                       (decode; exact up to the clip)
 
-The rig envs encode in their compiled step kernel (:func:`cepam_gym.tasks.kernel.write_obs`,
+The rig envs encode in their compiled step kernel (:func:`cepam_gym.envs.step_kernel.write_obs`,
 which reads the layout from the task vector); the joint env with :meth:`ObsLayout.encode`.
 Controllers and agent code read columns by name (:meth:`ObsLayout.column`,
 :meth:`ObsLayout.decode`), never by number.

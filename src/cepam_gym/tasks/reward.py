@@ -9,13 +9,13 @@ function ``reward_terms`` (:func:`reward_source`) writes each term's signed valu
 ``reward_<name>``, the ``reward_weights`` kwarg's keys and the spec sheet's rows.
 
 The package's own declarations (:data:`ABS_REWARD`, :data:`SCORE_REWARD`: the earlier ids' and
-the v3 ids' rewards) are compiled into the package's step (``tasks/_reward_builtin.py`` is
-generated from them: ``python -m cepam_gym.tasks.step_source``, and a test checks it is current);
-a declaration from user code gets a step module of its own (:mod:`cepam_gym.tasks.step_source`),
+the v3 ids' rewards) are compiled into the package's step (``envs/_reward_builtin.py`` is
+generated from them: ``python -m cepam_gym.envs.write_reward_builtin``, and a test checks it is current);
+a declaration from user code gets a step module of its own (:mod:`cepam_gym.envs.step_source`),
 compiled once per machine and cached like the package's.
 
 Expressions are numba code: they read the quantities below, ``task`` (the
-:class:`~cepam_gym.tasks.task_params.TaskParams`: ``task.track_unit``, ``task.air_unit`` ...),
+:class:`~cepam_gym.envs.task_params.TaskParams`: ``task.track_unit``, ``task.air_unit`` ...),
 ``w`` (the term's weight) and the ``math`` module, and give a float; a term should be <= 0 (a
 cost), which the envs' tests check of the package's terms.
 """
@@ -48,7 +48,7 @@ MAX_TERMS = 8  # the terms row of the env state holds at most this many
 _ALSO_NAMED = {"task", "w", "math", "abs", "min", "max", "float", "int", "bool"}
 
 
-def _names_read(text: str) -> tuple[set[str], set[str]]:
+def names_read(text: str) -> tuple[set[str], set[str]]:
     """``(names, task attributes)`` an expression reads."""
     tree = ast.parse(text, mode="eval")
     names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
@@ -79,7 +79,7 @@ class Reward:
     (each may read the earlier ones), ``allowance`` whether the step computes ``counted`` (the
     score's settling allowance: a loop over the last half second of targets, so only rewards
     that read it pay for it), ``failure_terms`` the terms that charge a failure (kept in an
-    identification window, where the others are zeroed: :mod:`cepam_gym.tasks.window`; None: the
+    identification window, where the others are zeroed: :mod:`cepam_gym.envs.id_window`; None: the
     term ``burst`` if the reward has one)."""
 
     name: str
@@ -107,7 +107,7 @@ class Reward:
         known = set(STEP_QUANTITIES) | _ALSO_NAMED
         for label, text in list(self.quantities) + [(t.name, t.expr) for t in self.terms]:
             try:
-                read, _ = _names_read(text)
+                read, _ = names_read(text)
             except SyntaxError as e:
                 raise InputError(f"reward {self.name!r}: {label}: not a Python expression: {e.msg}") from None
             if read - known:
@@ -122,7 +122,7 @@ class Reward:
         if unknown:
             raise InputError(f"reward {self.name!r}: failure_terms {unknown} are not terms of it")
         texts = [e for _, e in self.quantities] + [t.expr for t in self.terms]
-        if any("counted" in _names_read(e)[0] for e in texts) and not self.allowance:
+        if any("counted" in names_read(e)[0] for e in texts) and not self.allowance:
             raise InputError(f"reward {self.name!r} reads `counted`: declare it with allowance=True")
 
     @property
@@ -142,9 +142,9 @@ class Reward:
         return tuple(self.names.index(n) for n in failure if n in self.names)
 
     def task_attributes(self) -> set[str]:
-        """The :class:`~cepam_gym.tasks.task_params.TaskParams` fields the expressions read."""
+        """The :class:`~cepam_gym.envs.task_params.TaskParams` fields the expressions read."""
         texts = [e for _, e in self.quantities] + [t.expr for t in self.terms]
-        return set().union(*(_names_read(e)[1] for e in texts))
+        return set().union(*(names_read(e)[1] for e in texts))
 
     def code(self) -> str:
         """What the compiled reward computes (names left out): two rewards with the same code share

@@ -3,8 +3,8 @@
 A key reads column ``column`` of the env's row of ``state`` or ``aux`` (``plant.S_*``,
 ``plant.A_*``), or the ``load``, ``target_l`` or ``target_k`` of the step just scored. The
 contract's info keys (:data:`cepam_gym.tasks.contract.RIG`), the single env's compiled info row
-(:func:`cepam_gym.tasks.step.env_step_single`) and the rig task's info dicts
-(:class:`~cepam_gym.tasks.rig_task.RigTask`) all read this table, so a key cannot be paired with
+(:func:`cepam_gym.envs.step.env_step_single`) and the rig task's info dicts
+(:class:`~cepam_gym.envs.rig_task.RigTask`) all read this table, so a key cannot be paired with
 another key's value.
 """
 

@@ -1,7 +1,7 @@
 """Schedules of plant inputs a task declares: a parameter of the plant driven step by step.
 
 Every rig task plans three schedules of its own (the position target, the stiffness target and the
-load, :meth:`~cepam_gym.tasks.task.Task.plan`), which the compiled step reads. A task may declare
+load, :meth:`~cepam_gym.envs.task.Task.plan`), which the compiled step reads. A task may declare
 any number of further ones, each a :class:`Schedule`: a column of the plant's parameter row
 (:data:`cepam_gym.physics.layout.NAMES`, e.g. ``"P_SUP"``, the absolute supply pressure) and the
 function that plans its value at every control step of an episode. The env

@@ -10,18 +10,19 @@ import numpy as np
 from ..errors import InputError
 from .reward import ABS_REWARD, BUILTIN_REWARDS, SCORE_REWARD, Reward
 from .schedule import Schedule, check_schedules
+from .termination import DEFAULT_TERMINATIONS, Termination, check_terminations, reason_names
 
 LOAD_KINDS = ("constant", "step", "ramp", "sine", "random")
 # the package's rewards by name (tasks.reward): "abs" the clipped absolute errors of the v0-v2 ids,
 # "score" the score's squared per-step form of the v3 ids, zero within the settling allowance
 # (tasks.contract, "Reward and score")
 REWARD_FORMS = tuple(BUILTIN_REWARDS)
-REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # tasks.references
+REFERENCE_KINDS = ("step", "min_jerk", "sine", "chirp", "stiffness_ramp")  # planning.references
 
-# termination reasons: integer codes (what the step kernels return) and their names, index = code
-# (every env's ``metadata["termination_reasons"]``; tasks.contract hands them to each task)
-TERMINATION_NONE, TERMINATION_BURST, TERMINATION_NONFINITE = 0, 1, 2
-TERMINATION_NAMES = ("none", "burst", "non_finite_state")
+# the published ids' termination reasons (tasks.termination: DEFAULT_TERMINATIONS): integer codes
+# (what the step returns) and their names, index = code (``metadata["termination_reasons"]``)
+TERMINATION_NAMES = reason_names(DEFAULT_TERMINATIONS)
+TERMINATION_NONE, TERMINATION_BURST, TERMINATION_NONFINITE = range(len(TERMINATION_NAMES))
 TERMINATION_REASONS = TERMINATION_NAMES
 
 
@@ -98,11 +99,11 @@ class TaskSpec:
     pressure_margin: float = 0.85  # targets need pressures below this fraction of min(supply, burst)
     weights: RewardWeights = field(default_factory=RewardWeights)
     scales: TaskScales = field(default_factory=TaskScales)
-    # reference shapes drawn per episode (tasks.references.REFERENCE_KINDS); ("step",) is the v0
+    # reference shapes drawn per episode (planning.references.REFERENCE_KINDS); ("step",) is the v0
     # schedule: set-points held per segment, changing at once
     references: tuple[str, ...] = ("step",)
     move_s: float = 0.6  # duration of a minimum-jerk move between set-points [s] (lengthened if needed)
-    # an unscored identification window before the scored tracking [s] (tasks.window; 0: none)
+    # an unscored identification window before the scored tracking [s] (envs.id_window; 0: none)
     id_window_s: float = 0.0
     # the reward (tasks.reward): its terms, their expressions and default weights; ``weights`` holds
     # one weight per term (with_reward sets both)
@@ -110,6 +111,8 @@ class TaskSpec:
     # plant parameters the task drives step by step, each planned per episode (tasks.schedule;
     # e.g. a supply pressure that drops), reported in the info under their names
     schedules: tuple[Schedule, ...] = ()
+    # what ends an episode (tasks.termination), checked in order after every step
+    terminations: tuple[Termination, ...] = DEFAULT_TERMINATIONS
 
     def __post_init__(self):
         lo, hi = self.length_range
@@ -143,9 +146,15 @@ class TaskSpec:
             raise InputError(f"reward must be a tasks.reward.Reward, got {type(self.reward).__name__}")
         self.reward.weight_values(self.weights)
         object.__setattr__(self, "schedules", check_schedules(self.schedules))
+        object.__setattr__(self, "terminations", check_terminations(self.terminations, f"task {self.name!r}"))
         w = self.id_window_s
         if isinstance(w, bool) or not isinstance(w, (int, float)) or not (np.isfinite(w) and 0 <= w <= 600):
             raise InputError(f"id_window_s is in seconds and must lie in [0, 600], got {w!r}")
+
+    @property
+    def termination_names(self) -> tuple[str, ...]:
+        """The step's termination reasons, index = code (tasks.termination)."""
+        return reason_names(self.terminations)
 
     @property
     def reward_form(self) -> str:

@@ -16,14 +16,14 @@ Kinds (:data:`REFERENCE_KINDS`), each a pair of arrays (target length [m], targe
 
 Every reference is **reachable**: :func:`project` clips, step by step, the length to the task's
 range and the stiffness to the interval the inverse static model reaches at that length and load
-(:func:`~cepam_gym.tasks.schedules.stiffness_interval`, pressures within the task's margin). And
+(:func:`~cepam_gym.planning.schedules.stiffness_interval`, pressures within the task's margin). And
 **followable**: :func:`pressure_rate_ratio` compares the chamber pressure rates the reference asks
 for (the inverse static model along it) with what a fully open valve gives each chamber at that
 pressure and volume (ISO 6358 flow, adiabatic filling ``dP/dt = gamma R T mdot / V``); the
 generators lower the frequency or lengthen the moves until the ratio is below ``rate_fraction``.
 
 The shaping is compiled (:func:`shape_k`, one env on one parameter row, from its generator's state,
-:mod:`cepam_gym.tasks.rng`), so the reset's planner (:mod:`cepam_gym.tasks.planner`) runs it env
+:mod:`cepam_gym.planning.rng`), so the reset's planner (:mod:`cepam_gym.planning.episodes`) runs it env
 by env without Python; the functions taking arrays and NumPy generators here are its Python faces.
 A reference that cannot be made reachable is "None" (the planner then falls back).
 """
@@ -37,6 +37,7 @@ import numpy as np
 from .._jit import jit, jit_inline
 from ..errors import InputError
 from ..physics import layout as ix
+from ..tasks.spec import REFERENCE_KINDS, TaskSpec
 from . import plan_vectors as pv
 from . import rng as R
 from .reach import (
@@ -50,7 +51,6 @@ from .reach import (
     project_into,
     rate_ratios,
 )
-from .spec import REFERENCE_KINDS, TaskSpec
 
 __all__ = [
     "REFERENCE_KINDS",

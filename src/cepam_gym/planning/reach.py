@@ -1,10 +1,10 @@
 """What a reference may ask of one plant, compiled: the reachable stiffness interval at a length
 and load, the projection of a profile into it, and the pressure rates a profile asks of the valves.
 
-These are the per-step checks of :mod:`cepam_gym.tasks.schedules` and
-:mod:`cepam_gym.tasks.references`, written once for a point or a profile of one env on one
+These are the per-step checks of :mod:`cepam_gym.planning.schedules` and
+:mod:`cepam_gym.planning.references`, written once for a point or a profile of one env on one
 parameter row ``p``; the NumPy functions there map them over arrays, and the reset's planner
-(:mod:`cepam_gym.tasks.planner`) calls them env by env. ``c`` is the env's constants tuple
+(:mod:`cepam_gym.planning.episodes`) calls them env by env. ``c`` is the env's constants tuple
 (:func:`consts`). The operations are those of the former NumPy code, in its order, so every value
 is the same bit for bit (NumPy's ``maximum``, ``minimum`` and ``clip`` propagate NaN: so do
 :func:`npmax`, :func:`npmin`, :func:`npclip`). Work is skipped only where its result is already

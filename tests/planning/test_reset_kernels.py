@@ -1,5 +1,5 @@
 """The compiled reset against NumPy's generator draw for draw, and against the per-env NumPy
-planning of ``tests/tasks/legacy_planner.py`` episode for episode, bit for bit, on many
+planning of ``tests/planning/legacy_planner.py`` episode for episode, bit for bit, on many
 seeds, tasks, plants and the fallback paths; the generators end in the same state."""
 
 from __future__ import annotations
@@ -11,14 +11,15 @@ import numpy as np
 import pytest
 from numba import njit
 
+from cepam_gym.envs.hinge_task import JOINT_TASKS
+from cepam_gym.planning import references as RF
+from cepam_gym.planning import rng as R
+from cepam_gym.planning import schedules as S
+from cepam_gym.planning.episodes import plan, planned_schedules
+from cepam_gym.planning.joint import joint_planned_schedules
 from cepam_gym.plant.params import preset
 from cepam_gym.tasks import TASKS
-from cepam_gym.tasks import references as RF
-from cepam_gym.tasks import rng as R
-from cepam_gym.tasks import schedules as S
-from cepam_gym.tasks.hinge_task import JOINT_TASKS
-from cepam_gym.tasks.joint import JointGeometry, joint_planned_schedules
-from cepam_gym.tasks.planner import plan, planned_schedules
+from cepam_gym.tasks.joint import JointGeometry
 
 DT = 0.02
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from .layout import OBS_FIELDS, ObsLayout
+from ..tasks.layout import OBS_FIELDS, ObsLayout
+from ..tasks.reward import MAX_TERMS, Reward, reward_index
 from .records import Field, build, record
-from .reward import MAX_TERMS, Reward, reward_index
 
 MAX_OBS = len(OBS_FIELDS)  # measured columns of a layout (one per measured quantity at most)
 
@@ -16,7 +16,7 @@ TaskParams = record(
     "TaskParams",
     (
         Field("w", "f8", (MAX_TERMS,), "the reward terms' weights, in the reward's order"),
-        Field("reward_index", "i8", (), "the reward's branch in the compiled step (tasks.step_source)"),
+        Field("reward_index", "i8", (), "the reward's branch in the compiled step (envs.step_source)"),
         Field("track_k", "i8", (), "1 if the task sets a stiffness target"),
         Field("track_unit", "f8", (), "the position error that scores 1 [m or rad]"),
         Field("track_clip", "f8", (), "largest position term (in units)"),
@@ -53,6 +53,7 @@ def task_params(
     track_stiffness: bool = True,
     position: str = "length",
     allowance=(0, 0.0, 0.0),
+    terminations=(),
 ) -> TaskParams:
     """The :class:`TaskParams` of a task: ``reward`` its declaration
     (:class:`~cepam_gym.tasks.reward.Reward`), ``weights`` an object with one weight per term
@@ -62,7 +63,9 @@ def task_params(
     action +1 in pressure mode, ``position`` the name of the tracked position in the preview
     columns (``"length"`` on the rig, ``"angle"`` on the joint), ``allowance`` the score's
     ``(steps, jump_position, jump_stiffness)``: the control steps left out after a jump of a target
-    (:func:`allowance_of`; read when the reward declares ``allowance``)."""
+    (:func:`allowance_of`; read when the reward declares ``allowance``), ``terminations`` the task's
+    (:class:`~cepam_gym.tasks.termination.Termination`: the parameters their conditions read are
+    checked too)."""
     n = layout.n_measured
     if n > MAX_OBS:
         raise ValueError(f"an observation layout has at most {MAX_OBS} measured columns; got {layout.names}")
@@ -84,6 +87,13 @@ def task_params(
             f"reward {reward.name!r} reads task.{', task.'.join(unknown)}; the task's parameters are "
             f"{list(TaskParams._fields)}"
         )
+    for t in terminations:
+        unknown = sorted(t.task_attributes() - set(TaskParams._fields))
+        if unknown:
+            raise InputError(
+                f"termination {t.name!r} reads task.{', task.'.join(unknown)}; the task's parameters "
+                f"are {list(TaskParams._fields)}"
+            )
     w = np.zeros(MAX_TERMS)
     w[: len(reward.terms)] = reward.weight_values(weights)
     return build(

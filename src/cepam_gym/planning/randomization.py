@@ -24,8 +24,8 @@ from .. import plant as pl
 from ..errors import InputError
 from ..physics import layout as ix
 from ..plant.params import PlantParams
+from ..tasks.spec import TaskSpec
 from .schedules import stiffness_interval
-from .spec import TaskSpec
 
 MAX_REDRAWS = 16
 STABILITY_LIMIT = 1.2  # as plant.check_stability

@@ -5,10 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cepam_gym.plant.params import PlantParams
-from cepam_gym.tasks import TASKS
-from cepam_gym.tasks.planner import episode_schedules
-from cepam_gym.tasks.references import (
+from cepam_gym.planning.episodes import episode_schedules
+from cepam_gym.planning.references import (
     min_jerk,
     periodic_length,
     pressure_rate_ratio,
@@ -17,7 +15,9 @@ from cepam_gym.tasks.references import (
     smooth_steps,
     stiffness_ramp,
 )
-from cepam_gym.tasks.schedules import stiffness_interval
+from cepam_gym.planning.schedules import stiffness_interval
+from cepam_gym.plant.params import PlantParams
+from cepam_gym.tasks import TASKS
 
 DT = 0.02
 P = PlantParams().to_array()

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from ..errors import InputError
+from ..tasks.joint import JointTask
+from ..tasks.spec import TASKS
 from .hinge_task import JOINT_TASKS, HingeTask
-from .joint import JointTask
 from .rig_task import RigTask
-from .spec import TASKS
 from .task import Task, check_preview_steps
 
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from cepam_gym.physics import layout as ix
+from cepam_gym.planning.episodes import episode_schedules
 from cepam_gym.plant.params import preset
 from cepam_gym.tasks import TASKS
-from cepam_gym.tasks.planner import episode_schedules
 
 
 def reference_schedule(rng, spec, p, n_steps, dt):

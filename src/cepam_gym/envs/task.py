@@ -6,16 +6,16 @@ A :class:`Task` owns the rest:
 
 * the mechanism the muscle drives (``mech``: the rig's free end or a hinge) and its constants;
 * its observation layout (named columns, preview count included) and its settings as the compiled
-  step reads them (:class:`~cepam_gym.tasks.task_params.TaskParams`);
+  step reads them (:class:`~cepam_gym.envs.task_params.TaskParams`);
 * its plant checks (which randomized plants can run it) and its reference planning;
 * where an episode starts, what ``reset(options=...)`` pins, and the ``info`` it reports;
 * its contract (:mod:`cepam_gym.tasks.contract`): reward-term names and weights, info keys,
   termination names, reset options, what the score reads (the kernel computes the terms,
-  :mod:`cepam_gym.tasks.kernel`).
+  :mod:`cepam_gym.envs.step_kernel`).
 
-Two tasks exist: :class:`~cepam_gym.tasks.rig_task.RigTask` (the paper's vertical rig) and
-:class:`~cepam_gym.tasks.hinge_task.HingeTask` (a joint driven through a rack and pinion).
-:func:`cepam_gym.tasks.registry.make_task` builds one from an env's kwargs.
+Two tasks exist: :class:`~cepam_gym.envs.rig_task.RigTask` (the paper's vertical rig) and
+:class:`~cepam_gym.envs.hinge_task.HingeTask` (a joint driven through a rack and pinion).
+:func:`cepam_gym.envs.task_registry.make_task` builds one from an env's kwargs.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from .layout import ObsLayout
+from ..tasks.layout import ObsLayout
 
 MAX_PREVIEW_STEPS = 100
 
@@ -47,12 +47,13 @@ def check_preview_steps(preview_steps) -> int:
 
 class Task:
     """What an env is asked to do. Subclasses fill the attributes and implement the methods; the
-    env core calls them with its env state ``s`` (:class:`~cepam_gym.tasks.state.EnvState`, as
+    env core calls them with its env state ``s`` (:class:`~cepam_gym.envs.state.EnvState`, as
     dm_control's Task is handed ``physics``), the only thing they read and write of the env
     (``s.target_l``, ``s.target_k``, ``s.load``: the task's position target, stiffness target and
     load of every control step, in the task's SI units; ``s.state``, ``s.aux``... for the info)."""
 
     mech: int  # cepam_gym.plant.RIG or HINGE: the mechanics the plant kernel integrates
+    mechanism: Any  # its tasks.mechanism.Mechanism: the load mapping, measured view and geometry
     name: str
     preview_steps: int
     track_stiffness: bool
@@ -65,6 +66,16 @@ class Task:
     def reward(self):
         """The task's reward declaration (:class:`~cepam_gym.tasks.reward.Reward`)."""
         return self.spec.reward
+
+    @property
+    def terminations(self) -> tuple:
+        """What ends an episode (:class:`~cepam_gym.tasks.termination.Termination`, in order)."""
+        return tuple(self.spec.terminations)
+
+    @property
+    def termination_names(self) -> tuple[str, ...]:
+        """The step's termination reasons, index = code (``metadata["termination_reasons"]``)."""
+        return self.spec.termination_names
 
     @property
     def schedules(self) -> tuple:
@@ -88,14 +99,14 @@ class Task:
         raise NotImplementedError
 
     layout: ObsLayout
-    params: Any  # its TaskParams (tasks.task_params)
+    params: Any  # its TaskParams (envs.task_params)
 
     def hinge_row(self) -> np.ndarray:
         """The mechanism's constants (:mod:`cepam_gym.physics.hinge`; zeros for the rig)."""
         raise NotImplementedError
 
     def randomizer(self, randomize, sub_dt: float):
-        """The :class:`~cepam_gym.tasks.randomization.Randomizer` of this task's plant checks."""
+        """The :class:`~cepam_gym.planning.randomization.Randomizer` of this task's plant checks."""
         raise NotImplementedError
 
     def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
@@ -116,7 +127,7 @@ class Task:
         raise NotImplementedError
 
     # the info keys of a step taken by the single env's one-call step, in the order of the values
-    # it writes to its info row (tasks.single; ``redraws`` and ``termination_reason`` follow);
+    # it writes to its info row (envs.single_slabs; ``redraws`` and ``termination_reason`` follow);
     # None: the single env builds the info with :meth:`info_single`
     step_keys: tuple[str, ...] | None = None
 

@@ -1,11 +1,11 @@
 """The env state: the arrays an episode of N envs lives in, declared once.
 
-:class:`EnvState` is what the compiled step (:mod:`cepam_gym.tasks.kernel`) reads and writes, what
-a :class:`~cepam_gym.tasks.task.Task` is handed at reset and for its info (as dm_control's Task is
+:class:`EnvState` is what the compiled step (:mod:`cepam_gym.envs.step_kernel`) reads and writes, what
+a :class:`~cepam_gym.envs.task.Task` is handed at reset and for its info (as dm_control's Task is
 handed ``physics``), and what an env copies, pickles and restores. Its rows are envs; the dimension
 names of the shapes are those of :func:`dims`. :class:`StepSettings` are the step's fixed settings.
-The batched env allocates the record with :func:`~cepam_gym.tasks.records.allocate`; the single
-env lays it in two slabs (:mod:`cepam_gym.tasks.single`).
+The batched env allocates the record with :func:`~cepam_gym.envs.records.allocate`; the single
+env lays it in two slabs (:mod:`cepam_gym.envs.single_slabs`).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from __future__ import annotations
 from .. import plant as pl
 from ..physics import layout as ix
 from ..physics.hinge import N_HINGE
+from ..tasks.reward import MAX_TERMS
 from .records import Field, record
-from .reward import MAX_TERMS
 
 # noise columns: length [m], velocity [m/s], pressure_c, pressure_e, supply [Pa]
 N_NOISE = 5

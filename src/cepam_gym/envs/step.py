@@ -1,18 +1,19 @@
 """The env's step, batched and single: actions -> plant -> reward terms, observation, flags.
 
-This module is also the template of every declared reward's step (:mod:`cepam_gym.tasks.step_source`):
-its one line importing ``reward_terms`` is replaced by the reward function generated from the
-declaration (:class:`~cepam_gym.tasks.reward.Reward`), so the package's rewards and a user's run
-the same step code. Hence the absolute imports.
+This module is also the template of every declared reward's step (:mod:`cepam_gym.envs.step_source`):
+its one line importing ``reward_terms`` and ``terminated`` is replaced by the functions generated
+from the task's declarations (:class:`~cepam_gym.tasks.reward.Reward`,
+:class:`~cepam_gym.tasks.termination.Termination`), so the package's tasks and a user's run the same
+step code. Hence the absolute imports.
 
 One compiled function per block of envs (:func:`_env_block`) calls the plant kernel
 (:func:`cepam_gym.plant.advance_block`, the only copy of the equations, or its hinge form
 :func:`~cepam_gym.plant.advance_block_hinge` for the joint env) and then the task's reward terms
-and observation (:mod:`cepam_gym.tasks.kernel`), through
-:func:`~cepam_gym.tasks.kernel.mechanism_view` (the rig's length or the joint's angle). Every
-function takes the env state as one record (:class:`~cepam_gym.tasks.state.EnvState`), the
-step's settings (:class:`~cepam_gym.tasks.state.StepSettings`) and the task's
-(:class:`~cepam_gym.tasks.task_params.TaskParams`). The vector env calls the serial or parallel
+and observation (:mod:`cepam_gym.envs.step_kernel`), through
+:func:`~cepam_gym.envs.step_kernel.mechanism_view` (the rig's length or the joint's angle). Every
+function takes the env state as one record (:class:`~cepam_gym.envs.state.EnvState`), the
+step's settings (:class:`~cepam_gym.envs.state.StepSettings`) and the task's
+(:class:`~cepam_gym.envs.task_params.TaskParams`). The vector env calls the serial or parallel
 step, the single env :func:`env_step_single`; keeping the per-step task arithmetic compiled is
 what makes a single env faster than Gymnasium's Pendulum and a batch of 4096 envs run at millions
 of steps per second.
@@ -27,15 +28,14 @@ from numba import njit, prange
 
 from cepam_gym import plant as pl
 from cepam_gym._jit import jit, row_of
+from cepam_gym.envs._reward_builtin import NONFINITE, reward_terms, terminated  # declared (envs.step_source)
+from cepam_gym.envs.single_slabs import NONFINITE_ACTION, SLAB_READERS
+from cepam_gym.envs.step_kernel import mechanism_view, scored, write_obs, write_preview
 from cepam_gym.physics.hinge import H_R
 from cepam_gym.plant.actions import plant_inputs
-from cepam_gym.tasks._reward_builtin import reward_terms  # the declared reward (tasks.step_source)
-from cepam_gym.tasks.kernel import mechanism_view, scored, termination, write_obs, write_preview
 from cepam_gym.tasks.rig_info import AUX, INFO_COL, INFO_SRC, LOAD, STATE, TARGET_L
-from cepam_gym.tasks.single import NONFINITE_ACTION, SLAB_READERS
-from cepam_gym.tasks.spec import TERMINATION_NONFINITE
 
-__all__ = ["env_step", "env_step_single", "reward_terms"]
+__all__ = ["env_step", "env_step_single", "reward_terms", "terminated"]
 
 _state_of, _settings_of, _task_of, _extras_of = SLAB_READERS
 
@@ -85,8 +85,14 @@ def _env_block(lo, n, s, c, task, W):
         rz = row_of(noise, 0 if noise.shape[0] == 1 else i)
         write_obs(pos, vel, ax, tl[i, k1], tk[i, k1], a, p, task, rz, row_of(obs, i))
         write_preview(row_of(tl, i), row_of(tk, i), t_idx[i] + 1, task, row_of(obs, i))
-        reasons[i] = termination(ax[pl.A_FINITE] != 0.0 and math.isfinite(reward), burst)
-        s.rewards[i] = 0.0 if reasons[i] == TERMINATION_NONFINITE else reward
+        if ax[pl.A_FINITE] != 0.0 and math.isfinite(reward):
+            reasons[i] = terminated(
+                pos, tl[i, k], vel, K, tk[i, k], a[0], a[1], ax[pl.A_AIR], burst, counted, task
+            )
+            s.rewards[i] = reward
+        else:
+            reasons[i] = NONFINITE
+            s.rewards[i] = 0.0
         t_idx[i] += 1
 
 
@@ -115,7 +121,7 @@ def env_step(s, c, task) -> None:
 @jit
 def env_step_single(F, I, obs, a0, a1):
     """One control step of a single env whose records live in the slabs ``F``, ``I``, ``obs``
-    (:func:`cepam_gym.tasks.single.single_slabs`), with the action ``(a0, a1)``; returns
+    (:func:`cepam_gym.envs.single_slabs.single_slabs`), with the action ``(a0, a1)``; returns
     ``(reward, reason)``, or ``(nan, NONFINITE_ACTION)`` without stepping when an action is NaN or
     inf (checked here: one call less on the single env's hot path)."""
     if not (math.isfinite(a0) and math.isfinite(a1)):

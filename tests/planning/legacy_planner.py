@@ -1,5 +1,5 @@
 """The reset's planning in Python: per-env NumPy code, kept verbatim as the judge of the compiled
-planner (``tests/tasks/test_reset_kernels.py``). Not used by the library. Its physics goes through
+planner (``tests/planning/test_reset_kernels.py``). Not used by the library. Its physics goes through
 :mod:`cepam_gym.physics.api` (NumPy arrays over the scalar kernels)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from cepam_gym.physics import layout as ix
 from cepam_gym.plant.params import pressure_cap_of
 from cepam_gym.tasks.spec import TaskSpec
 
-# ---------------------------------------------------------------- tasks/schedules.py
+# ---------------------------------------------------------------- planning/schedules.py
 _TRIES = 32
 
 
@@ -220,7 +220,7 @@ def episode_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float, mus
     return tl, tkk, loads, initial
 
 
-# ---------------------------------------------------------------- tasks/references.py
+# ---------------------------------------------------------------- planning/references.py
 _SLOWDOWN = 0.7  # factor on the frequency (or 1/factor on a move) per followability retry
 _RETRIES = 8
 
@@ -398,7 +398,7 @@ def stiffness_ramp(target_k, load, params_row, spec: TaskSpec, dt: float, length
 
 
 def planned_schedules(rngs, spec: TaskSpec, params, n_steps: int, dt: float):
-    """:func:`~cepam_gym.tasks.schedules.episode_schedules` with each episode's targets shaped by
+    """:func:`~cepam_gym.planning.schedules.episode_schedules` with each episode's targets shaped by
     a reference kind drawn from ``spec.references`` (each env's own generator, after its schedule
     draws, so a batch equals single envs). Returns ``(target_length, target_stiffness, load,
     initial)`` like it; with references other than ``step`` the episode starts at rest on its
@@ -456,10 +456,10 @@ def joint_muscle_map(geom, nominal_row):
 def joint_planned_schedules(rngs, task, geom, params, nominal_row, n_steps: int, dt: float):
     """Schedules of several joint envs at once, ``(target_angle, target_stiffness,
     external_torque, initial)`` (arrays (n_envs, n_steps), ``initial`` (n_envs, 2) = angle, joint
-    stiffness): the rig's batched sampler (:func:`~cepam_gym.tasks.schedules.episode_schedules`
+    stiffness): the rig's batched sampler (:func:`~cepam_gym.planning.schedules.episode_schedules`
     through :func:`joint_muscle_map`; env i draws only from ``rngs[i]``), then each episode's
     targets shaped by a reference kind drawn from ``task.references`` (the rig's
-    :func:`~cepam_gym.tasks.references.shape_reference` in muscle coordinates, the joint's loads
+    :func:`~cepam_gym.planning.references.shape_reference` in muscle coordinates, the joint's loads
     as an equivalent hanging load; the link's weight depends on the angle, so a shaped reference
     is projected once more at its own angles; one that cannot be made reachable falls back to
     ``min_jerk`` moves, then to the set-points). With references other than ``step`` an episode

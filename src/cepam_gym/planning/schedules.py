@@ -11,8 +11,8 @@ the static model is affine in stiffness and load at a fixed length, feasibility 
 extremes implies feasibility in between.
 
 The sampling is compiled (:func:`schedule_env`, one env from its own generator's state,
-:mod:`cepam_gym.tasks.rng`) and run env by env by the reset's planner
-(:mod:`cepam_gym.tasks.planner`, whose :func:`~cepam_gym.tasks.planner.episode_schedules` gives
+:mod:`cepam_gym.planning.rng`) and run env by env by the reset's planner
+(:mod:`cepam_gym.planning.episodes`, whose :func:`~cepam_gym.planning.episodes.episode_schedules` gives
 the schedules of several envs); the functions taking a NumPy generator here are its Python faces.
 The draws of an episode, in order: the load profile, the segments, 8 candidate lengths per segment
 and for the initial state, 8 positions in their stiffness intervals, then (only for a segment
@@ -25,10 +25,10 @@ import numpy as np
 
 from .._jit import jit
 from ..physics import layout as ix
+from ..tasks.spec import TaskSpec
 from . import plan_vectors as pv
 from . import rng as R
 from .reach import consts, interval_at, npmax, npmin
-from .spec import TaskSpec
 
 _TRIES = 32
 _CANDIDATES = 8  # target candidates drawn per segment
@@ -92,7 +92,7 @@ def segments_k(s, seg_lo, seg_hi, n_steps, dt, starts):
 
 @jit
 def _muscle_interval(pos, w_lo, w_hi, p, c, mv):
-    """:func:`~cepam_gym.tasks.reach.interval_at` of a target position under loads in
+    """:func:`~cepam_gym.planning.reach.interval_at` of a target position under loads in
     ``[w_lo, w_hi]`` (the rig: lengths and weights; the joint: through its mechanism)."""
     if mv[pv.MV_JOINT] == 0.0:
         return interval_at(pos, w_lo, w_hi, p, c)

@@ -1,8 +1,8 @@
 """The single env's step: its env state laid in two slabs, stepped by one jitted call.
 
 A single env's step is dominated by Python overhead, a good part of it the dispatch of a jitted
-call (about 55 ns per array argument). Its :class:`~cepam_gym.tasks.state.EnvState` (one env), its
-:class:`~cepam_gym.tasks.state.StepSettings` and :class:`~cepam_gym.tasks.task_params.TaskParams`,
+call (about 55 ns per array argument). Its :class:`~cepam_gym.envs.state.EnvState` (one env), its
+:class:`~cepam_gym.envs.state.StepSettings` and :class:`~cepam_gym.envs.task_params.TaskParams`,
 the values of its ``info`` and the plant's scratch therefore live in two slabs, one float64 and one
 int64 (:data:`SLABS`, derived from the records' declarations), beside the float32 observation; its
 step is one jitted call with these three arrays and two floats, which also writes the values of the
@@ -16,16 +16,16 @@ cost 0.3 us of the single step's 0.7 us of fixed compiled work.
 from __future__ import annotations
 
 from .. import plant as pl
+from ..tasks.reward import MAX_TERMS
+from ..tasks.rig_info import RIG_INFO
 from .records import Field, Slabs, record
-from .reward import MAX_TERMS
-from .rig_info import RIG_INFO
 from .state import EnvState, StepSettings
 from .task_params import TaskParams
 
 # the info row: the rig's declared info (tasks.rig_info), then the reward's terms (the first columns
 # of the MAX_TERMS)
 N_INFO = len(RIG_INFO) + MAX_TERMS
-NONFINITE_ACTION = -1  # tasks.step.env_step_single's reason for an action it refused
+NONFINITE_ACTION = -1  # envs.step.env_step_single's reason for an action it refused
 
 SingleExtras = record(
     "SingleExtras",
@@ -37,7 +37,7 @@ SingleExtras = record(
     __name__,
 )
 SLABS = Slabs((EnvState, StepSettings, TaskParams, SingleExtras), {"n": 1, "noise_rows": 1})
-# the records rebuilt inside the single step (tasks.step.env_step_single)
+# the records rebuilt inside the single step (envs.step.env_step_single)
 SLAB_READERS = tuple(SLABS.reader(r) for r in (EnvState, StepSettings, TaskParams, SingleExtras))
 
 

@@ -1,8 +1,9 @@
 """The compiled parts of the env's step that no reward declares: the observation (its encoding,
 the preview columns), the mechanism's view (the rig's length or the joint's angle), the score's
-settling allowance and the termination reason; and :func:`observe` after a reset.
+settling allowance; and :func:`observe` after a reset. The termination reason is declared by the
+task (:mod:`cepam_gym.tasks.termination`) and generated with its reward.
 
-The step itself (:mod:`cepam_gym.tasks.step`) calls them around the plant kernel and the
+The step itself (:mod:`cepam_gym.envs.step`) calls them around the plant kernel and the
 declared reward (:mod:`cepam_gym.tasks.reward`).
 """
 
@@ -15,8 +16,8 @@ from .._jit import jit
 from ..physics import layout as ix
 from ..physics.hinge import H_R, N_HINGE
 from ..plant.actions import plant_inputs, valve_commands
-from .layout import OBS_FIELDS
-from .spec import TERMINATION_BURST, TERMINATION_NONE, TERMINATION_NONFINITE, TERMINATION_REASONS
+from ..tasks.layout import OBS_FIELDS
+from ..tasks.spec import TERMINATION_NONE, TERMINATION_REASONS
 from .state import N_NOISE, EnvState, StepSettings
 from .task_params import MAX_OBS, TaskParams, task_params
 
@@ -24,6 +25,7 @@ __all__ = [
     "MAX_OBS",
     "N_NOISE",
     "OBS_FIELDS",
+    "TERMINATION_NONE",
     "TERMINATION_REASONS",
     "EnvState",
     "StepSettings",
@@ -33,7 +35,6 @@ __all__ = [
     "write_obs",
     "write_preview",
     "scored",
-    "termination",
     "plant_inputs",
     "valve_commands",
     "observe",
@@ -124,15 +125,6 @@ def scored(tl_row, tk_row, k, task):
         if task.track_k != 0 and abs(tk_row[j] - tk_row[j - 1]) / abs(tk_row[j - 1]) > task.jump_k:
             return False
     return True
-
-
-@jit
-def termination(finite, burst):
-    """Termination reason code (:data:`TERMINATION_REASONS`) of a step: a non-finite state or
-    reward first, then a burst."""
-    if not finite:
-        return TERMINATION_NONFINITE
-    return TERMINATION_BURST if burst else TERMINATION_NONE
 
 
 @jit

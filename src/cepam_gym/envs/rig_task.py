@@ -10,17 +10,18 @@ import numpy as np
 
 from .. import plant as pl
 from ..errors import InputError
-from . import kernel as tk
-from .contract import RIG
-from .layout import rig_layout
-from .planner import planned_schedules, start_at_rest
-from .randomization import Randomizer
-from .rig_info import AUX, INFO_KEYS, LOAD, RIG_INFO, STATE, TARGET_K, TARGET_L, columns
-from .schedule import check_schedules
-from .spec import TASKS, TaskSpec, check_kwargs
+from ..planning.episodes import planned_schedules, start_at_rest
+from ..planning.randomization import Randomizer
+from ..tasks.contract import RIG
+from ..tasks.layout import rig_layout
+from ..tasks.mechanism import RIG as RIG_MECHANISM
+from ..tasks.rig_info import AUX, INFO_KEYS, LOAD, RIG_INFO, STATE, TARGET_K, TARGET_L, columns
+from ..tasks.schedule import check_schedules
+from ..tasks.spec import TASKS, TaskSpec, check_kwargs
+from . import step_kernel as tk
+from .id_window import INFO_KEY
 from .task import Task
 from .task_params import allowance_of
-from .window import INFO_KEY
 
 _MAX_LOAD_KG = 20.0  # far above what the muscle holds: larger values are grams passed as kg
 # the state's and aux's columns of the declared info (tasks.rig_info), gathered in one copy each
@@ -33,6 +34,7 @@ class RigTask(Task):
     and scales) with its preview count."""
 
     mech = pl.RIG
+    mechanism = RIG_MECHANISM
     contract = RIG
     pin_keys = RIG.pin_keys
     renderers = ("numpy", "mujoco")
@@ -94,22 +96,23 @@ class RigTask(Task):
             nominal.pressure_cap,
             t.track_stiffness,
             allowance=allowance_of(RIG.trade, control_dt),
+            terminations=t.terminations,
         )
 
     def hinge_row(self) -> np.ndarray:
-        return tk.no_hinge()[0]
+        return self.mechanism.hinge_row()
 
     def randomizer(self, randomize, sub_dt: float) -> Randomizer:
         return Randomizer(randomize, self.nominal, self.spec, sub_dt)
 
     # ------------------------------------------------------------------ reset
     def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
-        """:func:`~cepam_gym.tasks.planner.planned_schedules`."""
+        """:func:`~cepam_gym.planning.episodes.planned_schedules`."""
         return planned_schedules(rngs, self.spec, rows, n_steps, control_dt)
 
     def start(self, s, idx: np.ndarray, initial: np.ndarray) -> None:
         """At rest at the (length, stiffness) rows under the first load: chamber pressures of the
-        inverse static model, step 0 (:func:`~cepam_gym.tasks.planner.start_at_rest`)."""
+        inverse static model, step 0 (:func:`~cepam_gym.planning.episodes.start_at_rest`)."""
         s.initial[idx] = initial
         start_at_rest(s, idx, initial)
 

@@ -1,4 +1,4 @@
-"""The identification window (:mod:`cepam_gym.tasks.window`): unscored steps on the episode's own
+"""The identification window (:mod:`cepam_gym.envs.id_window`): unscored steps on the episode's own
 plant, then the tracking exactly as without the window; the harness leaves the window out."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import pytest
 import cepam_gym  # noqa: F401  (registers the ids)
 from cepam_gym.bench.harness import drop_window, record
 from cepam_gym.bench.suites import RANDOMIZE_V2, SUITES
+from cepam_gym.envs.id_window import INFO_KEY
 from cepam_gym.errors import InputError
-from cepam_gym.tasks.window import INFO_KEY
 
 ENV_ID = "cepam_gym/CEPAM-v2"
 KW = {"randomize": RANDOMIZE_V2}  # no noise, no drift: the plant alone decides the trajectory

@@ -3,21 +3,21 @@ one compiled call, env by env from each env's own generator.
 
 A reset used to shape each env's reference in Python (about 1 ms per env: a 1024-env batch spent
 as long resetting as stepping through its episode). Here the generators' states are copied into
-compiled code (:mod:`cepam_gym.tasks.rng`), every draw and every check runs there in the order the
+compiled code (:mod:`cepam_gym.planning.rng`), every draw and every check runs there in the order the
 NumPy code ran them, and the states are copied back: the episodes are the former ones bit for bit
-(``tests/tasks/test_reset_kernels.py`` compares them with the former code, kept in the tests, on many
+(``tests/planning/test_reset_kernels.py`` compares them with the former code, kept in the tests, on many
 seeds and tasks; the golden tests compare whole trajectories). Env i draws only from ``rngs[i]``,
 so a batch equals single envs.
 
-Per env: :func:`~cepam_gym.tasks.schedules.schedule_env` (the step schedule, the loads and the
+Per env: :func:`~cepam_gym.planning.schedules.schedule_env` (the step schedule, the loads and the
 initial target), then, for tasks with references other than ``step``, a reference kind drawn from
-the task's and :func:`~cepam_gym.tasks.references.shape_k`; a reference that cannot be made
+the task's and :func:`~cepam_gym.planning.references.shape_k`; a reference that cannot be made
 reachable at some step (a load too large for the length the move passes) falls back to ``min_jerk``
 moves between the schedule's set-points, and those to the set-points themselves. With a shaped
 reference the episode starts at rest on its first point (no jump at t = 0). The loads stay the
 schedule's: a load change is a disturbance the controller is not told about.
 
-The joint (mechanism vector :func:`~cepam_gym.tasks.plan_vectors.joint_mechanism`): targets are
+The joint (mechanism vector :func:`~cepam_gym.planning.plan_vectors.joint_mechanism`): targets are
 drawn as muscle lengths of the nominal plant and returned as joint angles [rad] and joint
 stiffnesses [N m/rad], loads are external torques [N m]; its references are shaped in muscle
 coordinates under the equivalent hanging load and projected once more at their own angles (the
@@ -33,12 +33,12 @@ from .._jit import jit
 from ..physics import layout as ix
 from ..physics.statics import static_pressures
 from ..plant.state import initial_state, rest_rows
+from ..tasks.spec import TaskSpec
 from . import plan_vectors as pv
 from . import rng as R
 from .reach import N_T, consts, npclip, npmin, project_into
 from .references import shape_k
 from .schedules import _no_target, schedule_env
-from .spec import TaskSpec
 
 # batches at least this large are planned on every core (each env is independent)
 PARALLEL_MIN_ENVS = 64
@@ -202,7 +202,7 @@ def _start_pressures(idx, initial, load0, params, mv, L, pc, pe):
 
 
 def start_at_rest(s, idx, initial, mechanism=None) -> None:
-    """Envs ``idx`` of env state ``s`` (:class:`~cepam_gym.tasks.state.EnvState`) at rest at their
+    """Envs ``idx`` of env state ``s`` (:class:`~cepam_gym.envs.state.EnvState`) at rest at their
     ``initial`` (position, stiffness) rows under their first load, step 0 (one compiled call for
     the pressures, one for the plants)."""
     idx = np.ascontiguousarray(idx, dtype=np.int64)

@@ -9,9 +9,10 @@ import math
 
 import numpy as np
 
+from .. import plant as pl
 from .._jit import jit_inline
 from ..physics import layout as ix
-from .spec import LOAD_KINDS, REFERENCE_KINDS, TaskSpec
+from ..tasks.spec import LOAD_KINDS, REFERENCE_KINDS, TaskSpec
 
 _KINDS = 5  # slots for load kinds and reference kinds (both lists have five entries)
 assert len(LOAD_KINDS) == _KINDS and len(REFERENCE_KINDS) == _KINDS
@@ -81,6 +82,14 @@ def _build(spec: TaskSpec) -> np.ndarray:
 def rig_mechanism() -> np.ndarray:
     """The rig's mechanism vector: positions are muscle lengths, loads hanging masses."""
     return np.zeros(N_MV)
+
+
+def mechanism_vector(mechanism, nominal_row, position_range) -> np.ndarray:
+    """The planner's vector of a :class:`~cepam_gym.tasks.mechanism.Mechanism` (the rig's, or a
+    hinge's through its geometry with ``position_range`` its target angles [rad])."""
+    if mechanism.code == pl.HINGE:
+        return joint_mechanism(mechanism.geometry, nominal_row, position_range)
+    return rig_mechanism()
 
 
 def joint_mechanism(geom, nominal_row, angle_range) -> np.ndarray:

@@ -13,22 +13,17 @@ import numpy as np
 
 from .. import plant as pl
 from ..physics import layout as ix
-from . import kernel as tk
-from .contract import JOINT
-from .hinge_info import hinge_info
-from .joint import (
-    JointGeometry,
-    JointRewardWeights,
-    JointTask,
-    apply_reset_options,
-    joint_layout,
-    joint_planned_schedules,
-)
-from .plan_vectors import joint_mechanism
-from .planner import start_at_rest
-from .randomization import Randomizer, unstable
-from .reward import JOINT_SCORE_REWARD
-from .spec import check_kwargs
+from ..planning.episodes import start_at_rest
+from ..planning.joint import apply_reset_options, joint_planned_schedules, unreachable_torque
+from ..planning.plan_vectors import mechanism_vector
+from ..planning.randomization import Randomizer, unstable
+from ..tasks.contract import JOINT
+from ..tasks.hinge_info import hinge_info
+from ..tasks.joint import JointGeometry, JointRewardWeights, JointTask, joint_layout
+from ..tasks.mechanism import HingeMechanism
+from ..tasks.reward import JOINT_SCORE_REWARD
+from ..tasks.spec import check_kwargs
+from . import step_kernel as tk
 from .task import Task
 from .task_params import allowance_of
 
@@ -68,6 +63,7 @@ class HingeTask(Task):
         self, spec: JointTask, geometry: JointGeometry, weights: JointRewardWeights, preview_steps=0
     ):
         self.spec, self.geometry, self.weights = spec, geometry, weights
+        self.mechanism = HingeMechanism(geometry=geometry)
         self.name = "joint"
         self.preview_steps = int(preview_steps)
 
@@ -91,7 +87,7 @@ class HingeTask(Task):
     def bind(self, nominal, sub_dt: float, control_dt: float = 0.02) -> None:
         self.nominal, self.sub_dt = nominal, sub_dt
         self.nominal_row = nominal_row = nominal.to_array()
-        self.mechanism = joint_mechanism(self.geometry, nominal_row, self.spec.angle_range)
+        self.mechanism_vector = mechanism_vector(self.mechanism, nominal_row, self.spec.angle_range)
         self.spec.check_range(self.geometry, nominal_row)
         self.angle_max = self.geometry.max_angle(nominal_row)
         self.layout = joint_layout(self.spec, self.angle_max, nominal.supply_pressure, self.preview_steps)
@@ -104,10 +100,11 @@ class HingeTask(Task):
             True,
             "angle",
             allowance=allowance_of(JOINT.trade, control_dt),
+            terminations=self.spec.terminations,
         )
 
     def hinge_row(self) -> np.ndarray:
-        return self.geometry.hinge_row()
+        return self.mechanism.hinge_row()
 
     def check_plant(self, row: np.ndarray) -> str | None:
         """Why parameter row ``row`` cannot run the joint task (``None`` if it can): an unstable
@@ -119,7 +116,7 @@ class HingeTask(Task):
             self.spec.check_range(self.geometry, row)
         except ValueError as e:
             return str(e)
-        tau = self.spec.unreachable_torque(self.geometry, row)
+        tau = unreachable_torque(self.spec, self.geometry, row)
         if tau is not None:
             return f"the joint task has no reachable target under an external torque of {tau:.3g} N m"
         return None
@@ -129,7 +126,7 @@ class HingeTask(Task):
 
     # ------------------------------------------------------------------ reset
     def plan(self, rngs: list, rows: np.ndarray, n_steps: int, control_dt: float) -> tuple:
-        """:func:`~cepam_gym.tasks.joint.joint_planned_schedules` (the rig's sampler through the
+        """:func:`~cepam_gym.planning.joint.joint_planned_schedules` (the rig's sampler through the
         joint's mechanism map, then the references)."""
         return joint_planned_schedules(
             rngs, self.spec, self.geometry, rows, self.nominal_row, n_steps, control_dt
@@ -139,14 +136,14 @@ class HingeTask(Task):
         """At rest at the (angle, joint stiffness) rows with the chamber pressures of the inverse
         static model under the first external torque, clipped to ``[0, min(supply, burst)]`` (as
         :meth:`~cepam_gym.mujoco.joint_sim.JointSimulator.reset`;
-        :func:`~cepam_gym.tasks.planner.start_at_rest`)."""
+        :func:`~cepam_gym.planning.episodes.start_at_rest`)."""
         s.initial[idx] = initial
-        start_at_rest(s, idx, s.initial[idx], self.mechanism)
+        start_at_rest(s, idx, s.initial[idx], self.mechanism_vector)
 
     def apply_options(self, s, options: dict) -> None:
         """``target_angle`` [rad], ``target_stiffness`` [N m/rad], ``external_torque`` [N m] pinned
         for the episode; ``initial_angle`` [rad], ``initial_stiffness`` [N m/rad] the starting
-        point (scalars, every env; :func:`~cepam_gym.tasks.joint.apply_reset_options`)."""
+        point (scalars, every env; :func:`~cepam_gym.planning.joint.apply_reset_options`)."""
         n = s.state.shape[0]
         for i in range(n):
             sched = (s.target_l[i], s.target_k[i], s.load[i])

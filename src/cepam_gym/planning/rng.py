@@ -14,7 +14,7 @@ copied back (:func:`unpack`). The draws used:
 
 PCG64 is O'Neill's (2014) XSL-RR output on a 128-bit LCG, as NumPy implements it: step the state,
 then output ``rotr64(hi ^ lo, hi >> 58)`` of the new state. The 128-bit arithmetic is one LLVM
-``i128`` multiply-add (:func:`_pcg_step`). ``tests/tasks/test_reset_kernels.py`` checks every draw
+``i128`` multiply-add (:func:`_pcg_step`). ``tests/planning/test_reset_kernels.py`` checks every draw
 against NumPy on many seeds.
 """
 
