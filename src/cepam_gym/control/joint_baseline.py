@@ -4,6 +4,7 @@ it reads the env's nominal plant, geometry and observation layout."""
 
 from __future__ import annotations
 
+from ..envs.model import env_layers
 from ..tasks.joint import JointGeometry
 from ..tasks.mechanism import HingeMechanism
 from .baseline import InverseStaticController
@@ -46,18 +47,7 @@ class JointInverseStaticController(InverseStaticController):
 def find_joint_env(env):
     """The joint env inside ``env`` (wrappers, a vector env of joint envs); ``TypeError`` if none.
     Recognised by its :class:`JointGeometry`, so this module never imports the env (or MuJoCo)."""
-    e = env
-    for _ in range(16):
+    for e in env_layers(env, into_vector=True):
         if isinstance(getattr(e, "geometry", None), JointGeometry) and hasattr(e, "obs_layout"):
             return e
-        nxt = getattr(e, "unwrapped", None)
-        if nxt is e or nxt is None:
-            nxt = getattr(e, "env", None)
-        if nxt is None:  # a stable-baselines3 VecEnv wrapper (VecMonitor, VecNormalize)
-            nxt = getattr(e, "venv", None)
-        if nxt is None and getattr(e, "envs", None):  # a SyncVectorEnv: same nominal plant in each
-            nxt = e.envs[0]
-        if nxt is None:
-            break
-        e = nxt
     raise TypeError(f"cannot find a CEPAMJointEnv inside {env!r}")

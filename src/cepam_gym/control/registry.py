@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from .. import versions
+from ..envs.model import env_layers
 from ..errors import InputError
 
 AGENT_LOADERS_GROUP = "cepam_gym.controllers"
@@ -136,29 +137,9 @@ def is_joint_env(env) -> bool:
     version table names as a hinge id's entry point (a subclass counts). Imports nothing."""
     return any(
         f"{cls.__module__}:{cls.__qualname__}" in _JOINT_ENV_CLASSES
-        for layer in _layers(env)
+        for layer in env_layers(env, into_vector=True)
         for cls in type(layer).__mro__
     )
-
-
-def _layers(env, depth: int = 16):
-    """``env`` and what it wraps: ``unwrapped``, ``env``, ``venv`` (SB3) and the first of
-    ``envs`` (a vector env of single envs: every sub-env runs the same model)."""
-    seen: set[int] = set()
-    todo = [env]
-    while todo and len(seen) < depth:
-        e = todo.pop()
-        if e is None or id(e) in seen:
-            continue
-        seen.add(id(e))
-        yield e
-        subs = getattr(e, "envs", None)
-        todo += [
-            getattr(e, "unwrapped", None),
-            getattr(e, "env", None),
-            getattr(e, "venv", None),
-            subs[0] if isinstance(subs, (list, tuple)) and subs else None,
-        ]
 
 
 def make_controller(spec: str | Path, env, **kwargs: Any) -> Controller:

@@ -206,22 +206,34 @@ def _version(core) -> versions.Version | None:
     return versions.of_kwargs(args.get("task"), plant)
 
 
+def env_layers(env, depth: int = 16, into_vector: bool = False):
+    """``env`` and what it wraps, outermost first, each once: Gymnasium wrappers (``env``,
+    ``unwrapped``), SB3's VecEnv wrappers (``venv``: they forward unknown attributes, so the layers
+    are walked explicitly) and, with ``into_vector``, the first of a vector env's ``envs`` (every
+    sub-env runs the same model); at most ``depth`` layers. The one walk of the package's lookups
+    (:func:`model_of`, the controller registry, the joint's baseline)."""
+    seen: set[int] = set()
+    todo = [env]
+    while todo and len(seen) < depth:
+        e = todo.pop(0)
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        yield e
+        todo += [getattr(e, name, None) for name in ("env", "venv", "unwrapped")]
+        subs = getattr(e, "envs", None) if into_vector else None
+        if isinstance(subs, (list, tuple)) and subs:
+            todo.append(subs[0])
+
+
 def model_of(env) -> EnvModel:
     """The :class:`EnvModel` of ``env``: a single or vector env on the batched kernel, under any
     Gymnasium wrappers, the SB3 adapter or SB3 VecEnv wrappers (``VecNormalize``, ...).
     :class:`NoModelError` (a ``TypeError``) for an env without the kernel (the MuJoCo joint)."""
-    seen: set[int] = set()
-    todo = [env]
-    while todo:
-        e = todo.pop()
-        if e is None or id(e) in seen:
-            continue
-        seen.add(id(e))
+    for e in env_layers(env):
         model = getattr(e, "env_model", None)
         if isinstance(model, EnvModel):
             return model
-        # SB3's VecEnv wrappers forward unknown attributes, so the layers are walked explicitly
-        todo += [getattr(e, name, None) for name in ("env", "venv", "unwrapped")]
     raise NoModelError(
         f"{_name(env)} does not run on the batched kernel, so it has no plant model "
         "(cepam_gym.envs.model.EnvModel): the rig ids and cepam_gym/CEPAMJoint-v1 have one, "
