@@ -95,7 +95,7 @@ class AgentConfig:
 
     @property
     def uses_baseline(self) -> bool:
-        return self.residual or self.baseline_in_obs or self.setpoint_gaps_in_obs or self.target_shift
+        return feature_spec(self).uses_baseline
 
     @classmethod
     def parse(cls, data: Any) -> AgentConfig:

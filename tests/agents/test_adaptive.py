@@ -270,3 +270,20 @@ def test_deployed_one_envs_new_episode_restarts_its_window_alone(tmp_path):
     np.testing.assert_array_equal(a[0], excitation[0])
     assert policy.features.identifier.k.tolist() == [1, window + 3]
     venv.close()
+
+
+def test_the_feature_spec_is_the_agent_section_but_the_trainers_own_key():
+    """The library's FeatureSpec and the config's agent section name the same fields with the same
+    defaults (the config adds ``start_at_base``, which only the trainer reads), so a feature added
+    to one and not the other fails here."""
+    import dataclasses
+
+    from cepam_gym_agents.config.agent import AgentConfig
+
+    spec = {f.name: f for f in dataclasses.fields(FeatureSpec)}
+    agent = {f.name: f for f in dataclasses.fields(AgentConfig)}
+    assert set(agent) - set(spec) == {"start_at_base"} and set(spec) <= set(agent)
+    defaults = feature_spec(AgentConfig())
+    assert defaults == FeatureSpec()
+    on = feature_spec(AgentConfig(residual=True, obs_filters_s=[0.5, 2.0], history=3))
+    assert on == FeatureSpec(residual=True, obs_filters_s=(0.5, 2.0), history=3) and on.uses_baseline
