@@ -15,7 +15,7 @@ from cepam_gym.physics import layout as ix
 from cepam_gym.planning.plan_vectors import joint_mechanism, mechanism_vector, rig_mechanism
 from cepam_gym.plant.params import preset
 from cepam_gym.tasks.joint import JointGeometry
-from cepam_gym.tasks.mechanism import RIG, HingeMechanism
+from cepam_gym.tasks.mechanism import RIG_MECHANISM, HingeMechanism
 
 P = preset("balloon_v2").to_array()
 THETA = np.linspace(0.2, 1.6, 8)
@@ -24,12 +24,13 @@ FORCE = -np.linspace(2.0, 40.0, 8)  # a muscle in tension pulls up on its load [
 
 def test_the_rig_is_its_muscle():
     L = np.linspace(0.16, 0.19, 8)
-    assert np.array_equal(RIG.muscle_length(L, P), L) and RIG.muscle_stiffness(800.0) == 800.0
+    assert np.array_equal(RIG_MECHANISM.muscle_length(L, P), L)
+    assert RIG_MECHANISM.muscle_stiffness(800.0) == 800.0
     # Eq. 25: a muscle force F holds a hanging weight -F; never less than the end cap's weight
-    assert np.array_equal(RIG.load_from_force(FORCE, L, P), -FORCE)
+    assert np.array_equal(RIG_MECHANISM.load_from_force(FORCE, L, P), -FORCE)
     floor = P[ix.M_END] * P[ix.GRAV]
-    assert np.array_equal(RIG.muscle_weight(L, np.array([0.0, 5.0]), P), [floor, 5.0])
-    assert RIG.code == pl.RIG and not RIG.hinge_row().any()
+    assert np.array_equal(RIG_MECHANISM.muscle_weight(L, np.array([0.0, 5.0]), P), [floor, 5.0])
+    assert RIG_MECHANISM.code == pl.RIG and not RIG_MECHANISM.hinge_row().any()
 
 
 def test_the_hinges_load_mapping_inverts_its_static_balance():

@@ -53,7 +53,6 @@ class HingeTask(Task):
     """A joint task: ``spec`` (targets, torques, references), ``geometry`` (the mechanism),
     ``weights`` (reward weights), the preview count."""
 
-    mech = pl.HINGE
     contract = JOINT
     pin_keys = JOINT.pin_keys
     renderers = ("mujoco",)

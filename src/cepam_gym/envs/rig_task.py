@@ -8,13 +8,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import plant as pl
 from ..errors import InputError
 from ..planning.episodes import planned_schedules, start_at_rest
 from ..planning.randomization import Randomizer
 from ..tasks.contract import RIG
 from ..tasks.layout import rig_layout
-from ..tasks.mechanism import RIG as RIG_MECHANISM
+from ..tasks.mechanism import RIG_MECHANISM
 from ..tasks.rig_info import AUX, INFO_KEYS, LOAD, RIG_INFO, STATE, TARGET_K, TARGET_L, columns
 from ..tasks.schedule import check_schedules
 from ..tasks.spec import TASKS, TaskSpec, check_kwargs
@@ -33,7 +32,6 @@ class RigTask(Task):
     """A rig task: a :class:`~cepam_gym.tasks.spec.TaskSpec` (references, loads, reward weights
     and scales) with its preview count."""
 
-    mech = pl.RIG
     mechanism = RIG_MECHANISM
     contract = RIG
     pin_keys = RIG.pin_keys

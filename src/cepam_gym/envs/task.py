@@ -52,7 +52,6 @@ class Task:
     (``s.target_l``, ``s.target_k``, ``s.load``: the task's position target, stiffness target and
     load of every control step, in the task's SI units; ``s.state``, ``s.aux``... for the info)."""
 
-    mech: int  # cepam_gym.plant.RIG or HINGE: the mechanics the plant kernel integrates
     mechanism: Any  # its tasks.mechanism.Mechanism: the load mapping, measured view and geometry
     name: str
     preview_steps: int
@@ -66,6 +65,12 @@ class Task:
     def reward(self):
         """The task's reward declaration (:class:`~cepam_gym.tasks.reward.Reward`)."""
         return self.spec.reward
+
+    @property
+    def mech(self) -> int:
+        """The mechanics the plant kernel integrates (:data:`cepam_gym.plant.RIG` or ``HINGE``):
+        the mechanism's code."""
+        return self.mechanism.code
 
     @property
     def terminations(self) -> tuple:

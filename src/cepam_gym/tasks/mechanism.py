@@ -66,7 +66,7 @@ class Mechanism:
         return np.maximum(load, p[ix.M_END] * p[ix.GRAV])
 
 
-RIG = Mechanism()
+RIG_MECHANISM = Mechanism()
 
 
 @dataclass(frozen=True)
