@@ -14,13 +14,15 @@ cores, or as Ray tasks. A cell a learner cannot run is left out and said so (:da
 
 Each run's final model is scored on the suite's own episodes and on ``--unseen-episodes`` of an
 unseen seed, beside the baseline, the MPC and the oracle on the same episodes
-(:mod:`agents.grid.report`). Written to ``--docs``: the page ``reference.md`` (per cell the
-interquartile mean over seeds with its 95 % stratified-bootstrap interval, Agarwal et al. 2021,
-and the grid's measured time) and, in ``reference/``, ``reference.json`` (every run: its config,
-seed, budget, wall time, env-steps, scores and evaluation curve, with the package version, the
-commit and the machine) and one figure per id (the best score so far against wall time and
-against env-steps). Trained runs are kept in ``--out``: a second call trains
-only what is missing.
+(:mod:`agents.grid.report`); the baseline's and the oracle's scores are the stored references where
+those were measured on the same episodes (the defaults: ``cepam-gym bench --update-references
+[--unseen]``), so a grid does not re-run the oracle. Written to ``--docs``: the page
+``reference.md`` (per cell the interquartile mean over seeds with its 95 % stratified-bootstrap
+interval, Agarwal et al. 2021, and the grid's measured time) and, in ``reference/``,
+``reference.json`` (every run: its config, seed, budget, wall time, env-steps, scores and evaluation
+curve, with the package version, the commit and the machine) and one figure per id (the best score
+so far against wall time and against env-steps). Trained runs are kept in ``--out``: a second call
+trains only what is missing.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import time
 from pathlib import Path
 
 from cepam_gym import versions
+from cepam_gym.bench.references import UNSEEN_EPISODES, UNSEEN_SEED
 from cepam_gym.cli_errors import CommandParser
 
 from .config.files import ConfigError, dump_config
@@ -108,8 +111,10 @@ def _parser() -> CommandParser:
         metavar="ADDRESS",
         help=RAY_HELP,
     )
-    ap.add_argument("--unseen-seed", type=int, default=99000, help="the episodes no suite uses")
-    ap.add_argument("--unseen-episodes", type=int, default=50, help="episodes of the unseen seed")
+    ap.add_argument("--unseen-seed", type=int, default=UNSEEN_SEED, help="the episodes no suite uses")
+    ap.add_argument(
+        "--unseen-episodes", type=int, default=UNSEEN_EPISODES, help="episodes of the unseen seed"
+    )
     ap.add_argument(
         "--suite-episodes", type=int, default=None, help="episodes of the suite (default: its own)"
     )

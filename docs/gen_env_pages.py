@@ -391,7 +391,11 @@ def reference_tables() -> str:
     from cepam_gym.bench.headline import headline_score
     from cepam_gym.bench.suites import SUITES
 
-    refs = json.loads((ROOT / "src/cepam_gym/data/reference_scores.json").read_text())
+    data = ROOT / "src/cepam_gym/data"
+    # the suites' own episodes, then the unseen seed's (the reference grid's second episode set)
+    tables = [
+        json.loads((data / name).read_text()) for name in ("reference_scores.json", "unseen_references.json")
+    ]
 
     def version_of(suite: str) -> int:  # a stored suite no longer defined goes first
         return versions.get(SUITES[suite].env_id).version if suite in SUITES else -1
@@ -404,6 +408,7 @@ def reference_tables() -> str:
         f"| {r['oracle']:.4f} | "
         + (f"{headline_score(r['zero'], r['baseline'], r['oracle']):.0f}" if "baseline" in r else "-")
         + f" | {cell(r, 'zero_return', '.1f')} | {cell(r, 'oracle_return', '.1f')} |"
+        for refs in tables
         for suite, r in sorted(refs.items(), key=lambda kv: (version_of(kv[0]), kv[0]))
     ]
     head = (

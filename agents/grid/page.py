@@ -84,7 +84,9 @@ Each run is scored on its suite's episodes and on {unseen} episodes of an unseen
 stratified-bootstrap interval (Agarwal et al. 2021), its headline in brackets (the share of the
 baseline-to-oracle gap closed on the same episodes; the joint's oracle is not run, so its cells
 are raw scores). The controllers' rows are their scores on
-the same episodes; the MPCs run on the suite's episodes only. Lower scores are better. A
+the same episodes (the baseline's and the oracle's are the stored references where those were
+measured on the same episodes, `cepam-gym bench --update-references [--unseen]`); the MPCs run on
+the suite's episodes only. Lower scores are better. A
 student's env-steps are its teacher's labels. What every run did (its
 config, seed, budget, env-steps, scores, evaluation curve, package version, commit and machine):
 [`reference/reference.json`](reference/reference.json). Measured with cepam-gym {version} at

@@ -118,3 +118,26 @@ def test_bad_input_is_named(argv, capsys):
     assert e.value.code == 2
     err = capsys.readouterr().err
     assert argv[0] in err or argv[1] in err  # the option or the value named
+
+
+def test_the_grid_reads_the_stored_references_on_their_own_episodes_only(tmp_path):
+    """The baseline's and the oracle's scores on the suite's episodes and on the unseen seed's are
+    stored once per release (``cepam-gym bench --update-references [--unseen]``) for every cell
+    whose oracle the grid runs; the grid reads them there and measures everything else."""
+    from cepam_gym.bench import references
+    from cepam_gym_agents.grid.cells import recommended_ids, suite_of
+    from cepam_gym_agents.grid.report import Scores, controllers_of, stored
+
+    unseen = (references.UNSEEN_SEED, references.UNSEEN_EPISODES)
+    rig = [suite_of(i) for i in recommended_ids() if "oracle" in controllers_of(i, "unseen")]
+    assert rig and set(rig) <= set(references.load("unseen"))
+    for suite in rig:
+        own, other = references.load()[suite], references.load("unseen")[suite]
+        assert (other["seed"], other["episodes"]) == unseen
+        for c in ("baseline", "oracle"):
+            assert stored(c, suite, None, None) == own[c] and stored(c, suite, *unseen) == other[c]
+        assert stored("oracle", suite, unseen[0], 2) is None  # other episodes: measured
+        assert stored("mpc", suite, None, None) is None  # only the stored controllers
+    scores = Scores(tmp_path, {"suite": (None, None), "unseen": unseen})
+    assert scores.get("oracle", rig[0], "unseen") == references.load("unseen")[rig[0]]["oracle"]
+    assert not (tmp_path / "reference_scores.json").exists()  # read, not measured

@@ -93,27 +93,31 @@ def test_iqm_over_seeds_with_rliable():
 # controller and the baseline run the whole suite (seconds); the oracle (most of the cost) its
 # stored check episodes, which move with the full score; CEPAM_ALL_REFERENCES=1 re-runs it all.
 @pytest.mark.slow
-@pytest.mark.parametrize("name", sorted(references.load()))
-def test_stored_references_are_current(name):
+@pytest.mark.parametrize(
+    ("table", "name"), [(t, n) for t in references.FILES for n in sorted(references.load(t))]
+)
+def test_stored_references_are_current(table, name):
     import os
 
-    from cepam_gym.bench.harness import oracle_check, run_suite
+    from cepam_gym.bench.harness import oracle_check, run_suite, seeded
 
-    stored = references.load()[name]
+    stored = references.load(table)[name]
+    seed = None if table == "suite" else stored["seed"]
+    episodes = None if table == "suite" else stored["episodes"]
     if os.environ.get("CEPAM_ALL_REFERENCES") == "1":
-        now = measure_references(name)
+        now = measure_references(name, episodes, seed)
         assert now["oracle"] == pytest.approx(stored["oracle"], rel=0.02), name
         assert now["oracle_return"] == pytest.approx(stored["oracle_return"], rel=0.02), name
     else:
-        zero, _ = run_suite("zero", name)
-        baseline, _ = run_suite("baseline", name)
+        zero, _ = run_suite("zero", seeded(name, seed), episodes)
+        baseline, _ = run_suite("baseline", seeded(name, seed), episodes)
         now = {
-            "seed": SUITES[name].seed,
+            "seed": seeded(name, seed).seed,
             "episodes": zero["episodes"],
             "zero": zero["score"],
             "baseline": baseline["score"],
             "zero_return": zero["mean_return"],
-            "oracle_check": oracle_check(name),
+            "oracle_check": oracle_check(name, seed),
         }
     assert now["episodes"] == stored["episodes"] and now["seed"] == stored["seed"]
     for end in ("zero", "baseline", "zero_return"):
@@ -138,3 +142,22 @@ def test_every_stored_entry_has_an_oracle_check_and_the_headline_suites_both_min
         assert "zero_return" in entry, name
         if name in headline:
             assert "oracle_return" in entry, name
+
+
+def test_the_unseen_table_is_measured_on_the_unseen_seeds_episodes(capsys):
+    table = references.load("unseen")
+    assert table, "cepam-gym bench --update-references --unseen writes it"
+    for name, entry in table.items():
+        assert (entry["seed"], entry["episodes"]) == (references.UNSEEN_SEED, references.UNSEEN_EPISODES)
+        assert entry["seed"] not in {s.seed for s in SUITES.values()}  # no suite's episodes
+        assert references.stored_entry(name, entry["episodes"], entry["seed"]) == entry
+        assert references.stored_ends(name, entry["episodes"], entry["seed"]) == (
+            entry["zero"],
+            entry["oracle"],
+        )
+        assert entry["oracle"] < entry["baseline"] < entry["zero"], name
+    with pytest.raises(SystemExit):
+        main(["--unseen"])
+    assert "--unseen goes with --update-references" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="no reference table 'unknown'"):
+        references.load("unknown")

@@ -246,6 +246,12 @@ def main(argv: list[str] | None = None) -> int:
         help="re-measure the zero controller, the baseline and the oracle on the suites (default "
         "episodes) and store them as the ends of the headline and the normalized score",
     )
+    ap.add_argument(
+        "--unseen",
+        action="store_true",
+        help="with --update-references: measure them on the unseen seed's episodes instead (those "
+        "the reference grid scores every run on a second time) and store them in their own table",
+    )
     args = ap.parse_args(argv)
     controllers = args.controller or ["baseline"]
     for c in controllers:
@@ -259,18 +265,23 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown suite(s) {bad}; choose from {list(SUITES)} or 'all'")
     if args.episodes is not None and args.episodes < 1:
         ap.error("--episodes must be >= 1")
+    if args.unseen and not args.update_references:
+        ap.error("--unseen goes with --update-references")
     if args.update_references:
         if args.episodes is not None:
             ap.error("--update-references measures at each suite's default episodes: drop --episodes")
         import time
 
         from .harness import measure_references
-        from .references import store
+        from .references import UNSEEN_EPISODES, UNSEEN_SEED, store
 
+        episodes, seed, table = (
+            (UNSEEN_EPISODES, UNSEEN_SEED, "unseen") if args.unseen else (None, None, "suite")
+        )
         for s in suites:
             if _oracle_drives(s):
                 t = time.perf_counter()
-                store({s: (entry := measure_references(s))})
+                store({s: (entry := measure_references(s, episodes, seed))}, table)
                 print(
                     f"{s}: zero {entry['zero']:.6g}, baseline {entry['baseline']:.6g}, oracle "
                     f"{entry['oracle']:.6g} ({time.perf_counter() - t:.0f} s)",

@@ -127,12 +127,21 @@ CHECK_STEPS = 150
 CHECK_EPISODES = 3
 
 
-def measure_references(name: str, episodes: int | None = None) -> dict:
-    """The zero controller's, the baseline's and the oracle's scores on suite ``name``, the zero
-    controller's and the oracle's mean episode returns, and the oracle's check
-    (``oracle_check``: :func:`oracle_check`): an entry of the stored
-    references (:mod:`cepam_gym.bench.references`) with the episodes it was measured on."""
+def seeded(name: str, seed: int | None = None) -> Suite:
+    """Suite ``name``, its episodes drawn from ``seed`` instead of its own (None: its own)."""
+    import dataclasses
+
     suite = SUITES[name]
+    return suite if seed is None else dataclasses.replace(suite, seed=seed)
+
+
+def measure_references(name: str, episodes: int | None = None, seed: int | None = None) -> dict:
+    """The zero controller's, the baseline's and the oracle's scores on suite ``name`` (its
+    episodes drawn from ``seed``, default its own), the zero controller's and the oracle's mean
+    episode returns, and the oracle's check (``oracle_check``: :func:`oracle_check`): an entry of
+    the stored references (:mod:`cepam_gym.bench.references`) with the episodes it was measured
+    on."""
+    suite = seeded(name, seed)
     zero, _ = run_suite("zero", suite, episodes)
     baseline, _ = run_suite("baseline", suite, episodes)
     oracle, _ = run_suite("oracle", suite, episodes)
@@ -144,15 +153,16 @@ def measure_references(name: str, episodes: int | None = None) -> dict:
         "oracle": oracle["score"],
         "zero_return": zero["mean_return"],
         "oracle_return": oracle["mean_return"],
-        "oracle_check": oracle_check(name),
+        "oracle_check": oracle_check(name, seed),
     }
 
 
-def oracle_check(name: str) -> dict:
+def oracle_check(name: str, seed: int | None = None) -> dict:
     """The oracle on the first :data:`CHECK_STEPS` control steps of the first
-    :data:`CHECK_EPISODES` episodes of suite ``name`` (``{"episodes", "steps", "score",
-    "mean_return"}``): what ``measure_references`` stores and the test suite re-runs."""
-    suite = SUITES[name]
+    :data:`CHECK_EPISODES` episodes of suite ``name`` (drawn from ``seed``, default its own;
+    ``{"episodes", "steps", "score", "mean_return"}``): what ``measure_references`` stores and
+    the test suite re-runs."""
+    suite = seeded(name, seed)
     tr, track_k = record(
         lambda venv: make_controller("oracle", venv),
         suite.env_id,
