@@ -207,7 +207,9 @@ def test_without_stored_reference_returns_the_dataset_has_no_minari_ends_and_say
 
     table = references.load()
     entry = {k: v for k, v in table[NOMINAL].items() if not k.endswith("_return")}
-    monkeypatch.setattr(references, "load", lambda: {**table, NOMINAL: entry})
+    # the suites' table without the returns; the unseen seed's table empty
+    tables = {"suite": {**table, NOMINAL: entry}}
+    monkeypatch.setattr(references, "load", lambda name="suite": tables.get(name, {}))
     assert (
         cli_main(
             ["dataset", "--suite", NOMINAL, "--controller", "zero", "--episodes", "1", "--max-steps", "3"]
