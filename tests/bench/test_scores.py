@@ -161,3 +161,21 @@ def test_the_unseen_table_is_measured_on_the_unseen_seeds_episodes(capsys):
     assert "--unseen goes with --update-references" in capsys.readouterr().err
     with pytest.raises(ValueError, match="no reference table 'unknown'"):
         references.load("unknown")
+
+
+def test_update_unseen_regenerates_exactly_the_unseen_tables_suites(monkeypatch):
+    from cepam_gym.bench import harness
+
+    measured, stored = [], []
+    monkeypatch.setattr(
+        harness,
+        "measure_references",
+        lambda name, episodes, seed: (
+            measured.append((name, episodes, seed)) or {"zero": 1.0, "baseline": 0.5, "oracle": 0.1}
+        ),
+    )
+    monkeypatch.setattr(references, "store", lambda entries, table: stored.append((sorted(entries), table)))
+    assert main(["--update-references", "--unseen"]) == 0
+    unseen = (references.UNSEEN_EPISODES, references.UNSEEN_SEED)
+    assert measured == [(n, *unseen) for n in sorted(references.load("unseen"))]
+    assert stored == [([n], "unseen") for n in sorted(references.load("unseen"))]

@@ -250,13 +250,18 @@ def main(argv: list[str] | None = None) -> int:
         "--unseen",
         action="store_true",
         help="with --update-references: measure them on the unseen seed's episodes instead (those "
-        "the reference grid scores every run on a second time) and store them in their own table",
+        "the reference grid scores every run on a second time) and store them in their own table "
+        "(default: the suites that table holds)",
     )
     args = ap.parse_args(argv)
     controllers = args.controller or ["baseline"]
     for c in controllers:
         check_controller_spec(c)  # before any work; the CLI prints its ValueError as one line
     suites = args.suite or default_suites(controllers, args.env_id)
+    if args.unseen and not args.suite:  # regenerate the unseen table's own suites, not every suite
+        from .references import load
+
+        suites = sorted(load("unseen"))
     if "all" in suites:  # every suite whose extra is installed (the joint suite needs mujoco)
         suites = [s for s in SUITES if available(s)]
     suites = list(dict.fromkeys(n for s in suites for n in expand_version(s)))
