@@ -8,7 +8,7 @@ RAY_VENV ?= .venv-ray
 RAY_PY := $(RAY_VENV)/bin/python
 TORCH := torch==2.13.0
 
-.PHONY: install install-distributed run test test-fast lint docs bench lock clean
+.PHONY: install install-distributed run test test-all test-fast lint docs bench lock clean
 
 install: $(VENV)/.installed
 
@@ -45,9 +45,17 @@ run: install  ## the main job on the default config
 	$(PY) -m cepam_gym.cli run
 
 # every test on every core (pytest-xdist; --dist worksteal keeps both cores busy behind the long
-# tests); the strict docs build is one of them (tests/project/test_docs.py); the RLlib tests,
-# skipped in .venv, run again in .venv-ray
+# tests) but the previous versions' re-measurements (marked previous_versions: the oracle's
+# stored figures and firmness on versions the goldens pin; test-all runs them too); the strict docs
+# build is one of them (tests/project/test_docs.py); the RLlib tests, skipped in .venv, run again
+# in .venv-ray
 test: install install-distributed
+	$(PY) -m pytest -q -n auto --dist worksteal -m "not previous_versions"
+	$(RAY_PY) -m pytest -q tests/integrations/test_rllib.py tests/integrations/test_ray_grid.py
+
+# what test runs and the previous versions' re-measurements: before a release, and after a change
+# of the oracle, the planner or a previous version's plant
+test-all: install install-distributed
 	$(PY) -m pytest -q -n auto --dist worksteal
 	$(RAY_PY) -m pytest -q tests/integrations/test_rllib.py tests/integrations/test_ray_grid.py
 

@@ -55,17 +55,18 @@ def test_a_cell_config_is_the_shipped_one_on_its_ids_suite(learner):
 
 @pytest.mark.slow
 def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch, capsys):
+    from cepam_gym.bench import references
     from cepam_gym_agents.grid import report as reference_report
     from cepam_gym_agents.grid.report import _score
     from cepam_gym_agents.reference import main
 
-    # the MPCs' planning would be most of the test's time; the headline needs these two
+    # the MPCs' planning would be most of the test's time; the headline needs these two, read
+    # from the stored references on the grid's own episodes (the suite's 20, the unseen seed's 50)
     monkeypatch.setitem(reference_report.CONTROLLERS, "rig", ("baseline", "oracle"))
 
     out, docs = tmp_path / "runs", tmp_path / "docs"
     args = ["--learners", "PPO", "--ids", "CEPAMLength-v3", "--seeds", "1", "--minutes", "0.03"]
-    args += ["--unseen-episodes", "2", "--suite-episodes", "2", "--jobs", "2"]  # scored by 2 processes
-    args += ["--out", str(out), "--docs", str(docs)]
+    args += ["--jobs", "2", "--out", str(out), "--docs", str(docs)]  # scored by 2 processes
     assert main(args) == 0
     results = json.loads((docs / "reference" / "reference.json").read_text())
     (row,) = results["runs"]
@@ -80,9 +81,13 @@ def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch, capsy
     assert row["cepam_gym"] and "commit" in row and row["resolved_config"]["env"]["id"] == row["env_id"]
     # the run's score is what the benchmark gives its directory on the same episodes
     run = out / "PPO" / "CEPAMLength-v3" / "seed0"
-    assert row["scores"]["unseen"] == pytest.approx(_score(str(run), "length-v3", 99000, 2), rel=1e-9)
+    assert row["scores"]["unseen"] == pytest.approx(_score(str(run), "length-v3", 99000, 50), rel=1e-9)
     marks = results["controllers"]["length-v3"]
     assert set(marks) == {"suite", "unseen"} and set(marks["suite"]) == {"baseline", "oracle"}
+    for where, table in (("suite", "suite"), ("unseen", "unseen")):
+        for controller in ("baseline", "oracle"):
+            stored = references.load(table)["length-v3"][controller]
+            assert marks[where][controller] == pytest.approx(stored, rel=1e-12), (where, controller)
     assert marks["suite"]["oracle"] < marks["suite"]["baseline"]
     page = (docs / "reference.md").read_text()
     assert "| CEPAMLength-v3 (length-v3) | PPO | 1 |" in page and "*oracle*" in page
@@ -98,7 +103,7 @@ def test_a_tiny_grid_is_trained_scored_and_reported(tmp_path, monkeypatch, capsy
     assert again["runs"][0]["scores"] == row["scores"] and again["command"] == results["command"]
     assert "--out" not in results["command"] and "--minutes 0.03" in results["command"]
     cached = json.loads((out / "reference_scores.json").read_text())
-    assert len(cached) == 2 + 2 * 2  # the run and the two controllers on each set: none twice
+    assert len(cached) == 2  # the run on each set, once; the controllers' scores are the stored ones
     # runs of another budget are not mixed into a cell, and nothing is written
     config = (out / "configs" / "PPO-CEPAMLength-v3.yaml").read_text()
     with pytest.raises(SystemExit) as e:

@@ -135,13 +135,16 @@ def _score(make, name: str, episodes: int, seed: int | None = None, max_steps: i
 FIRM_STEPS = 200
 
 
+# the rig's suites on plant v1 are marked previous_versions (make test-all): the recommended
+# version's plant (v2) runs under the same shipped settings (its convergence check:
+# docs/benchmark.md); joint-v1 stays, the one check of the hinge's oracle
+_PLANT_V1 = pytest.mark.previous_versions
 FIRM_SUITES = (
-    "nominal-v1",
-    "length-v1",
-    "stiffness-at-fixed-length-v1",
-    "randomized-v1",
+    pytest.param("nominal-v1", marks=_PLANT_V1),
+    pytest.param("length-v1", marks=_PLANT_V1),
+    pytest.param("stiffness-at-fixed-length-v1", marks=_PLANT_V1),
+    pytest.param("randomized-v1", marks=_PLANT_V1),
     "joint-v1",
-    # plant v2 under the same shipped settings (its convergence check: docs/benchmark.md)
     "nominal-v2",
     "randomized-v2",
 )
