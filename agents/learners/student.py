@@ -125,11 +125,21 @@ class Student:
         return np.clip(a * self.scale, -1.0, 1.0).astype(np.float32)
 
 
-def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None, beta: float = 1.0):
+def collect(
+    cfg: TrainConfig,
+    suite: str,
+    num_envs: int,
+    seed: int,
+    student=None,
+    beta: float = 1.0,
+    deadline: float | None = None,
+):
     """One episode in each of ``num_envs`` envs of ``suite``'s plant: the features the student saw
     (T*N, dim) and the teacher's actions (T*N, 2) (with ``agent.residual``: what the teacher adds
     to the base controller, over ``residual_scale``). ``student``: a callable of features that
-    drives (the teacher every step with probability ``beta``); None: the teacher drives."""
+    drives (the teacher every step with probability ``beta``); None: the teacher drives.
+    ``deadline`` (``time.perf_counter()``): the episodes stop at the first step past it, so a
+    round never outlasts the run's time limit (the rows so far are labels like any other)."""
     import gymnasium as gym
 
     from cepam_gym.bench.suites import SUITES
@@ -162,6 +172,8 @@ def collect(cfg: TrainConfig, suite: str, num_envs: int, seed: int, student=None
                 act = np.where((rng.random(num_envs) < beta)[:, None], label, own)
             obs, _r, term, trunc, info = venv.step(act)
             if (term | trunc).any():  # a burst bladder ends an episode early: its rows stop here
+                break
+            if deadline is not None and time.perf_counter() > deadline:
                 break
         return np.concatenate(xs), np.concatenate(ys)
     finally:
@@ -277,17 +289,24 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
     ys: list = []
     actor = mean = std = scale = None
     rounds, stopped = [], False
+    limit = cfg.time_limit_minutes
+    # the time limit holds inside a round too: its episodes stop there, the round is fitted on
+    # the labels so far, and the run ends (a grid's cells keep the same budget on any machine)
+    deadline = None if limit is None else t0 + 60 * limit
     for it in range(st.iterations):
         tr = time.perf_counter()
         student = None if actor is None else Student(actor, mean, std, scale)
         for k, (suite, n) in enumerate(sorted(st.suites.items())):
+            if deadline is not None and xs and time.perf_counter() > deadline:
+                break  # the suites left of this round: past the limit
             # episodes of the run's own seed, a new one per round and suite (never the suites')
             seed = 1_000_003 * (cfg.seed + 1) + 101 * it + k
-            x, y = collect(cfg, suite, n, seed, student, st.beta)
+            x, y = collect(cfg, suite, n, seed, student, st.beta, deadline)
             xs.append(x)
             ys.append(y)
         x, y = np.concatenate(xs), np.concatenate(ys)
         labels_s = time.perf_counter() - tr
+        late = deadline is not None and time.perf_counter() > deadline  # its episodes stopped at the limit
         if actor is None:  # statistics of the teacher's states, frozen like a deployed normalizer
             mean, std = x.mean(0), x.std(0) + 1e-3
             scale = y.std(0) + 1e-6
@@ -312,14 +331,14 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
                 "loss": loss,
                 "seconds": round(time.perf_counter() - tr, 1),
                 "labels_s": round(labels_s, 1),  # the teacher's labels (and the student's driving)
+                "past_time_limit": late,
             }
         )
         say(f"round {it}: {len(x)} labels, scaled loss {loss:.3f}, {rounds[-1]['seconds']} s")
         record.write("running", 0, rounds=rounds)
-        limit = cfg.time_limit_minutes
-        if limit is not None and it + 1 < st.iterations and time.perf_counter() - t0 > 60 * limit:
+        if late or (deadline is not None and it + 1 < st.iterations and time.perf_counter() > deadline):
             stopped = True
-            say(f"stopped by the time limit ({limit} min) after {it + 1} of {st.iterations} rounds")
+            say(f"stopped by the time limit ({limit} min) in round {it + 1} of {st.iterations}")
             break
     model, vecnorm = as_ppo(cfg, actor, mean, std, scale, cfg.seed)
     save_model(run, "final", model, vecnorm)

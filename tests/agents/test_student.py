@@ -83,6 +83,29 @@ def test_teacher_options_reach_the_teachers_search():
     assert x.shape[0] == y.shape[0] > 0 and np.isfinite(y).all()
 
 
+def test_the_time_limit_holds_inside_a_round(tmp_path):
+    """A round's episodes stop at the run's time limit: the round is fitted on the labels so far
+    and the run ends there, stopped by the limit (so a grid's cells keep one budget on any
+    machine, and a config's minutes bound its run)."""
+    import json
+    import time
+
+    from cepam_gym_agents.config.files import dump_config
+    from cepam_gym_agents.learners.student import collect, train_student
+
+    cfg = _cfg(teacher="baseline", iterations=3)
+    x, _ = collect(cfg, "nominal-v1", 2, seed=3, deadline=time.perf_counter())
+    assert len(x) == 2  # one step of each env: the first step past the deadline is the last
+    full, _ = collect(cfg, "nominal-v1", 2, seed=3)
+    assert len(full) > 100 * 2
+    cfg = cfg.replace(time_limit_minutes=1e-6)
+    dump_config(cfg, tmp_path / "config.yaml")
+    assert train_student(cfg, tmp_path, quiet=True) == 0
+    (only,) = json.loads((tmp_path / "summary.json").read_text())["rounds"]
+    assert only["labels"] == 2 and only["past_time_limit"]
+    assert json.loads((tmp_path / "run.json").read_text())["status"] == "stopped_by_time_limit"
+
+
 def test_saved_student_acts_as_the_fitted_actor(tmp_path):
     """The PPO model written for the student reproduces the fitted actor's actions exactly
     (layers copied, the action scale folded into the head, VecNormalize's statistics)."""
