@@ -30,8 +30,11 @@ RAY_EXTRAS := train,test,distributed
 LOCK := requirements/constraints.txt
 RAY_LOCK := requirements/constraints-ray.txt
 
+# then numba's cache of the kernels (python -m cepam_gym.precompile; minutes on 2 cores, once): the
+# main job, every test process and the first env start from machine code
 $(VENV)/.installed: pyproject.toml $(LOCK)
 	$(call venv,$(VENV),$(MAIN_EXTRAS),$(LOCK))
+	$(PY) -m cepam_gym.precompile
 
 $(RAY_VENV)/.installed: pyproject.toml $(RAY_LOCK)
 	$(call venv,$(RAY_VENV),$(RAY_EXTRAS),$(RAY_LOCK))
