@@ -276,7 +276,7 @@ ROOT_FOUNDATION = {
     "_cli_errors",
     "progress",
 }
-ROOT_TOP = {"cli", "demo", "video", "rllib"}
+ROOT_TOP = {"cli", "demo", "video", "rllib", "precompile"}
 LAYERS = ["foundation", *FOLDER_LAYERS, "top"]
 # the package's face (``cepam_gym/__init__``: the PlantParams re-export and the registration)
 FACE = PKG
