@@ -2,9 +2,8 @@
 
 The kernels are compiled on first use and kept beside the sources (``cache=True``,
 :mod:`cepam_gym._jit`); the first process of a fresh install pays for it (minutes on 2 cores).
-``make install`` runs this once, so the main job, the tests (each pytest-xdist worker and each
-command a test starts would otherwise compile the same kernels) and a user's first env start
-from machine code. A process that finds the cache current takes a few seconds.
+``make install`` (and so ``make run``) runs this once, so the main job and a user's first env
+start from machine code. A process that finds the cache current takes a few seconds.
 
 What it drives, a few steps each: the rig's env (batched, few and many envs, and single), the
 baseline, the MPC, the adaptive MPC and the oracle on it, and the hinge's env, baseline and oracle.
