@@ -8,7 +8,7 @@ training seeds, in the manner of RL Zoo3's benchmark and Open RL Benchmark (Huan
 A cell is a learner (a shipped config, :data:`LEARNERS`) on one id of the recommended version,
 trained and scored on that id's first headline suite: the config with the env id, the suite, the
 seed and the wall-time budget set here: the same for every learner (``--minutes``, 2 by default;
-a student stops at the first DAgger round past it), or each config's own (``--minutes 0``). Every trial is one
+a student's round stops there too), or each config's own (``--minutes 0``). Every trial is one
 ``cepam-gym train`` command (:mod:`agents.grid.trials`): ``--jobs`` at a time on this machine, sharing its
 cores, or as Ray tasks. A cell a learner cannot run is left out and said so (:data:`SKIPPED`).
 
