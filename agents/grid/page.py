@@ -90,7 +90,8 @@ the suite's episodes only. Lower scores are better. A
 student's env-steps are its teacher's labels. What every run did (its
 config, seed, budget, env-steps, scores, evaluation curve, package version, commit and machine):
 [`reference/reference.json`](reference/reference.json). Measured with cepam-gym {version} at
-commit {commit} on {machine}.
+commit {commit} on {machine}. The budget is wall time, so a run's env-steps, and its
+scores, follow the machine's speed: the CPU in brackets is the one numba compiled the kernels for.
 
 {table}
 The best score so far (the periodic evaluations' episodes; interquartile mean over seeds) against
@@ -109,7 +110,8 @@ def page(rows: list[dict], table_md: str, figures: list[Path], meta: dict) -> st
     skipped = "; ".join(f"{a} is not run on the {m} ids ({why})" for (a, m), why in SKIPPED.items())
     return PAGE.format(
         seeds=max(len({r["seed"] for r in rows if r["learner"] == a}) for a in {r["learner"] for r in rows}),
-        grid_time=f"the trainings took {_duration(t['train'])}, the scoring {_duration(t['score'])}"
+        grid_time=f"{_duration(t['train'] + t['score'])} in all: the trainings took {_duration(t['train'])}, "
+        f"the scoring {_duration(t['score'])}"
         if t["train"]
         else f"the trainings' time not recorded, the scoring {_duration(t['score'])}",
         command=meta["command"],
