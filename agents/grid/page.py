@@ -91,7 +91,7 @@ student's env-steps are its teacher's labels. What every run did (its
 config, seed, budget, env-steps, scores, evaluation curve, package version, commit and machine):
 [`reference/reference.json`](reference/reference.json). Measured with cepam-gym {version} at
 commit {commit} on {machine}. The budget is wall time, so a run's env-steps, and its
-scores, follow the machine's speed: the CPU in brackets is the one numba compiled the kernels for.
+scores, follow the machine's speed: the CPU in brackets is the one numba compiled the runs' kernels for.
 
 {table}
 The best score so far (the periodic evaluations' episodes; interquartile mean over seeds) against
@@ -107,6 +107,7 @@ def page(rows: list[dict], table_md: str, figures: list[Path], meta: dict) -> st
 
     commits = sorted({(r["commit"] or "unknown")[:7] + ("+dirty" if r["dirty"] else "") for r in rows})
     t = meta["seconds"]
+    cpus = sorted({r["machine"].get("cpu_llvm") for r in rows} - {None})  # the runs', not the report's
     skipped = "; ".join(f"{a} is not run on the {m} ids ({why})" for (a, m), why in SKIPPED.items())
     return PAGE.format(
         seeds=max(len({r["seed"] for r in rows if r["learner"] == a}) for a in {r["learner"] for r in rows}),
@@ -121,7 +122,7 @@ def page(rows: list[dict], table_md: str, figures: list[Path], meta: dict) -> st
         unseen_seed=meta["unseen_seed"],
         version=rows[0]["cepam_gym"],
         commit=", ".join(commits),
-        machine=meta["machine"],
+        machine=meta["machine"] + (f" ({', '.join(cpus)})" if cpus else ""),
         table=table_md + f"\n{skipped}.\n",
         figures="\n".join(f"![{p.stem}](reference/{p.name})" for p in figures),
     )

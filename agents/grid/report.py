@@ -297,16 +297,14 @@ def _meta(out: Path, args, scoring_s: float) -> dict:
     seconds = json.loads(path.read_text()) if path.is_file() else {"train": 0.0, "score": 0.0}
     seconds["score"] += scoring_s
     write_json(path, seconds)
-    details = {"platform": platform.platform(), "cpus": _cpus(), **machine()}
-    cpu = f" ({details['cpu_llvm']})" if details.get("cpu_llvm") else ""
     return {
         "command": seconds.get("command") or shown_command(args.argv),
         "jobs": (seconds.get("how") or "how the trainings ran not recorded") + ",",
         "seconds": {k: seconds.get(k, 0.0) for k in ("train", "score")},
         "unseen_seed": args.unseen_seed,
         "unseen_episodes": args.unseen_episodes,
-        "machine": f"{platform.platform()}, {_cpus()} cores{cpu}",
-        "machine_details": details,
+        "machine": f"{platform.platform()}, {_cpus()} cores",
+        "machine_details": {"platform": platform.platform(), "cpus": _cpus(), **machine()},
     }
 
 
