@@ -58,6 +58,7 @@ def _refusal(cfg, algorithm: str) -> str | None:
             ("target_shift", a.target_shift),
             ("baseline_in_obs", a.baseline_in_obs),
             ("setpoint_gaps_in_obs", a.setpoint_gaps_in_obs),
+            ("load_estimate_in_obs", a.load_estimate_in_obs),
         )
         if on
     ]

@@ -72,6 +72,10 @@ class AgentConfig:
       (:func:`cepam_gym.identify.window_identifier.plant_columns`). Training reads the true
       plant; deployed, the agent plays the window's excitation and is told its fit, so it runs
       only on envs with an identification window (``randomized-id-v2``).
+    * ``load_estimate_in_obs``: the adaptive MPC's filtered load estimate (an extended Kalman
+      filter on the end cap's equation of motion, sensors only) and the nominal model's set-point
+      gaps at that load are appended to each frame (:mod:`cepam_gym.policies.load_estimate`): what
+      ``adaptive_mpc`` knows that a few frames do not show. The rig's ids only.
 
     With neither ``target_shift`` nor ``residual`` the policy drives the valves directly."""
 
@@ -92,6 +96,7 @@ class AgentConfig:
     base_controller: str = "baseline"
     plant_features: bool = False
     start_at_base: bool = False
+    load_estimate_in_obs: bool = False
 
     @property
     def uses_baseline(self) -> bool:
@@ -117,6 +122,7 @@ class AgentConfig:
             _controller(d.get("base_controller", "baseline"), "agent.base_controller"),
             as_bool(d.get("plant_features", False), "agent.plant_features"),
             as_bool(d.get("start_at_base", False), "agent.start_at_base"),
+            as_bool(d.get("load_estimate_in_obs", False), "agent.load_estimate_in_obs"),
         )
         if out.start_at_base and not (out.residual or out.target_shift):
             raise ConfigError(
@@ -124,12 +130,12 @@ class AgentConfig:
                 "or a target shift has: set agent.residual or agent.target_shift, or drop agent.start_at_base"
             )
         if out.base_controller != "baseline" and (
-            out.target_shift or out.setpoint_gaps_in_obs or out.friction_observer
+            out.target_shift or out.setpoint_gaps_in_obs or out.friction_observer or out.load_estimate_in_obs
         ):
             raise ConfigError(
                 f"agent.base_controller {out.base_controller!r}: agent.target_shift, "
-                "agent.setpoint_gaps_in_obs and agent.friction_observer need the baseline's set-points; "
-                "drop them or use base_controller: baseline"
+                "agent.setpoint_gaps_in_obs, agent.load_estimate_in_obs and agent.friction_observer need "
+                "the baseline's set-points; drop them or use base_controller: baseline"
             )
         if out.friction_observer and not out.uses_baseline:
             raise ConfigError(

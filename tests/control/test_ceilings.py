@@ -121,3 +121,39 @@ def test_knowing_the_parameters_makes_the_mpc_better_on_randomized_plants():
     nominal, _ = run_suite("mpc", suite, episodes=4)
     assert known["stiffness_rmse_pct"] < 0.5 * nominal["stiffness_rmse_pct"]
     assert known["score"] < 0.6 * nominal["score"]
+
+
+@pytest.mark.slow
+def test_the_known_parameters_adaptive_mpc_is_the_adaptive_mpc_on_the_nominal_plant():
+    kw = {"env_id": "cepam_gym/CEPAM-v3"}
+    np.testing.assert_array_equal(
+        _actions("adaptive_mpc_known_params", {}, 30, **kw), _actions("adaptive_mpc", {}, 30, **kw)
+    )
+
+
+def test_the_known_parameters_adaptive_mpc_filters_and_plans_with_each_plants_true_row():
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym.errors import InputError
+
+    s = SUITES["randomized-v3"]
+    env = gym.make_vec(s.env_id, num_envs=3, **s.env_kwargs)
+    try:
+        with pytest.raises(InputError, match="keys must be empty"):
+            make_controller("adaptive_mpc_known_params", env, keys=["bladder_thickness_mm"])
+        ctrl = make_controller("adaptive_mpc_known_params", env, population=8, iterations=1)
+        obs, info = env.reset(seed=2)
+        ctrl.reset()
+        ctrl.act(obs, info)
+        true_rows = env.unwrapped.core.params
+        assert np.abs(true_rows - ctrl.params[None]).max() > 0  # the plants are randomized
+        np.testing.assert_array_equal(ctrl._rows, true_rows)
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+def test_knowing_the_parameters_makes_the_adaptive_mpc_better_on_randomized_plants():
+    suite = SUITES["randomized-v3"]
+    known, _ = run_suite("adaptive_mpc_known_params", suite, episodes=2, max_steps=200)
+    nominal, _ = run_suite("adaptive_mpc", suite, episodes=2, max_steps=200)
+    assert known["score"] < 0.6 * nominal["score"], (known["score"], nominal["score"])

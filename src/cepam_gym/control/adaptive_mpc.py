@@ -31,7 +31,8 @@ from ..errors import InputError
 from ..physics import api
 from ..physics import layout as ix
 from ..plant.params import PlantParams
-from .mpc import ModelPredictiveController
+from .baseline import rig_model_of
+from .mpc import KnownParamsMPC, ModelPredictiveController
 
 # parameters it can estimate -> (prior standard deviation, finite-difference step), in the key's
 # own units: a maker's tolerance, not the benchmark's randomization ranges
@@ -90,18 +91,19 @@ class AdaptiveMPC(ModelPredictiveController):
         self._x = np.full((n, 1 + k), np.nan)
         self._P = np.zeros((n, 1 + k, 1 + k))
         self._v_prev = np.full(n, np.nan)
-        self._rows = np.repeat(self.params[None], n, axis=0)
+        self._rows = np.array(np.broadcast_to(self.model_rows(n), (n, self.params.size)))
         self._age = np.zeros(n, dtype=np.int64)
 
-    def _start(self, fresh, L, pc, pe) -> None:
-        """Envs ``fresh`` (bool mask) start from the prior: the nominal parameters and the load that
-        balances the nominal force at the measured state."""
-        p = self.params
-        m0 = -api.force(L[fresh], pc[fresh], pe[fresh], p) / p[ix.GRAV] - p[ix.M_END]
+    def _start(self, fresh, base, L, pc, pe) -> None:
+        """Envs ``fresh`` (bool mask) start from the prior: their model's parameters (``base``, the
+        rows of :meth:`model_rows`: the nominal plant's) and the load that balances that model's
+        force at the measured state."""
+        b = base[fresh]
+        m0 = -api.force(L[fresh], pc[fresh], pe[fresh], b) / b[:, ix.GRAV] - b[:, ix.M_END]
         self._x[fresh, 0] = np.maximum(m0, 0.0)
         self._x[fresh, 1:] = self.theta0
         self._P[fresh] = np.diag(np.r_[LOAD_PRIOR_SD, self.prior_sd] ** 2)
-        self._rows[fresh] = p
+        self._rows[fresh] = b
         self._age[fresh] = 0
 
     def estimate(self, L, pc, pe, v) -> None:
@@ -109,9 +111,10 @@ class AdaptiveMPC(ModelPredictiveController):
         n = L.shape[0]
         if self._x is None or self._x.shape[0] != n:
             self._init(n)
+        base = np.broadcast_to(self.model_rows(n), (n, self.params.size))
         fresh = np.isnan(self._x[:, 0])
         if fresh.any():
-            self._start(fresh, L, pc, pe)
+            self._start(fresh, base, L, pc, pe)
         k = self.theta0.size
         a = np.where(np.isnan(self._v_prev), 0.0, (v - self._v_prev) / self.dt)
         self._v_prev = v.copy()
@@ -119,13 +122,12 @@ class AdaptiveMPC(ModelPredictiveController):
         q = np.r_[LOAD_WALK, THETA_WALK * self.prior_sd] ** 2
         self._P += np.diag(q)[None]
         # measurement: the force balance and its Jacobian
-        p = self.params
-        rows = p[None] + (self._x[:, 1:] - self.theta0) @ self.drow
-        m_tot = p[ix.M_END] + self._x[:, 0]
+        rows = base + (self._x[:, 1:] - self.theta0) @ self.drow
+        m_tot = base[:, ix.M_END] + self._x[:, 0]
         F = api.force(L, pc, pe, rows)
-        h = F + m_tot * (p[ix.GRAV] - a) - p[ix.DAMP] * v
+        h = F + m_tot * (base[:, ix.GRAV] - a) - base[:, ix.DAMP] * v
         H = np.empty((n, 1 + k))
-        H[:, 0] = p[ix.GRAV] - a
+        H[:, 0] = base[:, ix.GRAV] - a
         for j in range(k):
             H[:, 1 + j] = (api.force(L, pc, pe, rows + self.fd_steps[j] * self.drow[j]) - F) / self.fd_steps[
                 j
@@ -143,6 +145,8 @@ class AdaptiveMPC(ModelPredictiveController):
         due = (self._age % self.refresh_steps == 0) | fresh
         for i in np.flatnonzero(due) if self.keys else ():
             self._rows[i] = self._row(dict(zip(self.keys, self._x[i, 1:])))
+        if not self.keys:  # the model's rows themselves (a known-parameters model follows its env's plant)
+            self._rows[:] = base
 
     def act(self, obs, info=None) -> np.ndarray:
         single = np.ndim(obs) == 1
@@ -156,3 +160,23 @@ class AdaptiveMPC(ModelPredictiveController):
         load = np.repeat(self._x[:, :1], h, axis=1)
         a = self.planner.plan(x, self._rows, ref_l, ref_k, load).astype(np.float32)
         return a[0] if single else a
+
+
+class KnownParamsAdaptiveMPC(AdaptiveMPC):
+    """``adaptive_mpc`` given each env's true parameter row: its filter balances the true plant's
+    force and it plans through the true plant; the load and the state are still estimated from
+    the sensors. On the nominal plant it is ``adaptive_mpc``. Not a practical controller: the
+    teacher of a student told the plant (``agent.plant_features``), which it asks for nothing that
+    student is not told. Privileged: it reads the true rows of the env's model, as
+    :class:`~cepam_gym.control.mpc.KnownParamsMPC` does."""
+
+    model_rows = KnownParamsMPC.model_rows
+
+    def __init__(self, env, config=None, refresh_steps: int = 10, keys=(), **overrides):
+        if keys:
+            raise InputError(
+                f"adaptive_mpc_known_params is given the true parameters and estimates only the load: "
+                f"keys must be empty, got {list(keys)}"
+            )
+        self.model = rig_model_of(env)
+        super().__init__(env, config, refresh_steps, (), **overrides)

@@ -46,6 +46,8 @@ CONTROLLERS: dict[str, str | Callable[..., Any]] = {
     # without foresight of the load, and the MPC given each plant's true parameters
     "oracle_causal": "cepam_gym.control.oracle:CausalOracle",
     "mpc_known_params": "cepam_gym.control.mpc:KnownParamsMPC",
+    # adaptive_mpc given the true parameters: the teacher of a student told the plant
+    "adaptive_mpc_known_params": "cepam_gym.control.adaptive_mpc:KnownParamsAdaptiveMPC",
     # the MPC whose load estimate balances its friction elements too (tracked from the length)
     "mpc_friction": "cepam_gym.control.mpc:FrictionObserverMPC",
     # the same observer in the baseline's load estimate; mpc_friction given the true parameters

@@ -28,6 +28,7 @@ import numpy as np
 
 from cepam_gym.errors import InputError
 
+from .load_estimate import LoadEstimate
 from .spec import FeatureSpec
 
 _GAP_UNIT_PA = 1e5  # the set-point gaps' unit: 100 kPa, the order of the chambers' working range
@@ -79,9 +80,11 @@ class Features:
             + (2 if spec.baseline_in_obs else 0)
             + (2 if spec.setpoint_gaps_in_obs else 0)
             + (2 if spec.setpoint_gaps_in_obs and spec.plant_features else 0)
+            + (LoadEstimate.dim if spec.load_estimate_in_obs else 0)
             + self._shift_obs
             + self.raw_dim * len(spec.obs_filters_s)
         )
+        self.load_estimate = LoadEstimate(env, self.baseline) if spec.load_estimate_in_obs else None
         if spec.obs_filters_s:
             from cepam_gym.envs.model import model_of
 
@@ -151,6 +154,8 @@ class Features:
         """Forget the frames' state (history, filters, baseline) of all envs or of ``indices``."""
         if self.baseline is not None:
             self.baseline.reset(indices)
+        if self.load_estimate is not None:
+            self.load_estimate.reset(indices)
         if indices is None or self._fresh is None:
             self._hist = self._fresh = None
         else:
@@ -183,6 +188,8 @@ class Features:
             frame = np.concatenate([frame, gap], axis=1)
             if plant is not None:
                 frame = np.concatenate([frame, self._plant_gaps(obs)], axis=1)
+        if self.load_estimate is not None:
+            frame = np.concatenate([frame, self.load_estimate(obs)], axis=1)
         if self._shift_obs:
             state = (
                 np.zeros((obs.shape[0], self.n_shift))
@@ -315,6 +322,7 @@ class Features:
             self._plant_last,
             copy(self._plant_weight),
             self._plant_true,
+            None if self.load_estimate is None else self.load_estimate.get_state(),
         )
 
     def _restore(self, saved) -> None:
@@ -330,9 +338,12 @@ class Features:
             self._plant_last,
             self._plant_weight,
             self._plant_true,
+            load,
         ) = saved
         if self.baseline is not None:
             self.baseline.set_state(b)
+        if self.load_estimate is not None:
+            self.load_estimate.set_state(load)
 
     def action(self, a: np.ndarray, base: np.ndarray | None) -> np.ndarray:
         """The env action (N, 2) for the policy's action ``a`` (N, n_actions) on the observation

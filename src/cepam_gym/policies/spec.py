@@ -30,6 +30,8 @@ class FeatureSpec:
     * ``plant_features``: the plant's parameter columns follow the (stacked) frames, for the actor
       (with ``setpoint_gaps_in_obs``, each frame also holds the set-point gaps of the told plant's
       inverse static model after the nominal model's).
+    * ``load_estimate_in_obs``: the adaptive MPC's filtered load estimate [kg] and the nominal
+      model's set-point gaps at it are appended (:mod:`.load_estimate`; sensors only).
     * ``privileged_critic``: the privileged columns (:mod:`.privileged`) follow, for the critic
       only.
     """
@@ -48,8 +50,15 @@ class FeatureSpec:
     friction_observer: bool = False
     base_controller: str = "baseline"
     plant_features: bool = False
+    load_estimate_in_obs: bool = False
 
     @property
     def uses_baseline(self) -> bool:
         """Whether the inverse-model baseline (or ``base_controller``) runs beside the policy."""
-        return self.residual or self.baseline_in_obs or self.setpoint_gaps_in_obs or self.target_shift
+        return (
+            self.residual
+            or self.baseline_in_obs
+            or self.setpoint_gaps_in_obs
+            or self.load_estimate_in_obs
+            or self.target_shift
+        )
