@@ -29,9 +29,7 @@ import numpy as np
 from cepam_gym.errors import InputError
 
 from .load_estimate import LoadEstimate
-from .spec import FeatureSpec
-
-_GAP_UNIT_PA = 1e5  # the set-point gaps' unit: 100 kPa, the order of the chambers' working range
+from .spec import GAP_UNIT_PA, FeatureSpec
 
 
 def obs_batch(obs, obs_dim: int) -> tuple[np.ndarray, bool]:
@@ -184,7 +182,7 @@ class Features:
         base = self.baseline.act(obs) if (self.baseline is not None and not self.acts_late) else None
         frame = np.concatenate([obs, base], axis=1) if self.spec.baseline_in_obs else obs
         if self.spec.setpoint_gaps_in_obs:
-            gap = (self.baseline.last_gap / _GAP_UNIT_PA).astype(np.float32)
+            gap = (self.baseline.last_gap / GAP_UNIT_PA).astype(np.float32)
             frame = np.concatenate([frame, gap], axis=1)
             if plant is not None:
                 frame = np.concatenate([frame, self._plant_gaps(obs)], axis=1)
@@ -242,7 +240,7 @@ class Features:
         self._plant_weight = w = low_pass(w, w_now, b.alpha)  # the baseline's filter, the told plant
         weight = np.maximum(w, rows[:, ix.M_END] * rows[:, ix.GRAV])
         pc_set, pe_set = b.setpoints(L_t, K_t, weight, rows)
-        return (np.stack([pc_set - pc, pe_set - pe], axis=1) / _GAP_UNIT_PA).astype(np.float32)
+        return (np.stack([pc_set - pc, pe_set - pe], axis=1) / GAP_UNIT_PA).astype(np.float32)
 
     def _plant_rows(self, obs: np.ndarray) -> np.ndarray:
         """The plant's columns (N, plant_dim) for this step; deployed, steps the window's

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-_GAP_UNIT_PA = 1e5
+from .spec import GAP_UNIT_PA
 
 
 class LoadEstimate:
@@ -37,7 +37,7 @@ class LoadEstimate:
         load = f._x[:, 0]
         p = f.params
         pc_set, pe_set = self.baseline.setpoints(L_t, K_t, (p[ix.M_END] + load) * p[ix.GRAV])
-        gaps = np.stack([pc_set - pc, pe_set - pe], axis=1) / _GAP_UNIT_PA
+        gaps = np.stack([pc_set - pc, pe_set - pe], axis=1) / GAP_UNIT_PA
         return np.concatenate([load[:, None], gaps], axis=1).astype(np.float32)
 
     def reset(self, indices=None) -> None:

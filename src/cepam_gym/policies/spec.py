@@ -6,6 +6,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+# the set-point gaps' unit: 100 kPa, the order of the chambers' working range
+GAP_UNIT_PA = 1e5
+
 
 @dataclass(frozen=True)
 class FeatureSpec:
