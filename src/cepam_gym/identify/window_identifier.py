@@ -12,7 +12,9 @@ per env and from the sensors only:
 2. **at the window's end** it fits the plant to the log:
    :func:`cepam_gym.identify.window_fit.fit_window`, the project's output-error identification
    with the static parameters that carry the randomization's gap freed, the moving mass (the load
-   is not announced) and the valve, friction, volume and damping parameters.
+   is not announced) and the valve, friction, volume and damping parameters. A fit without a time
+   budget is remembered by its log and settings (:mod:`~cepam_gym.identify.fit_memo`): the next
+   controller on the same episode reuses it.
 
 Two controllers use it: ``identify_mpc`` (the MPC planning through the fitted plant) and a trained
 agent given the plant (``agent.plant_features``: :func:`plant_columns` of the fitted row). It reads
@@ -31,6 +33,7 @@ from ..physics import api
 from ..physics import layout as ix
 from ..plant.params import PlantParams
 from .excite import EXHAUST_S, schedule
+from .fit_memo import FITS, fit_key
 from .window_fit import FREE, fit_window, fit_window_staged, window_recording
 
 GUARD = 0.75  # vent a chamber measured above this fraction of the nominal burst pressure
@@ -144,17 +147,26 @@ class WindowIdentifier:
         return self.nominal.replace(end_mass=float(np.clip(hanging / self.params[ix.GRAV], 0.005, 0.4)))
 
     def _fit(self, i: int) -> None:
-        rec = window_recording(self._cmd[i], self._meas[i], self._supply[i], self.dt)
-        fit = (fit_window_staged if self.staged else fit_window)(
-            rec,
-            self.start_of(self._meas[i, 0]),
-            self.action_mode,
-            self.sub_dt,
-            self.free,
-            budget_s=self.budget_s,
-            max_nfev=self.max_nfev,
-            starts=self.starts,
-        )
+        start = self.start_of(self._meas[i, 0])
+        key = None
+        if self.budget_s is None:  # a timed fit depends on the machine: never remembered
+            how = (self.dt, self.action_mode, self.sub_dt, self.free, self.max_nfev, self.starts, self.staged)
+            key = fit_key(self._cmd[i], self._meas[i], self._supply[i], start.to_array(), how)
+        fit = None if key is None else FITS.get(key)
+        if fit is None:
+            rec = window_recording(self._cmd[i], self._meas[i], self._supply[i], self.dt)
+            fit = (fit_window_staged if self.staged else fit_window)(
+                rec,
+                start,
+                self.action_mode,
+                self.sub_dt,
+                self.free,
+                budget_s=self.budget_s,
+                max_nfev=self.max_nfev,
+                starts=self.starts,
+            )
+            if key is not None:
+                FITS.put(key, fit)
         row = fit.params.to_array()
         row[ix.M_END] = self.params[ix.M_END]
         self.rows[i] = row
