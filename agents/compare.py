@@ -11,8 +11,9 @@ Each config is trained once per seed (``cepam-gym train --config C --seed S``, i
 into ``--out/<config>-s<seed>``, then its final model is scored on each suite's own 20 episodes
 and on 20 episodes of an unseen seed (``--unseen-seed``; ``--unseen-episodes`` more of them, where 20
 episodes cannot separate two agents), beside the baseline and the oracle on
-the same episodes (and the MPCs on the suites' episodes; ``--suite`` and ``--controller`` choose
-others: then the controllers run on both episode sets).
+the same episodes (their stored references where measured on those episodes; and the MPCs on the
+suites' episodes; ``--suite`` and ``--controller`` choose others: then the controllers run on both
+episode sets; ``--no-unseen-oracle``: no oracle on unseen episodes it has no stored reference for).
 Per config and suite: the interquartile mean over seeds with a 95 % stratified-bootstrap interval
 (Agarwal et al. 2021, :mod:`cepam_gym.bench.stats`), and its headline score, the share of the
 baseline-to-oracle gap it closes (:func:`cepam_gym.bench.headline.headline_score`). Written to
@@ -50,14 +51,16 @@ def train_runs(configs: list[str], seeds: list[int], out: Path, jobs: int, ray: 
 
 def score(spec: str, suite: str, seed: int | None, episodes: int = 20) -> float:
     """The benchmark score of controller ``spec`` on ``episodes`` episodes of ``suite`` from
-    ``seed`` (None: the suite's own)."""
-    import dataclasses
+    ``seed`` (None: the suite's own): the stored reference where the zero controller's, the
+    baseline's or the oracle's was measured on these episodes, else measured."""
+    from cepam_gym.bench.harness import run_suite, seeded
 
-    from cepam_gym.bench.harness import run_suite
-    from cepam_gym.bench.suites import SUITES
+    from .grid.report import stored
 
-    s = SUITES[suite] if seed is None else dataclasses.replace(SUITES[suite], seed=seed)
-    return float(run_suite(spec, s, episodes)[0]["score"])
+    known = stored(spec, suite, seed, episodes)
+    if known is not None:
+        return known
+    return float(run_suite(spec, seeded(suite, seed), episodes)[0]["score"])
 
 
 def unseen_set(episodes: int = 20) -> str:
@@ -67,11 +70,20 @@ def unseen_set(episodes: int = 20) -> str:
 
 
 def measure(
-    configs, seeds, out: Path, unseen: int, cache: dict, suites=SUITES, controllers=None, unseen_episodes=20
+    configs,
+    seeds,
+    out: Path,
+    unseen: int,
+    cache: dict,
+    suites=SUITES,
+    controllers=None,
+    unseen_episodes=20,
+    unseen_oracle=True,
 ) -> dict:
     """Scores of every run and controller (``cache``: what an earlier call measured, kept);
     ``controllers`` (None: :data:`CONTROLLERS`, and :data:`UNSEEN_CONTROLLERS` on the unseen seed);
-    ``unseen_episodes`` of the unseen seed."""
+    ``unseen_episodes`` of the unseen seed; ``unseen_oracle`` False: the oracle on the unseen seed
+    only where its reference is stored (the table then gives no headline there)."""
     from cepam_gym.progress import runs
 
     sets = (("suite", None, 20), (unseen_set(unseen_episodes), unseen, unseen_episodes))
@@ -81,17 +93,20 @@ def measure(
         for where, _, _ in sets
     )
     with runs(todo, "compare: scoring"):
-        _score_all(configs, seeds, out, unseen, cache, suites, controllers, sets)
+        _score_all(configs, seeds, out, cache, suites, controllers, sets, unseen_oracle)
     return cache
 
 
-def _score_all(configs, seeds, out: Path, unseen: int, cache: dict, suites, controllers, sets) -> None:
-    """The loop of :func:`scores` (cached keys are skipped; their bar steps go by unadvanced)."""
+def _score_all(configs, seeds, out: Path, cache: dict, suites, controllers, sets, unseen_oracle) -> None:
+    """The loop of :func:`measure` (cached keys are skipped; their bar steps go by unadvanced)."""
+    from .grid.report import stored
+
     for suite in suites:
         for where, seed, episodes in sets:
             for name in _controllers(where, controllers):
                 key = f"{suite}|{where}|{name}"
-                if key not in cache:
+                skip = name == "oracle" and seed is not None and not unseen_oracle
+                if key not in cache and not (skip and stored(name, suite, seed, episodes) is None):
                     cache[key] = score(name, suite, seed, episodes)
                     (out / "compare.json").write_text(json.dumps(cache, indent=1))
             for c in configs:
@@ -121,13 +136,15 @@ def table(configs, seeds, cache: dict, suites=SUITES, controllers=None, unseen_e
     ]
     for suite in suites:
         for where in ("suite", unseen_set(unseen_episodes)):
-            base, orc = cache[f"{suite}|{where}|baseline"], cache[f"{suite}|{where}|oracle"]
+            base, orc = cache[f"{suite}|{where}|baseline"], cache.get(f"{suite}|{where}|oracle")
 
-            def gap(v, base=base, orc=orc):
-                return f"{headline_score(v, base, orc):.0f}"
+            def gap(v, base=base, orc=orc):  # no oracle measured on these episodes: no headline
+                return "-" if orc is None else f"{headline_score(v, base, orc):.0f}"
 
             for name in _controllers(where, controllers):
-                v = cache[f"{suite}|{where}|{name}"]
+                v = cache.get(f"{suite}|{where}|{name}")
+                if v is None:
+                    continue
                 lines.append(f"| {suite} | {where} | {name} | {v:.4f} | {gap(v)} |")
             for c in configs:
                 vals = [cache[f"{suite}|{where}|{Path(c).stem}-s{s}"] for s in seeds]
@@ -162,6 +179,13 @@ def main(argv: list[str] | None = None) -> int:
         type=int,
         default=20,
         help="episodes of the unseen seed (more separate close agents)",
+    )
+    ap.add_argument(
+        "--no-unseen-oracle",
+        dest="unseen_oracle",
+        action="store_false",
+        help="no oracle on the unseen seed unless its reference is stored (most of the scoring's "
+        "cost on many episodes): the unseen rows then give scores without a headline",
     )
     ap.add_argument("--out", default="runs/compare", help="run directories and the results")
     ap.add_argument("--report-only", action="store_true", help="score and report the runs already trained")
@@ -202,7 +226,9 @@ def main(argv: list[str] | None = None) -> int:
     path = out / "compare.json"
     cache = json.loads(path.read_text()) if path.is_file() else {}
     n = args.unseen_episodes
-    cache = measure(args.config, seeds, out, args.unseen_seed, cache, suites, args.controller, n)
+    cache = measure(
+        args.config, seeds, out, args.unseen_seed, cache, suites, args.controller, n, args.unseen_oracle
+    )
     md = table(args.config, seeds, cache, suites, args.controller, n)
     (out / "compare.md").write_text(md)
     print(md)

@@ -311,3 +311,34 @@ def test_a_residual_student_is_fitted_to_what_the_teacher_adds_to_its_base():
         np.testing.assert_array_equal(a, ref.act(obs))
         obs, *_ = venv.step(a)
     venv.close()
+
+
+def test_comparison_reads_stored_references_and_can_leave_the_unseen_oracle_out(tmp_path, monkeypatch):
+    """The baseline's and the oracle's scores come from the stored references where measured on
+    the same episodes (never re-run); ``unseen_oracle=False`` scores no oracle on unseen episodes
+    without a stored reference, and the table then gives those rows no headline."""
+    from cepam_gym.bench import harness
+    from cepam_gym.bench.references import stored_entry
+    from cepam_gym_agents import compare
+
+    ran = []
+
+    def fake_run_suite(spec, suite, episodes):
+        ran.append((spec, suite.seed, episodes))
+        return [{"score": 0.5}]
+
+    monkeypatch.setattr(harness, "run_suite", fake_run_suite)
+    entry = stored_entry("nominal-v3", 20, harness.seeded("nominal-v3").seed)
+    assert compare.score("oracle", "nominal-v3", None, 20) == entry["oracle"]
+    assert compare.score("baseline", "nominal-v3", None, 20) == entry["baseline"]
+    assert ran == []
+    got = compare.measure([], [], tmp_path, 12345, {}, ("nominal-v3",), ["mpc"], 7, unseen_oracle=False)
+    assert sorted(ran) == [
+        ("baseline", 12345, 7),
+        ("mpc", 12345, 7),
+        ("mpc", harness.SUITES["nominal-v3"].seed, 20),
+    ]
+    assert "nominal-v3|unseen-7|oracle" not in got and got["nominal-v3|suite|oracle"] == entry["oracle"]
+    md = compare.table([], [], got, ("nominal-v3",), ["mpc"], unseen_episodes=7)
+    assert "| nominal-v3 | unseen-7 | mpc | 0.5000 | - |" in md
+    assert "| nominal-v3 | unseen-7 | oracle |" not in md and "| nominal-v3 | suite | oracle |" in md
