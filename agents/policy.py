@@ -247,6 +247,11 @@ def load_policy(spec: str | Path, env, which: str = "auto") -> AgentPolicy | BCP
     )
     normalizer = _normalizer(files, cfg)
     features = Features(env, feature_spec(cfg.agent) if cfg is not None else FeatureSpec(), env_model.obs_dim)
+    if features.plant_dim and files.run is not None:  # told the plant: its adaptation module, if fitted
+        from cepam_gym.policies.plant_estimate import PlantEstimator
+
+        if (files.run / PlantEstimator.FILE).is_file():
+            features.plant_estimator = PlantEstimator.load(files.run / PlantEstimator.FILE)
     return AgentPolicy(model, features, normalizer)
 
 

@@ -13,6 +13,7 @@ from typing import Any
 from cepam_gym.versions import RECOMMENDED_ID
 
 from ..learners.algorithm import ALGORITHMS, ON_POLICY, check_hyperparameters, check_policy_kwargs
+from .adaptation import AdaptationConfig
 from .agent import AgentConfig
 from .checks import (
     ConfigError,
@@ -168,7 +169,8 @@ class StudentConfig:
       that loads a run loads the student.
     * ``teacher_options``: keyword arguments of the teacher's constructor, e.g. a cheaper search
       for an MPC teacher (``{population: 24, iterations: 3}``: the fields of
-      :class:`cepam_gym.control.planner.CEMConfig`); the labels are most of a student's time."""
+      :class:`cepam_gym.control.planner.CEMConfig`); the labels are most of a student's time.
+    * ``adaptation``: with ``agent.plant_features``, the second phase (:mod:`.adaptation`)."""
 
     teacher: str = "oracle"
     suites: dict = field(default_factory=lambda: {"nominal-v1": 32, "randomized-v1": 32})
@@ -179,6 +181,7 @@ class StudentConfig:
     learning_rate: float = 1e-3
     net_arch: list = field(default_factory=lambda: [256, 256])
     teacher_options: dict = field(default_factory=dict)
+    adaptation: AdaptationConfig | None = None
 
     @classmethod
     def parse(cls, data: Any) -> StudentConfig | None:
@@ -216,6 +219,7 @@ class StudentConfig:
             as_float(d.get("learning_rate", cls.learning_rate), "student.learning_rate", 0.0),
             arch,
             {str(k): v for k, v in options.items()},
+            AdaptationConfig.parse(d.get("adaptation")),
         )
 
 
@@ -323,6 +327,10 @@ class TrainConfig:
         )
         if agent.plant_features:
             _check_plant_features(out)
+        elif out.student is not None and out.student.adaptation is not None:
+            raise ConfigError(
+                "student.adaptation estimates the plant a student is told: it needs agent.plant_features"
+            )
         return out
 
     def to_dict(self) -> dict:

@@ -246,10 +246,10 @@ def as_ppo(cfg: TrainConfig, actor: _Actor, mean, std, scale, seed: int):
 
 
 def _score_and_record(
-    cfg: TrainConfig, run: Path, record, rounds: list, labels: int, t0: float, stopped: bool, say
+    cfg: TrainConfig, run: Path, record, rounds: list, labels: int, t0: float, stopped: bool, say, adaptation
 ):
     """Score the saved student on the config's evaluation episodes beside the baseline, and write
-    the run directory's evaluations, summary and status."""
+    the run directory's evaluations, summary (with the adaptation module's rounds) and status."""
     from ..policy import baseline_score, evaluate, load_policy
     from ..session.envs import eval_env_spec
 
@@ -262,6 +262,8 @@ def _score_and_record(
     if baseline is not None:
         metrics["baseline_score"] = baseline
     summary = {"labels": labels, "rounds": rounds, "wall_s": wall, "eval": metrics}
+    if adaptation is not None:
+        summary["adaptation"] = adaptation
     write_json(run / "evaluations.json", [{"step": labels, **metrics}])
     write_json(run / "summary.json", {"steps": labels, **summary})
     status = "stopped_by_time_limit" if stopped else "finished"
@@ -343,5 +345,11 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
     model, vecnorm = as_ppo(cfg, actor, mean, std, scale, cfg.seed)
     save_model(run, "final", model, vecnorm)
     vecnorm.close()
-    _score_and_record(cfg, run, record, rounds, int(sum(len(v) for v in xs)), t0, stopped, say)
+    adaptation = None
+    if st.adaptation is not None:  # RMA's second phase: the plant it is told where no window runs
+        from .adaptation import fit_adaptation
+
+        adaptation = fit_adaptation(cfg, run, st.adaptation, say)
+    labels = int(sum(len(v) for v in xs))
+    _score_and_record(cfg, run, record, rounds, labels, t0, stopped, say, adaptation)
     return 0

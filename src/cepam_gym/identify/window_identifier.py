@@ -240,6 +240,19 @@ def plant_columns(rows: np.ndarray, nominal) -> np.ndarray:
     return np.clip(np.nan_to_num(out), -2.0, 2.0).astype(np.float32)
 
 
+def rows_of_columns(columns: np.ndarray, nominal) -> np.ndarray:
+    """The parameter rows (N, N_PARAMS) whose :func:`plant_columns` are ``columns`` (within the
+    clip): the nominal row with each told column set, the rest (the end cap, the supply) nominal.
+    An estimate of the columns (:mod:`cepam_gym.policies.plant_estimate`) is told as these rows."""
+    ratio, linear, units = _columns(nominal)
+    c = np.asarray(columns, dtype=float)
+    base = nominal.to_array()
+    rows = np.repeat(base[None], len(c), axis=0)
+    rows[:, ratio] = base[ratio] * np.exp(c[:, : len(ratio)])
+    rows[:, linear] = c[:, len(ratio) :] * units
+    return rows
+
+
 def plant_dim(nominal) -> int:
     """The number of :func:`plant_columns`."""
     ratio, linear, _ = _columns(nominal)

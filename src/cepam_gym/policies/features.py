@@ -10,7 +10,8 @@ env's (target shifts through the inverse-model baseline, a residual on its valve
 * The plant's columns (``plant_features``) are the true plant's during training
   (:meth:`Features.use_true_plant`); deployed, the fit of the episode's identification window
   (:class:`cepam_gym.identify.window_identifier.WindowIdentifier`, whose excitation drives the
-  window: :attr:`Features.window`).
+  window: :attr:`Features.window`), or on episodes without a window the estimate of the run's
+  adaptation module (:attr:`Features.plant_estimator`, :mod:`.plant_estimate`).
 * The privileged columns (``privileged_critic``, :mod:`.privileged`) follow, for the critic only:
   read from the env during training (:attr:`Features.privileged` set by the training env), NaN
   when deployed (the asymmetric policy masks them from the actor).
@@ -103,6 +104,7 @@ class Features:
         # the plant's columns (training: the true rows; deployed: the window's fit)
         self.plant_dim, self._rig, self._true_plant, self.identifier = 0, None, False, None
         self.window = None  # deployed with plant_features: (in the window (N,), its actions (N, 2))
+        self.plant_estimator = None  # deployed without a window: the run's adaptation module
         if spec.plant_features:
             from cepam_gym.control.baseline import rig_model_of
             from cepam_gym.identify.window_identifier import plant_dim
@@ -257,7 +259,13 @@ class Features:
             self._plant_rows_now = told_rows(self._plant_true, self._rig.nominal, supply)
             return self._plant_last
         if self.identifier is None:
-            self.identifier = WindowIdentifier(self._rig, "an agent with agent.plant_features")
+            if self.plant_estimator is not None and self._rig.window_steps < 2:
+                from .plant_estimate import EstimatedPlant
+
+                self.identifier = EstimatedPlant(self._rig, self.plant_estimator)
+            else:
+                who = "an agent with agent.plant_features and no plant estimator"
+                self.identifier = WindowIdentifier(self._rig, who)  # without a window: who needs one
         actions, in_window, starts = self.identifier.step(np.asarray(obs, dtype=np.float64))
         if starts.any():
             self._forget(np.flatnonzero(starts))
