@@ -345,11 +345,17 @@ def train_student(cfg: TrainConfig, run: Path, quiet: bool = False, argv=None) -
     model, vecnorm = as_ppo(cfg, actor, mean, std, scale, cfg.seed)
     save_model(run, "final", model, vecnorm)
     vecnorm.close()
-    adaptation = None
-    if st.adaptation is not None:  # RMA's second phase: the plant it is told where no window runs
-        from .adaptation import fit_adaptation
-
-        adaptation = fit_adaptation(cfg, run, st.adaptation, say)
+    adaptation = _adapt(cfg, run, say)
     labels = int(sum(len(v) for v in xs))
     _score_and_record(cfg, run, record, rounds, labels, t0, stopped, say, adaptation)
     return 0
+
+
+def _adapt(cfg: TrainConfig, run: Path, say) -> dict | None:
+    """RMA's second phase (``student.adaptation``): the plant the student is told where no window
+    runs; its rounds' record, or None without the section."""
+    if cfg.student.adaptation is None:
+        return None
+    from .adaptation import fit_adaptation
+
+    return fit_adaptation(cfg, run, cfg.student.adaptation, say)
