@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from .checks import ConfigError, as_float, as_int, as_mapping, check_keys
+from .checks import ConfigError, as_float, as_int, as_mapping, as_widths, check_keys
 
 
 @dataclass(frozen=True)
@@ -34,9 +34,6 @@ class AdaptationConfig:
             return None
         d = as_mapping(data, "student.adaptation")
         check_keys(d, cls, "student.adaptation")
-        arch = d.get("net_arch", cls().net_arch)
-        if not isinstance(arch, (list, tuple)) or not arch:
-            raise ConfigError(f"student.adaptation.net_arch must be a list of layer widths, got {arch!r}")
         history = as_float(d.get("history_s", cls.history_s), "student.adaptation.history_s", 0.0)
         if history <= 0:
             raise ConfigError(f"student.adaptation.history_s must be > 0 s, got {history!r}")
@@ -46,5 +43,5 @@ class AdaptationConfig:
             as_int(d.get("envs", cls.envs), "student.adaptation.envs", 1),
             as_int(d.get("rounds", cls.rounds), "student.adaptation.rounds", 1),
             as_int(d.get("gradient_steps", cls.gradient_steps), "student.adaptation.gradient_steps", 1),
-            [as_int(w, f"student.adaptation.net_arch[{i}]", 1) for i, w in enumerate(arch)],
+            as_widths(d.get("net_arch", cls().net_arch), "student.adaptation.net_arch"),
         )

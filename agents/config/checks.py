@@ -63,6 +63,13 @@ def as_bool(value: Any, where: str) -> bool:
     return value
 
 
+def as_widths(value: Any, where: str) -> list[int]:
+    """A network's hidden layer widths: a non-empty list of integers >= 1."""
+    if not isinstance(value, (list, tuple)) or not value:
+        raise ConfigError(f"{where} must be a list of layer widths, got {value!r}")
+    return [as_int(w, f"{where}[{i}]", 1) for i, w in enumerate(value)]
+
+
 def as_mapping(value: Any, where: str) -> dict:
     """A mapping with string keys (``None``: an empty one, as an empty YAML section reads)."""
     if value is None:

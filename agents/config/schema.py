@@ -21,6 +21,7 @@ from .checks import (
     as_float,
     as_int,
     as_mapping,
+    as_widths,
     check_keys,
     numbers_deep,
 )
@@ -201,10 +202,7 @@ class StudentConfig:
             if name not in SUITES:
                 raise ConfigError(f"student.suites: unknown suite {name!r}; choose from {list(SUITES)}")
         counts = {str(k): as_int(v, f"student.suites.{k}", 1) for k, v in suites.items()}
-        arch = d.get("net_arch", cls().net_arch)
-        if not isinstance(arch, (list, tuple)) or not arch:
-            raise ConfigError(f"student.net_arch must be a list of layer widths, got {arch!r}")
-        arch = [as_int(w, f"student.net_arch[{i}]", 1) for i, w in enumerate(arch)]
+        arch = as_widths(d.get("net_arch", cls().net_arch), "student.net_arch")
         beta = as_float(d.get("beta", cls.beta), "student.beta", 0.0)
         if beta > 1:
             raise ConfigError(f"student.beta is a probability in [0, 1], got {beta!r}")

@@ -24,19 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from cepam_gym.errors import InputError
+from cepam_gym.tasks.layout import OBS_FIELDS
 
-# what the estimate reads of each frame: what a rig measures and what it was asked and sent
-INPUTS = (
-    "length",
-    "velocity",
-    "pressure_c",
-    "pressure_e",
-    "supply_pressure",
-    "target_length",
-    "target_stiffness",
-    "previous_action_c",
-    "previous_action_e",
-)
+# what the estimate reads of each frame: what the rig measures, the targets and the commands sent
+INPUTS = OBS_FIELDS
 
 
 @dataclass(frozen=True)
