@@ -124,6 +124,9 @@ def test_the_estimator_is_the_torch_network_saved_clipped_and_loaded(tmp_path):
     again = PlantEstimator.load(tmp_path / "e.npz")
     np.testing.assert_array_equal(again(x), tight(x))
     assert (again.history, again.stride, again.inputs, again.frames) == (4, 2, INPUTS, 2)
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(InputError, match="bad.npz: not a plant estimator file"):
+        PlantEstimator.load(tmp_path / "bad.npz")
 
 
 def test_the_input_frames_are_the_strided_history_oldest_first():

@@ -79,6 +79,13 @@ class PlantEstimator:
 
     @classmethod
     def load(cls, path: Path) -> PlantEstimator:
+        try:
+            return cls._read(path)
+        except (OSError, KeyError, ValueError) as e:
+            raise InputError(f"{path}: not a plant estimator file ({e})") from None
+
+    @classmethod
+    def _read(cls, path: Path) -> PlantEstimator:
         with np.load(path) as z:
             n = sum(1 for k in z.files if k.startswith("w"))
             f32 = np.float32
