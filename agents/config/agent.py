@@ -37,7 +37,8 @@ class AgentConfig:
     (:class:`cepam_gym.control.InverseStaticController`, nominal model):
 
     * ``target_shift``: the policy's first actions move the targets the baseline is given: the
-      length by up to ``target_shift_length_mm``, the stiffness by a factor up to
+      length by up to ``target_shift_length_mm`` (on the hinge ids the joint angle by up to
+      ``target_shift_angle_deg``), the stiffness by a factor up to
       ``exp(+-target_shift_stiffness)`` (length-only tasks: the length shift only), low-pass
       filtered with time constant ``target_shift_filter_s`` if > 0. The baseline then computes
       pressures and valve commands for the shifted targets.
@@ -86,6 +87,7 @@ class AgentConfig:
     history: int = 1
     target_shift: bool = False
     target_shift_length_mm: float = 5.0
+    target_shift_angle_deg: float = 2.0
     target_shift_stiffness: float = 0.4
     target_shift_filter_s: float = 0.0  # first-order low-pass of the shifts (0: none) [s]
     obs_filters_s: list = field(
@@ -114,6 +116,7 @@ class AgentConfig:
             as_int(d.get("history", 1), "agent.history", 1),
             as_bool(d.get("target_shift", False), "agent.target_shift"),
             as_float(d.get("target_shift_length_mm", 5.0), "agent.target_shift_length_mm", 0.0),
+            as_float(d.get("target_shift_angle_deg", 2.0), "agent.target_shift_angle_deg", 0.0),
             as_float(d.get("target_shift_stiffness", 0.4), "agent.target_shift_stiffness", 0.0),
             as_float(d.get("target_shift_filter_s", 0.0), "agent.target_shift_filter_s", 0.0),
             _filters(d.get("obs_filters_s", []), "agent.obs_filters_s"),

@@ -22,6 +22,7 @@ Layout of a config (every section optional except ``algorithm``; defaults below)
       history: 1                  # stack this many consecutive observations
       target_shift: false         # true: the policy also shifts the baseline's length/stiffness targets
       target_shift_length_mm: 5.0
+      target_shift_angle_deg: 2.0 # the hinge ids: the joint angle's shift instead of the length's
       target_shift_stiffness: 0.4 # stiffness target times exp(+-0.4) at most
       target_shift_filter_s: 0.0  # low-pass time constant of the shifts [s] (0: none)
       obs_filters_s: []           # append low-passed observations with these time constants [s]

@@ -523,6 +523,35 @@ def test_target_shift_moves_the_baselines_targets(env_id, residual, n_act):
         feats.action(np.zeros((2, n_act + 1)), base)
 
 
+def test_target_shift_moves_the_hinges_angle_target():
+    """On the hinge the shift moves the joint angle target (target_shift_angle_deg) and the joint
+    stiffness target; the joint baseline then acts on the shifted observation."""
+    import gymnasium as gym
+
+    from cepam_gym.control import make_controller
+    from cepam_gym.policies import Features, FeatureSpec
+
+    venv = gym.make_vec("cepam_gym/CEPAMJoint-v3", num_envs=2)
+    obs, _ = venv.reset(seed=3)
+    layout = venv.unwrapped.obs_layout
+    dim = obs.shape[1]
+    feats = Features(venv, FeatureSpec(target_shift=True, target_shift_angle_deg=3.0), dim)
+    assert feats.n_actions == 2
+    _, base = feats(obs)
+    a = np.array([[1.0, -1.0], [-0.5, 0.0]], dtype=np.float32)
+    shifted = obs.astype(np.float64).copy()
+    col_a, col_k = layout.column("target_angle"), layout.column("target_stiffness")
+    shifted[:, col_a] += a[:, 0] * np.deg2rad(3.0) / layout.scale("target_angle")
+    shifted[:, col_k] *= np.exp(0.4 * a[:, 1])
+    ref = make_controller("baseline", venv)
+    np.testing.assert_allclose(feats.action(a, base), ref.act(shifted), atol=1e-6)
+    # no shift: the joint baseline itself
+    feats.reset()
+    ref.reset()
+    _, base = feats(obs)
+    np.testing.assert_allclose(feats.action(np.zeros((2, 2), np.float32), base), ref.act(obs), atol=1e-6)
+
+
 def test_target_shift_excludes_baseline_in_obs():
     with pytest.raises(ConfigError, match="cannot be used with agent.target_shift"):
         _cfg(agent={"target_shift": True, "baseline_in_obs": True})

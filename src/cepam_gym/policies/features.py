@@ -64,9 +64,14 @@ class Features:
                 self.n_shift = 2 if track_k else 1
                 # observation columns of the targets and the length scaling (tasks.layout)
                 layout = self.baseline.layout
-                self._col_l = layout.column("target_length")
+                # the rig's length target, or the hinge's angle target [rad]
+                if layout.has("target_length"):
+                    position, shift_si = "target_length", spec.target_shift_length_mm * 1e-3
+                else:
+                    position, shift_si = "target_angle", np.deg2rad(spec.target_shift_angle_deg)
+                self._col_l = layout.column(position)
                 self._col_k = layout.column("target_stiffness") if track_k else None
-                self._dl = spec.target_shift_length_mm * 1e-3 / layout.scale("target_length")
+                self._dl = shift_si / layout.scale(position)
                 tau = spec.target_shift_filter_s
                 self._alpha = 1.0 - np.exp(-self.baseline.dt / tau) if tau > 0 else 1.0
         # target shifts, then two valve commands (residual, or the valves themselves without a

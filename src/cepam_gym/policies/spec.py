@@ -15,7 +15,8 @@ class FeatureSpec:
     """What the policy sees and sends (all off: the env's observation in, the valve commands out).
 
     * ``target_shift``: the policy's first actions shift the targets (length by up to
-      ``target_shift_length_mm``, stiffness by a factor up to ``exp(+-target_shift_stiffness)``,
+      ``target_shift_length_mm``, on the hinge the joint angle by up to ``target_shift_angle_deg``,
+      stiffness by a factor up to ``exp(+-target_shift_stiffness)``,
       low-passed with time constant ``target_shift_filter_s`` [s] if > 0) that the inverse-model
       baseline is given; the baseline's valve commands for them go to the env.
     * ``residual``: the policy's (last) two actions are added:
@@ -46,6 +47,7 @@ class FeatureSpec:
     history: int = 1
     target_shift: bool = False
     target_shift_length_mm: float = 5.0
+    target_shift_angle_deg: float = 2.0
     target_shift_stiffness: float = 0.4
     target_shift_filter_s: float = 0.0
     obs_filters_s: tuple[float, ...] = ()
