@@ -59,21 +59,8 @@ class Features:
             else:  # another registered controller under the residual (an InverseStaticController
                 # too), or the joint's baseline (make_controller resolves ``baseline`` to it)
                 self.baseline = make_controller(spec.base_controller, env)
-            track_k = self.baseline.task.track_stiffness
             if spec.target_shift:
-                self.n_shift = 2 if track_k else 1
-                # observation columns of the targets and the length scaling (tasks.layout)
-                layout = self.baseline.layout
-                # the rig's length target, or the hinge's angle target [rad]
-                if layout.has("target_length"):
-                    position, shift_si = "target_length", spec.target_shift_length_mm * 1e-3
-                else:
-                    position, shift_si = "target_angle", np.deg2rad(spec.target_shift_angle_deg)
-                self._col_l = layout.column(position)
-                self._col_k = layout.column("target_stiffness") if track_k else None
-                self._dl = shift_si / layout.scale(position)
-                tau = spec.target_shift_filter_s
-                self._alpha = 1.0 - np.exp(-self.baseline.dt / tau) if tau > 0 else 1.0
+                self._shift_targets(spec)
         # target shifts, then two valve commands (residual, or the valves themselves without a
         # baseline in the loop)
         self.n_actions = self.n_shift + (2 if (spec.residual or not spec.target_shift) else 0)
@@ -128,6 +115,22 @@ class Features:
         self._obs: np.ndarray | None = None  # the last raw observation (target_shift acts on it)
         self._shift: np.ndarray | None = None  # filtered target shifts (N, n_shift); NaN: new episode
         self._peeking = False
+
+    def _shift_targets(self, spec: FeatureSpec) -> None:
+        """The target shift's observation columns and scalings (tasks.layout): the rig's length
+        target or the hinge's angle target [rad], and the stiffness target where it is tracked."""
+        track_k = self.baseline.task.track_stiffness
+        self.n_shift = 2 if track_k else 1
+        layout = self.baseline.layout
+        if layout.has("target_length"):
+            position, shift_si = "target_length", spec.target_shift_length_mm * 1e-3
+        else:
+            position, shift_si = "target_angle", np.deg2rad(spec.target_shift_angle_deg)
+        self._col_l = layout.column(position)
+        self._col_k = layout.column("target_stiffness") if track_k else None
+        self._dl = shift_si / layout.scale(position)
+        tau = spec.target_shift_filter_s
+        self._alpha = 1.0 - np.exp(-self.baseline.dt / tau) if tau > 0 else 1.0
 
     @property
     def trivial(self) -> bool:
