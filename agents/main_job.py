@@ -19,9 +19,10 @@ from .evaluate import main as evaluate_main
 from .main_summary import write_summary
 from .train import main as train_main
 
-# the main job's agent: the shipped config ``configs/student_v3.yaml`` (the two-minute student on the
-# recommended id; ``--config student_fast`` trains it on CEPAM-v1)
-MAIN_CONFIG = "student_v3"
+# the main job's agent: the shipped config ``configs/student_baseline_residual_v3.yaml`` (the two-minute
+# student on the recommended id, a residual on the baseline; ``--config student_fast`` trains the
+# student on CEPAM-v1)
+MAIN_CONFIG = "student_baseline_residual_v3"
 
 # run beside the trained agent by the main job: the two model-based controllers an agent must beat.
 # The other ends of the scores (the zero controller, the oracle) are the stored reference scores of
@@ -46,8 +47,9 @@ def fresh_dir(path) -> Path:
 
 def main(argv: list[str] | None = None) -> int:
     """The main job on the default config: the recommended plant's step response and its reproduction of
-    the paper's numbers, then train an agent on the shipped ``student_v3`` config (the student of a
-    privileged teacher on the recommended id ``CEPAM-v3``, in about two minutes) and score it beside
+    the paper's numbers, then train an agent on the shipped ``student_baseline_residual_v3`` config
+    (the student of a privileged teacher on the recommended id ``CEPAM-v3``, a residual on the
+    baseline, in about three minutes) and score it beside
     the inverse-model baseline and the MPC on its id's headline suites, with the headline score (the zero
     controller's and the oracle's ends: the stored reference scores of the same episodes); ``--no-train``
     scores the baseline and the MPC on the recommended id's suites. Everything lands in ``--out-dir``

@@ -313,6 +313,36 @@ def test_a_residual_student_is_fitted_to_what_the_teacher_adds_to_its_base():
     venv.close()
 
 
+def test_a_bias_in_a_residual_moves_the_pressures_a_bounded_amount_where_a_direct_command_vents():
+    """Why the main job's student is a residual on the baseline: a student whose output is a
+    little off (here -0.05 on both valves, all along) vents both chambers within a second when it
+    drives the valves itself (0 holds them shut), while the baseline's pressure feedback under a
+    residual holds them within a few kPa of the baseline's own run, the offset shrinking."""
+    import gymnasium as gym
+
+    from cepam_gym.policies import Features, FeatureSpec
+
+    def pressures(residual: bool, bias: float):
+        venv = gym.make_vec("cepam_gym/CEPAM-v3", num_envs=2)
+        obs, _ = venv.reset(seed=3)
+        feats = Features(venv, FeatureSpec(residual=True, residual_scale=0.5), obs.shape[1])
+        out = []
+        for _ in range(150):  # 3 s
+            a = np.full((2, 2), bias, np.float32)
+            if residual:
+                a = feats.action(a, feats(obs)[1])
+            obs, _r, _te, _tr, info = venv.step(a)
+            out.append([info["pressure_c"], info["pressure_e"]])
+        venv.close()
+        return np.array(out)
+
+    direct = np.abs(pressures(False, -0.05) - pressures(False, 0.0)).max(axis=(1, 2))
+    residual = np.abs(pressures(True, -0.05) - pressures(True, 0.0)).max(axis=(1, 2))
+    assert direct[49] > 50e3, direct[49]  # Pa, after 1 s: vented, not held
+    assert residual.max() < 5e3, residual.max()  # measured: 2.6 kPa at 1 s, 1.4 kPa at 3 s
+    assert residual[149] < residual[49]
+
+
 def test_comparison_reads_stored_references_and_can_leave_the_unseen_oracle_out(tmp_path, monkeypatch):
     """The baseline's and the oracle's scores come from the stored references where measured on
     the same episodes (never re-run); ``unseen_oracle=False`` scores no oracle on unseen episodes
