@@ -170,7 +170,10 @@ class StudentConfig:
       that loads a run loads the student.
     * ``teacher_options``: keyword arguments of the teacher's constructor, e.g. a cheaper search
       for an MPC teacher (``{population: 24, iterations: 3}``: the fields of
-      :class:`cepam_gym.control.planner.CEMConfig`); the labels are most of a student's time.
+      :class:`cepam_gym.control.planner.CEMConfig`); the labels are most of a student's time. A
+      teacher that reads the benchmark's schedule (the oracle, ``oracle_causal``) plans the
+      settling allowance too (``allowance_weight`` 1 unless set here: the score's 0 leaves its
+      commands there arbitrary to a student).
     * ``adaptation``: with ``agent.plant_features``, the second phase (:mod:`.adaptation`)."""
 
     teacher: str = "oracle"

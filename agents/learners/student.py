@@ -5,7 +5,8 @@ default, :class:`cepam_gym.control.oracle.OracleController`: the true plant stat
 load and reference horizon) or, in the shipped ``configs/student.yaml``, the MPC given each plant's
 true parameters (``mpc_known_params``: privileged only in what a history can reveal, and smooth;
 the oracle's labels follow hidden state and are noisy, and its student scored worse on both
-suites: README, "Agents that adapt"). The student sees only
+suites: README, "Agents that adapt"; a teacher that reads the schedule plans the settling allowance
+too, :func:`make_teacher`). The student sees only
 the agent's features of the observation (:mod:`cepam_gym.policies`: an observation history, low-passed
 copies). DAgger (Ross et al. 2011) trains it: round 0 records the teacher driving the envs; every
 later round lets the student drive (the teacher taking over a step with probability ``beta``) and
@@ -74,16 +75,47 @@ def check_student(cfg: TrainConfig) -> None:
         _teacher_for_check(cfg)
 
 
+def make_teacher(cfg: TrainConfig, venv):
+    """The student's teacher on ``venv``: ``student.teacher`` built with ``student.teacher_options``.
+
+    A teacher that reads the benchmark's schedule (the oracle and its variants) plans the settling
+    allowance after a jump of the target too (``allowance_weight`` 1 unless the options set it).
+    The score leaves those steps out, so the shipped oracle plans nothing there and its commands in
+    them depend on where the allowance ends, which a student cannot see: taught by such labels, a
+    student learns to lag the jumps (docs/results/agents.md, "The joint's agent")."""
+    from cepam_gym.control import make_controller
+
+    return make_controller(cfg.student.teacher, venv, **teacher_options(cfg))
+
+
+def teacher_options(cfg: TrainConfig) -> dict:
+    """``student.teacher_options``, with ``allowance_weight`` 1 for a teacher that reads the
+    schedule (:func:`make_teacher`) where they do not set it."""
+    from cepam_gym.control.oracle import OracleController
+    from cepam_gym.control.registry import CONTROLLERS, load_factory
+
+    options = dict(cfg.student.teacher_options)
+    target = CONTROLLERS.get(cfg.student.teacher)
+    factory = None if target is None else load_factory(target)
+    reads_schedule = isinstance(factory, type) and issubclass(factory, OracleController)
+    if reads_schedule and "allowance_weight" not in options:
+        options["allowance_weight"] = TEACHER_ALLOWANCE_WEIGHT
+    return options
+
+
+# the weight a schedule-reading teacher gives the errors inside the settling allowance (the score: 0)
+TEACHER_ALLOWANCE_WEIGHT = 1.0
+
+
 def _teacher_for_check(cfg: TrainConfig) -> None:
     import gymnasium as gym
 
     from cepam_gym.bench.suites import SUITES
-    from cepam_gym.control import make_controller
 
     s = SUITES[next(iter(cfg.student.suites))]
     venv = gym.make_vec(s.env_id, num_envs=1, **s.env_kwargs)
     try:
-        make_controller(cfg.student.teacher, venv, **cfg.student.teacher_options)
+        make_teacher(cfg, venv)
     except (TypeError, ValueError) as e:
         teacher = cfg.student.teacher
         raise ConfigError(f"student.teacher_options do not fit teacher {teacher!r}: {e}") from None
@@ -143,13 +175,12 @@ def collect(
     import gymnasium as gym
 
     from cepam_gym.bench.suites import SUITES
-    from cepam_gym.control import make_controller
     from cepam_gym.envs.model import model_of
 
     s = SUITES[suite]
     venv = gym.make_vec(s.env_id, num_envs=num_envs, **s.env_kwargs)
     try:
-        teacher = make_controller(cfg.student.teacher, venv, **cfg.student.teacher_options)
+        teacher = make_teacher(cfg, venv)
         env_model = model_of(venv)
         features = Features(venv, feature_spec(cfg.agent), env_model.obs_dim)
         if features.plant_dim:  # the student is told the true plant (deployed: the window's fit)

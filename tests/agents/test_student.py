@@ -83,6 +83,37 @@ def test_teacher_options_reach_the_teachers_search():
     assert x.shape[0] == y.shape[0] > 0 and np.isfinite(y).all()
 
 
+def test_a_teacher_that_reads_the_schedule_plans_the_settling_allowance():
+    """The oracle and its variants are built for a student with ``allowance_weight`` 1 unless the
+    options set it (an MPC has no such setting to change); and that teacher chases a jump of the
+    target inside the allowance, where the scored oracle plans nothing: on the first two episodes
+    of joint-v3 its angle error over every step is a fraction of the one at weight 0 (16 plans x 4
+    iterations on 8 episodes: 0.31 deg against 14 deg)."""
+    import gymnasium as gym
+
+    from cepam_gym.bench.harness import run_suite
+    from cepam_gym.bench.suites import SUITES
+    from cepam_gym_agents.learners.student import TEACHER_ALLOWANCE_WEIGHT, make_teacher, teacher_options
+
+    search = {"population": 16, "iterations": 4, "elites": 4}
+    for name in ("oracle", "oracle_causal"):
+        assert teacher_options(_cfg(teacher=name, teacher_options=search))["allowance_weight"] == 1.0
+        assert teacher_options(_cfg(teacher=name, teacher_options={"allowance_weight": 0.0})) == {
+            "allowance_weight": 0.0
+        }
+    assert "allowance_weight" not in teacher_options(_cfg(teacher="mpc_known_params", teacher_options=search))
+    s = SUITES["joint-v3"]
+    cfg = _cfg("joint-v3", s.env_id, teacher="oracle_causal", teacher_options=search)
+    venv = gym.make_vec(s.env_id, num_envs=1, **s.env_kwargs)
+    assert make_teacher(cfg, venv).cfg.allowance_weight == TEACHER_ALLOWANCE_WEIGHT
+    venv.close()
+    chased, _ = run_suite("oracle_causal", "joint-v3", episodes=2, **search, allowance_weight=1.0)
+    scored_only, _ = run_suite("oracle_causal", "joint-v3", episodes=2, **search)
+    assert chased["angle_rmse_deg_raw"] < 0.2 * scored_only["angle_rmse_deg_raw"], (chased, scored_only)
+    # chasing costs little on the steps the score counts (these two episodes: 0.043 against 0.025)
+    assert chased["score"] < 3 * scored_only["score"]
+
+
 def test_the_time_limit_holds_inside_a_round(tmp_path):
     """A round's episodes stop at the run's time limit: the round is fitted on the labels so far
     and the run ends there, stopped by the limit (so a grid's cells keep one budget on any
